@@ -1,0 +1,46 @@
+# slamkit quick start: `make demo` and `make test`. Both install any missing Debian packages first
+# (apt-get; sudo when not root), then configure and build in Release with all cores.
+
+BUILD_DIR ?= build
+JOBS ?= $(shell nproc)
+DEMO_OUT ?= out/demo
+SLAMKIT := $(BUILD_DIR)/slamkit
+
+# Everything the build and the tests need, all from Debian 12.
+DEB_PACKAGES := cmake make g++ libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev \
+                nlohmann-json3-dev libcli11-dev libfmt-dev
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+
+.PHONY: all deps build demo test bench clean
+
+all: build
+
+deps:
+	@missing=""; \
+	for p in $(DEB_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "Installing missing Debian packages:$$missing"; \
+	  $(SUDO) apt-get update && \
+	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $$missing; \
+	fi
+
+build: deps
+	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release
+	cmake --build $(BUILD_DIR) -j $(JOBS)
+
+# The main job on the built-in simulated world: simulate, run EKF-SLAM, evaluate, draw.
+demo: build
+	$(SLAMKIT) simulate --seed 1 --out $(DEMO_OUT)/sim
+	$(SLAMKIT) run --filter ekf --data sim:$(DEMO_OUT)/sim --out $(DEMO_OUT)/ekf
+	$(SLAMKIT) evaluate $(DEMO_OUT)/ekf
+
+test: build
+	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
+
+bench: build
+	$(BUILD_DIR)/slamkit_bench
+
+clean:
+	rm -rf $(BUILD_DIR) out

@@ -1,0 +1,52 @@
+#pragma once
+// Turns a run and the dataset's ground truth into the numbers metrics.json reports. Every accuracy
+// figure names its metric:
+//   ate_rmse_m              RMSE of position over the time-matched truth samples, after the SE(2)
+//                           least-squares alignment of the estimated trajectory onto the truth
+//   final_position_error_m  position error of the last matched sample, same alignment
+//   map_rmse_m              RMSE of landmark position over landmarks paired with the truth by id,
+//                           after the trajectory's alignment
+//   nees_pose_*             normalised estimation error squared of the pose (3 dof), unaligned (the
+//                           map frame is the truth frame at the start), where the truth has headings
+#include <nlohmann/json_fwd.hpp>
+#include <optional>
+#include <string>
+
+#include "slamkit/eval/metrics.hpp"
+#include "slamkit/io/dataset.hpp"
+#include "slamkit/pipeline/runner.hpp"
+
+namespace slamkit {
+
+struct Metrics {
+  std::string filter;
+  std::string dataset;
+  std::size_t steps = 0, scans = 0, observations = 0, landmarks = 0;
+  double wall_time_s = 0.0;
+
+  std::size_t matched_poses = 0;
+  std::optional<double> ate_rmse_m, final_position_error_m;
+  std::optional<double> dead_reckoning_ate_rmse_m, dead_reckoning_final_position_error_m;
+  std::optional<double> map_rmse_m;
+  std::size_t map_landmarks_paired = 0;
+  std::optional<eval::NeesSummary> nees_pose;
+
+  eval::Se2Transform alignment;                // estimate -> truth, used for the map and the pictures
+  eval::Se2Transform dead_reckoning_alignment; // dead reckoning -> truth
+};
+
+struct EvaluationOptions {
+  /// Estimate samples further apart than this [s] are not interpolated between.
+  double max_interpolation_gap_s = 1.0;
+};
+
+Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const EvaluationOptions& options = {});
+
+nlohmann::json to_json(const Metrics& metrics);
+/// Writes metrics.json into `dir`.
+void write_metrics(const std::string& dir, const Metrics& metrics);
+
+/// One line with the headline numbers, for titles and the console.
+std::string headline(const Metrics& metrics);
+
+}  // namespace slamkit

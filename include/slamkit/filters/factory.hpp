@@ -1,0 +1,24 @@
+#pragma once
+// Builds a filter by name for a dataset, so the CLI and tests choose filters the same way.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "slamkit/filters/slam_filter.hpp"
+#include "slamkit/io/dataset.hpp"
+
+namespace slamkit {
+
+struct FilterConfig {
+  std::string name = "ekf";
+  std::uint64_t seed = 1;
+};
+
+/// The filter names make_filter accepts.
+std::vector<std::string> filter_names();
+
+/// Throws std::invalid_argument naming the accepted filters for an unknown name.
+std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset);
+
+}  // namespace slamkit

@@ -1,0 +1,30 @@
+#pragma once
+// The interface every SLAM filter implements: the recursive time update (eq. 4) driven by control
+// events and the measurement update (eq. 5) driven by observation scans, plus read access to the
+// current estimate. The runner feeds a dataset's event stream through it and never needs to know
+// which filter it drives.
+#include <string>
+#include <vector>
+
+#include "slamkit/types.hpp"
+
+namespace slamkit {
+
+class SlamFilter {
+ public:
+  virtual ~SlamFilter() = default;
+
+  virtual std::string name() const = 0;
+  /// Time update with the control applied over the event's dt.
+  virtual void predict(const ControlEvent& control) = 0;
+  /// Measurement update with every observation of one scan; adds newly seen landmarks.
+  virtual void update(const ScanEvent& scan) = 0;
+
+  virtual Pose2 pose() const = 0;
+  virtual Matrix3 pose_covariance() const = 0;
+  virtual std::size_t num_landmarks() const = 0;
+  /// The current map, each landmark with its marginal 2x2 covariance.
+  virtual std::vector<Landmark> landmarks() const = 0;
+};
+
+}  // namespace slamkit

@@ -1,0 +1,22 @@
+#pragma once
+// The output folder of a run. Files (all plain text a person or another tool can read):
+//   trajectory.tum       estimated trajectory, TUM format `t x y z qx qy qz qw`
+//   pose_covariance.txt  `t c_xx c_xy c_xt c_yy c_yt c_tt`, one per trajectory sample
+//   dead_reckoning.tum   the controls integrated without any observation, for contrast
+//   map.txt              final map `id x y c_xx c_xy c_yy`
+//   landmark_std.txt     `t id std_x std_y`: landmark standard deviations over time (Figure 3)
+//   run.json             filter, dataset spec, counts, wall time, settings
+//   metrics.json         the evaluation (written by the evaluation, see eval/evaluation.hpp)
+#include <string>
+
+#include "slamkit/pipeline/runner.hpp"
+
+namespace slamkit {
+
+/// Writes every file of a run except metrics.json; creates `dir`. Throws InputError if it cannot.
+void write_run(const std::string& dir, const RunResult& run);
+
+/// Reads a run folder back. Throws InputError naming the file and line of any problem.
+RunResult read_run(const std::string& dir);
+
+}  // namespace slamkit

@@ -1,0 +1,42 @@
+#pragma once
+// A simulator run on disk: a directory of plain-text files that load_dataset("sim:DIR") reads back.
+//
+//   params.json              {"format": "slamkit-sim", "version": 1,
+//                             "simulator": <to_json(SimulatorConfig)>, "initial_pose": [x, y, theta]}
+//   events.txt               the event stream, one event per line, time never decreasing:
+//                              control <t> <dt> <speed> <steer>   control applied over (t - dt, t]
+//                              obs <t> <id> <range> <bearing>     one observation; id -1 = unknown
+//                            Consecutive obs lines with the same t form one scan; a scan taken at the
+//                            end of a control comes after that control's line. Each control starts
+//                            where the previous one ended (t - dt equals the previous control's t).
+//   truth_poses.txt          <t> <x> <y> <theta>           true pose at t
+//   truth_landmarks.txt      <id> <x> <y>                  true landmark positions
+//   truth_observations.txt   <t> <true_id>                 one line per obs line of events.txt, in the
+//                                                          same order (so ids may be withheld from
+//                                                          events.txt while the truth keeps them)
+//   world.txt                the world simulated, in the format of read_world
+//
+// Units: seconds, metres, radians. '#' starts a comment. Numbers are written with 12 significant
+// digits, far below any noise the files describe and small enough for long runs.
+// The truth files are optional: a log without them is a dataset without ground truth.
+#include <string>
+
+#include "slamkit/io/dataset.hpp"
+#include "slamkit/sim/simulator.hpp"
+#include "slamkit/sim/world.hpp"
+
+namespace slamkit {
+
+/// Writes `dataset` (as made by simulate(world, config)) to `dir`, creating it if needed. A scan
+/// without observations has no line to go on and is left out, along with its truth entry.
+/// Throws InputError if a file cannot be written.
+void write_sim_log(const std::string& dir, const Dataset& dataset, const SimulatorConfig& config,
+                   const World& world);
+
+/// Reads a log written by write_sim_log: the events, the motion and observation models and sensor
+/// limits the simulator config implies, and whatever truth is present. spec is "sim:DIR", name
+/// "sim:" and the directory's last component. Throws InputError naming the file, the line and what
+/// was expected on anything malformed or inconsistent.
+Dataset read_sim_log(const std::string& dir);
+
+}  // namespace slamkit

@@ -1,0 +1,52 @@
+#pragma once
+// Line-oriented reading of the whitespace-separated text files slamkit reads and writes. Every parse
+// failure becomes an InputError naming the file, the line and what was expected; numbers must be
+// finite (a NaN or inf in a log is an error, not a value).
+#include <cstddef>
+#include <fstream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "slamkit/error.hpp"
+
+namespace slamkit {
+
+class TextReader {
+ public:
+  /// Opens `path`; throws InputError if it cannot be read.
+  explicit TextReader(std::string path);
+
+  /// Advances to the next line that is neither blank nor a '#' comment. False at end of file.
+  bool next();
+
+  std::size_t line_number() const { return line_number_; }
+  const std::string& path() const { return path_; }
+  const std::vector<std::string_view>& fields() const { return fields_; }
+  std::size_t size() const { return fields_.size(); }
+  std::string_view field(std::size_t i) const;
+
+  /// Requires the current line to have between `min` and `max` fields.
+  void expect_fields(std::size_t min, std::size_t max, std::string_view what) const;
+  void expect_fields(std::size_t n, std::string_view what) const { expect_fields(n, n, what); }
+
+  double number(std::size_t i, std::string_view what) const;
+  long integer(std::size_t i, std::string_view what) const;
+
+  /// An InputError at the current line.
+  [[noreturn]] void fail(const std::string& message) const;
+
+ private:
+  std::string path_;
+  std::ifstream in_;
+  std::string line_;
+  std::vector<std::string_view> fields_;
+  std::size_t line_number_ = 0;
+};
+
+/// Parses a finite double from the whole of `s`; false if it is not one.
+bool parse_double(std::string_view s, double& out);
+/// Parses a base-10 integer from the whole of `s`; false if it is not one.
+bool parse_long(std::string_view s, long& out);
+
+}  // namespace slamkit

@@ -1,0 +1,48 @@
+#pragma once
+// Drives a filter over a dataset's event stream and records what a run produces: the estimated
+// trajectory with its pose covariance, the final map, and the landmark standard deviations over
+// time (the data of the tutorial's Figure 3). Also integrates dead reckoning from the same controls
+// for contrast.
+#include <string>
+#include <vector>
+
+#include "slamkit/filters/slam_filter.hpp"
+#include "slamkit/io/dataset.hpp"
+
+namespace slamkit {
+
+struct LandmarkStdSample {
+  double t = 0.0;
+  int id = 0;
+  double std_x = 0.0;
+  double std_y = 0.0;
+};
+
+/// Everything a run writes to its output folder (and `slamkit evaluate` reads back).
+struct RunResult {
+  std::string filter;
+  std::string dataset;
+  std::vector<StampedPose> trajectory;
+  std::vector<Matrix3> pose_covariances;  // one per trajectory sample
+  std::vector<StampedPose> dead_reckoning;
+  std::vector<Landmark> map;
+  std::vector<LandmarkStdSample> landmark_std;
+  std::size_t steps = 0;         // control events
+  std::size_t scans = 0;         // observation scans
+  std::size_t observations = 0;  // individual landmark observations
+  double wall_time_s = 0.0;      // filter time only, not reading or writing files
+};
+
+struct RunOptions {
+  /// Landmark standard deviations are sampled at most this often [s] (every scan if 0).
+  double std_interval_s = 1.0;
+};
+
+/// Runs `filter` over every event of `dataset`. One trajectory sample per distinct event time,
+/// taken after all events at that time (control, then scan) are applied.
+RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOptions& options = {});
+
+/// The trajectory the controls alone give: the motion model integrated from the initial pose.
+std::vector<StampedPose> dead_reckoning(const Dataset& dataset);
+
+}  // namespace slamkit

@@ -1,0 +1,56 @@
+#pragma once
+// A simulated world: the true landmark map and the closed route the simulated vehicle drives.
+//
+// World file format (plain text, one item per line, '#' starts a comment, blank lines ignored):
+//
+//   landmark <id> <x> <y>     a point landmark; id a unique integer >= 0, x and y in metres
+//   waypoint <x> <y>          a point of the route, in driving order
+//
+// Lines of the two kinds may be interleaved; only the order of the waypoint lines matters. The route
+// is closed: after the last waypoint the vehicle heads back to the first. At least two waypoints are
+// required, and no waypoint may repeat the one before it. Every number must be finite.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "slamkit/types.hpp"
+
+namespace slamkit {
+
+struct World {
+  std::vector<Landmark> landmarks;  // covariance zero: this is the truth
+  std::vector<Vector2> waypoints;   // driving order; the vehicle starts at the first, facing the second
+};
+
+/// Parameters of a generated world: a rounded rectangle of width x height metres (corner radius a
+/// quarter of the shorter side), its lower straight centred on the origin and driven
+/// counter-clockwise starting at (0, 0) heading along +x, with landmarks scattered uniformly in the
+/// band between band_inner and band_outer metres from the route, on both sides of it.
+struct WorldGenOptions {
+  double width = 120.0;  // m
+  double height = 80.0;  // m
+  int landmarks = 100;
+  double band_inner = 4.0;         // m, no landmark closer to the route than this
+  double band_outer = 20.0;        // m, nor farther than this
+  double waypoint_spacing = 10.0;  // m, along the route (adjusted so the loop divides evenly)
+  std::uint64_t seed = 20240521;
+  /// No two landmarks closer than this [m]. When the band cannot hold `landmarks` at this spacing,
+  /// the spacing is reduced step by step until they fit.
+  double min_spacing = 3.0;
+};
+
+/// The built-in world: generate_world with the default options, ~366 m around, 100 landmarks.
+World default_world();
+
+/// Throws InputError when an option is out of range (non-positive size, empty band, ...).
+World generate_world(const WorldGenOptions& options);
+
+/// Reads a world file (format above). Throws InputError naming the file, the line and what was
+/// expected.
+World read_world(const std::string& path);
+
+/// Writes `world` in the format above, numbers in their shortest exact form so that read_world
+/// gives back the same values. Throws InputError if the file cannot be written.
+void write_world(const std::string& path, const World& world);
+
+}  // namespace slamkit

@@ -1,0 +1,61 @@
+#pragma once
+// Basic value types shared by every module: poses, controls, observations and the timestamped
+// events a dataset reader yields and a filter consumes.
+#include <Eigen/Core>
+#include <variant>
+#include <vector>
+
+namespace slamkit {
+
+/// Planar pose (x [m], y [m], heading [rad], heading wrapped to (-pi, pi]).
+using Pose2 = Eigen::Vector3d;
+using Matrix3 = Eigen::Matrix3d;
+using Vector2 = Eigen::Vector2d;
+using Matrix2 = Eigen::Matrix2d;
+
+/// Control vectors have a model-dependent size (2 for speed/steer, 3 for odometry) but never more
+/// than kMaxControlDim: fixed-capacity storage keeps the filters' hot loops free of allocation.
+inline constexpr int kMaxControlDim = 4;
+using Control = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxControlDim, 1>;
+using ControlJacobian = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxControlDim>;
+using ControlCovariance =
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxControlDim, kMaxControlDim>;
+
+/// Landmark identity carried by an observation. kUnknownId means the sensor does not say.
+inline constexpr int kUnknownId = -1;
+
+/// One landmark measurement: range [m], bearing [rad] in the sensor frame.
+struct Observation {
+  Vector2 z = Vector2::Zero();
+  int id = kUnknownId;
+};
+
+/// A control applied from the previous event's time up to `t`.
+struct ControlEvent {
+  double t = 0.0;
+  double dt = 0.0;
+  Control u;
+};
+
+/// All observations taken at one instant (one sensor sweep).
+struct ScanEvent {
+  double t = 0.0;
+  std::vector<Observation> observations;
+};
+
+using Event = std::variant<ControlEvent, ScanEvent>;
+
+/// A timestamped pose, e.g. a ground-truth or estimated trajectory sample.
+struct StampedPose {
+  double t = 0.0;
+  Pose2 pose = Pose2::Zero();
+};
+
+/// A point landmark of a map with a 2x2 covariance (zero for ground truth).
+struct Landmark {
+  int id = 0;
+  Vector2 position = Vector2::Zero();
+  Matrix2 covariance = Matrix2::Zero();
+};
+
+}  // namespace slamkit

@@ -1,0 +1,203 @@
+#include "slamkit/filters/ekf_slam.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <stdexcept>
+
+#include "slamkit/angles.hpp"
+
+namespace slamkit {
+
+namespace {
+constexpr std::size_t kInitialLandmarkCapacity = 64;
+}
+
+EkfSlam::EkfSlam(std::shared_ptr<const MotionModel> motion,
+                 std::shared_ptr<const ObservationModel> observation, const EkfSlamOptions& options)
+    : motion_(std::move(motion)), observation_(std::move(observation)) {
+  if (!motion_ || !observation_) throw std::invalid_argument("EkfSlam needs a motion and an observation model");
+  reserve(3 + 2 * kInitialLandmarkCapacity);
+  x_.head<3>() = options.initial_pose;
+  x_[2] = wrap_angle(x_[2]);
+  p_.topLeftCorner<3, 3>() = options.initial_covariance;
+}
+
+void EkfSlam::reserve(std::size_t dim) {
+  const auto capacity = static_cast<std::size_t>(x_.size());
+  if (dim <= capacity) return;
+  const auto grown = static_cast<Eigen::Index>(std::max(dim, 2 * capacity));
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(grown);
+  Eigen::MatrixXd p = Eigen::MatrixXd::Zero(grown, grown);
+  const auto n = static_cast<Eigen::Index>(dim_);
+  if (capacity > 0) {
+    x.head(n) = x_.head(n);
+    p.topLeftCorner(n, n).triangularView<Eigen::Lower>() = p_.topLeftCorner(n, n);
+  }
+  x_.swap(x);
+  p_.swap(p);
+  scratch3_.resize(grown, 3);
+  pht_.resize(grown, 2);
+}
+
+template <int N>
+Eigen::Matrix<double, N, N> EkfSlam::diagonal_block(std::size_t offset) const {
+  const auto o = static_cast<Eigen::Index>(offset);
+  return p_.block<N, N>(o, o).template selfadjointView<Eigen::Lower>();
+}
+
+Matrix3 EkfSlam::pose_covariance() const { return diagonal_block<3>(0); }
+
+Matrix2 EkfSlam::landmark_covariance(std::size_t index) const {
+  return diagonal_block<2>(landmark_offset(index));
+}
+
+Matrix2 EkfSlam::landmark_cross_covariance(std::size_t i, std::size_t j) const {
+  if (i == j) return landmark_covariance(i);
+  const auto a = static_cast<Eigen::Index>(landmark_offset(i));
+  const auto b = static_cast<Eigen::Index>(landmark_offset(j));
+  // Only the lower triangle is stored: the block with the larger row offset holds the pair.
+  return a > b ? Matrix2(p_.block<2, 2>(a, b)) : Matrix2(p_.block<2, 2>(b, a).transpose());
+}
+
+Eigen::MatrixXd EkfSlam::covariance() const {
+  const auto n = static_cast<Eigen::Index>(dim_);
+  return p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>();
+}
+
+std::vector<Landmark> EkfSlam::landmarks() const {
+  std::vector<Landmark> out(ids_.size());
+  for (std::size_t i = 0; i < ids_.size(); ++i)
+    out[i] = Landmark{ids_[i], landmark_position(i), landmark_covariance(i)};
+  return out;
+}
+
+long EkfSlam::find_landmark(int id) const {
+  const auto it = index_of_id_.find(id);
+  return it == index_of_id_.end() ? -1 : static_cast<long>(it->second);
+}
+
+void EkfSlam::predict(const ControlEvent& control) { predict(control.u, control.dt); }
+
+void EkfSlam::predict(const Control& u, double dt) {
+  const Pose2 xv = x_.head<3>();
+  const Matrix3 f = motion_->jacobian_state(xv, u, dt);
+  const Matrix3 q = motion_->process_noise(xv, u, dt);
+  x_.head<3>() = motion_->predict(xv, u, dt);
+  p_.topLeftCorner<3, 3>() = f * diagonal_block<3>(0) * f.transpose() + q;
+  // Landmarks are static: only the map-vehicle cross-covariance P_mv changes, to P_mv F^T.
+  const auto m = static_cast<Eigen::Index>(dim_) - 3;
+  if (m > 0) {
+    auto pmv = p_.block(3, 0, m, 3);
+    scratch3_.topRows(m).noalias() = pmv * f.transpose();
+    pmv = scratch3_.topRows(m);
+  }
+}
+
+void EkfSlam::covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm) {
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const auto l = static_cast<Eigen::Index>(lm_offset);
+  auto out = pht_.topRows(n);
+  // H = [hx 0 .. 0 hm 0 .. 0], so P H^T = P(:, vehicle) hx^T + P(:, landmark) hm^T, each column block
+  // read from the lower triangle: rows above a block come from the transposed row block.
+  out.topRows<3>().noalias() = diagonal_block<3>(0) * hx.transpose();
+  out.bottomRows(n - 3).noalias() = p_.block(3, 0, n - 3, 3) * hx.transpose();
+  out.topRows(l).noalias() += p_.block(l, 0, 2, l).transpose() * hm.transpose();
+  out.middleRows<2>(l).noalias() += diagonal_block<2>(lm_offset) * hm.transpose();
+  out.bottomRows(n - l - 2).noalias() += p_.block(l + 2, l, n - l - 2, 2) * hm.transpose();
+}
+
+void EkfSlam::innovation(std::size_t index, Vector2& zhat, Matrix2& s) const {
+  const std::size_t l = landmark_offset(index);
+  const Pose2 xv = x_.head<3>();
+  const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(l));
+  Matrix23 hx;
+  Matrix2 hm;
+  observation_->jacobians(xv, m, hx, hm);
+  zhat = observation_->predict(xv, m);
+  // S = hx Pvv hx^T + hx Pvm hm^T + hm Pmv hx^T + hm Pmm hm^T + R: only the 5x5 block is needed.
+  const Matrix23 pvm_t = p_.block<2, 3>(static_cast<Eigen::Index>(l), 0);  // P(m, v)
+  const Matrix2 cross = hm * pvm_t * hx.transpose();
+  s = hx * diagonal_block<3>(0) * hx.transpose() + cross + cross.transpose() +
+      hm * diagonal_block<2>(l) * hm.transpose() + observation_->noise();
+}
+
+bool EkfSlam::update_landmark(std::size_t index, const Vector2& z) {
+  const std::size_t l = landmark_offset(index);
+  const auto li = static_cast<Eigen::Index>(l);
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const Pose2 xv = x_.head<3>();
+  const Vector2 m = x_.segment<2>(li);
+  Matrix23 hx;
+  Matrix2 hm;
+  observation_->jacobians(xv, m, hx, hm);
+  const Vector2 nu = observation_->residual(z, observation_->predict(xv, m));
+
+  covariance_times_jacobian(l, hx, hm);
+  Matrix2 s = hx * pht_.topRows<3>() + hm * pht_.middleRows<2>(li) + observation_->noise();
+  s(0, 1) = s(1, 0) = 0.5 * (s(0, 1) + s(1, 0));
+  const Eigen::LLT<Matrix2> llt(s);
+  if (llt.info() != Eigen::Success) return false;
+
+  // Eq. (10): x += W nu with W = P H^T S^-1.
+  x_.head(n).noalias() += pht_.topRows(n) * llt.solve(nu);
+  x_[2] = wrap_angle(x_[2]);
+
+  // Eq. (11): P -= W S W^T = C C^T with C = P H^T L^-T (S = L L^T). L^-T is upper triangular, so C
+  // is formed in place, column 1 first because it still needs the old column 0.
+  const Matrix2 lower = llt.matrixL();
+  const double a00 = 1.0 / lower(0, 0), a11 = 1.0 / lower(1, 1);
+  const double a01 = -lower(1, 0) * a00 * a11;
+  auto c0 = pht_.col(0).head(n);
+  auto c1 = pht_.col(1).head(n);
+  c1 = a01 * c0 + a11 * c1;
+  c0 *= a00;
+  p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>().rankUpdate(pht_.topRows(n), -1.0);
+  return true;
+}
+
+std::size_t EkfSlam::add_landmark(const Vector2& z, int id) {
+  reserve(dim_ + 2);
+  const auto l = static_cast<Eigen::Index>(dim_);
+  const Pose2 xv = x_.head<3>();
+  Matrix23 gx;
+  Matrix2 gz;
+  observation_->inverse_jacobians(xv, z, gx, gz);
+  x_.segment<2>(l) = observation_->inverse(xv, z);
+  // The new landmark inherits the vehicle's uncertainty, so it is correlated with everything the
+  // vehicle is correlated with: P(m_new, :) = Gx P(v, :).
+  const Matrix3 pvv = diagonal_block<3>(0);
+  p_.block<2, 3>(l, 0).noalias() = gx * pvv;
+  if (l > 3) p_.block(l, 3, 2, l - 3).noalias() = gx * p_.block(3, 0, l - 3, 3).transpose();
+  p_.block<2, 2>(l, l).noalias() = gx * pvv * gx.transpose() + gz * observation_->noise() * gz.transpose();
+  dim_ += 2;
+  const std::size_t index = ids_.size();
+  ids_.push_back(id);
+  if (id != kUnknownId) index_of_id_[id] = index;
+  return index;
+}
+
+void EkfSlam::update(const ScanEvent& scan) {
+  new_observations_.clear();
+  for (std::size_t k = 0; k < scan.observations.size(); ++k) {
+    const Observation& obs = scan.observations[k];
+    if (obs.id == kUnknownId)
+      throw std::invalid_argument(
+          "EKF-SLAM with known association got an observation without a landmark id");
+    const long index = find_landmark(obs.id);
+    if (index >= 0)
+      update_landmark(static_cast<std::size_t>(index), obs.z);
+    else
+      new_observations_.push_back(k);
+  }
+  // New landmarks are added after the scan's updates, so they start from the best pose estimate.
+  for (const std::size_t k : new_observations_) {
+    const Observation& obs = scan.observations[k];
+    const long index = find_landmark(obs.id);
+    if (index >= 0)
+      update_landmark(static_cast<std::size_t>(index), obs.z);  // seen twice in one scan
+    else
+      add_landmark(obs.z, obs.id);
+  }
+}
+
+}  // namespace slamkit

@@ -1,0 +1,131 @@
+#include "slamkit/eval/evaluation.hpp"
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "slamkit/error.hpp"
+
+namespace slamkit {
+
+namespace {
+
+template <typename T>
+nlohmann::json optional_json(const std::optional<T>& v) {
+  return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const EvaluationOptions& options) {
+  Metrics m;
+  m.filter = run.filter;
+  m.dataset = run.dataset;
+  m.steps = run.steps;
+  m.scans = run.scans;
+  m.observations = run.observations;
+  m.landmarks = run.map.size();
+  m.wall_time_s = run.wall_time_s;
+  if (truth.poses.empty()) return m;
+
+  const auto pairs = eval::match_by_time(run.trajectory, truth.poses, options.max_interpolation_gap_s);
+  m.matched_poses = pairs.size();
+  if (pairs.size() >= 2) {
+    const eval::AteResult ate = eval::absolute_trajectory_error(pairs);
+    m.ate_rmse_m = ate.rmse;
+    m.final_position_error_m = ate.final_error;
+    m.alignment = ate.align;
+    if (!truth.landmarks.empty()) {
+      const eval::MapError map_error = eval::map_rmse(run.map, truth.landmarks, ate.align);
+      m.map_rmse_m = map_error.rmse;
+      m.map_landmarks_paired = map_error.paired;
+    }
+  }
+  const auto dr_pairs = eval::match_by_time(run.dead_reckoning, truth.poses, options.max_interpolation_gap_s);
+  if (dr_pairs.size() >= 2) {
+    const eval::AteResult dr = eval::absolute_trajectory_error(dr_pairs);
+    m.dead_reckoning_ate_rmse_m = dr.rmse;
+    m.dead_reckoning_final_position_error_m = dr.final_error;
+    m.dead_reckoning_alignment = dr.align;
+  }
+  if (truth.poses_have_heading) {
+    // Only where the estimate has a sample at the truth time: an interpolated covariance would be a
+    // guess, and NEES is about the filter's own claims.
+    std::vector<double> nees;
+    nees.reserve(pairs.size());
+    for (const auto& pair : pairs) {
+      const auto i = static_cast<std::size_t>(pair.estimate_index);
+      if (run.trajectory[i].t != pair.t) continue;
+      nees.push_back(eval::pose_nees(run.trajectory[i].pose, run.pose_covariances[i], pair.truth));
+    }
+    // The first samples are usually the exactly known start pose, whose covariance is zero.
+    std::erase_if(nees, [](double v) { return !std::isfinite(v); });
+    if (!nees.empty()) m.nees_pose = eval::summarize_nees(nees, 3, 0.95);
+  }
+  return m;
+}
+
+nlohmann::json to_json(const Metrics& m) {
+  nlohmann::json j = {
+      {"filter", m.filter},
+      {"dataset", m.dataset},
+      {"steps", m.steps},
+      {"scans", m.scans},
+      {"observations", m.observations},
+      {"landmarks", m.landmarks},
+      {"wall_time_s", m.wall_time_s},
+      {"matched_poses", m.matched_poses},
+      {"ate_rmse_m", optional_json(m.ate_rmse_m)},
+      {"final_position_error_m", optional_json(m.final_position_error_m)},
+      {"dead_reckoning_ate_rmse_m", optional_json(m.dead_reckoning_ate_rmse_m)},
+      {"dead_reckoning_final_position_error_m", optional_json(m.dead_reckoning_final_position_error_m)},
+      {"map_rmse_m", optional_json(m.map_rmse_m)},
+      {"map_landmarks_paired", m.map_landmarks_paired},
+      {"alignment", {{"theta_rad", m.alignment.theta},
+                     {"tx_m", m.alignment.translation.x()},
+                     {"ty_m", m.alignment.translation.y()}}},
+  };
+  if (m.nees_pose) {
+    j["nees_pose_mean"] = m.nees_pose->mean;
+    j["nees_pose_in_95_fraction"] = m.nees_pose->in_interval_fraction;
+    j["nees_pose_95_interval"] = {m.nees_pose->interval.lo, m.nees_pose->interval.hi};
+    j["nees_pose_steps"] = m.nees_pose->steps;
+  } else {
+    j["nees_pose_mean"] = nullptr;
+    j["nees_pose_in_95_fraction"] = nullptr;
+  }
+  j["metric_definitions"] = {
+      {"ate_rmse_m", "position RMSE over time-matched truth samples after SE(2) least-squares alignment"},
+      {"final_position_error_m", "position error at the last matched truth sample, same alignment"},
+      {"map_rmse_m", "landmark position RMSE over landmarks paired with the truth, same alignment"},
+      {"nees_pose_in_95_fraction",
+       "share of steps whose pose NEES (3 dof, unaligned) lies in the two-sided 95% chi-square interval"}};
+  return j;
+}
+
+void write_metrics(const std::string& dir, const Metrics& metrics) {
+  const std::string path = (std::filesystem::path(dir) / "metrics.json").string();
+  std::ofstream out(path);
+  out << to_json(metrics).dump(2) << "\n";
+  if (!out) throw InputError(path, 0, "cannot write file");
+}
+
+std::string headline(const Metrics& m) {
+  std::string s;
+  auto add = [&s](const std::string& part) { s += (s.empty() ? "" : " | ") + part; };
+  if (m.ate_rmse_m) {
+    std::string ate = fmt::format("ATE RMSE {:.3g} m", *m.ate_rmse_m);
+    if (m.dead_reckoning_ate_rmse_m) ate += fmt::format(" (dead reckoning {:.3g} m)", *m.dead_reckoning_ate_rmse_m);
+    add(ate);
+  }
+  if (m.map_rmse_m) add(fmt::format("map RMSE {:.3g} m", *m.map_rmse_m));
+  if (m.nees_pose)
+    add(fmt::format("pose NEES in 95% bounds {:.0f}% of steps", 100.0 * m.nees_pose->in_interval_fraction));
+  add(fmt::format("{} landmarks", m.landmarks));
+  add(fmt::format("{:.3g} s", m.wall_time_s));
+  return s;
+}
+
+}  // namespace slamkit

@@ -1,0 +1,67 @@
+#include "slamkit/plot/report.hpp"
+
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <map>
+
+#include "slamkit/plot/svg_plot.hpp"
+
+namespace slamkit {
+
+namespace {
+
+std::vector<Vector2> positions(const std::vector<StampedPose>& poses, const eval::Se2Transform& align) {
+  std::vector<Vector2> out;
+  out.reserve(poses.size());
+  for (const auto& p : poses) out.push_back(align.apply(Vector2(p.pose.head<2>())));
+  return out;
+}
+
+std::string filter_title(const std::string& filter) {
+  if (filter == "ekf") return "EKF-SLAM";
+  return filter;
+}
+
+}  // namespace
+
+void write_run_plots(const std::string& dir, const RunResult& run, const GroundTruth& truth,
+                     const Metrics& metrics) {
+  namespace fs = std::filesystem;
+  const std::string title = filter_title(run.filter) + " on " + run.dataset;
+  const std::string subtitle = headline(metrics);
+
+  plot::MapPlotData map;
+  map.title = title;
+  map.subtitle = subtitle;
+  // Without truth there is nothing to align to: the estimate is drawn in its own frame.
+  const bool aligned = metrics.ate_rmse_m.has_value();
+  const eval::Se2Transform align = aligned ? metrics.alignment : eval::Se2Transform{};
+  map.estimated_trajectory = positions(run.trajectory, align);
+  map.dead_reckoning = positions(run.dead_reckoning, aligned ? metrics.dead_reckoning_alignment : align);
+  map.true_trajectory = positions(truth.poses, eval::Se2Transform{});
+  if (!truth.poses_have_heading) std::swap(map.true_trajectory, map.reference_points);
+  map.true_landmarks = truth.landmarks;
+  const Matrix2 rotation = Eigen::Rotation2Dd(align.theta).toRotationMatrix();
+  for (Landmark lm : run.map) {
+    lm.position = align.apply(lm.position);
+    lm.covariance = rotation * lm.covariance * rotation.transpose();
+    map.estimated_landmarks.push_back(lm);
+  }
+  plot::write_map_svg((fs::path(dir) / "map.svg").string(), map);
+
+  plot::StdPlotData std_plot;
+  std_plot.title = "Landmark uncertainty over time: " + title;
+  std_plot.subtitle = "standard deviation of each landmark's position estimate (cf. tutorial Figure 3)";
+  std::map<int, std::size_t> series_of_id;
+  for (const auto& s : run.landmark_std) {
+    auto [it, inserted] = series_of_id.try_emplace(s.id, std_plot.series.size());
+    if (inserted) std_plot.series.push_back(plot::StdSeries{s.id, {}, {}, {}});
+    auto& series = std_plot.series[it->second];
+    series.t.push_back(s.t);
+    series.std_x.push_back(s.std_x);
+    series.std_y.push_back(s.std_y);
+  }
+  plot::write_landmark_std_svg((fs::path(dir) / "landmark_std.svg").string(), std_plot);
+}
+
+}  // namespace slamkit

@@ -1,0 +1,82 @@
+#include "slamkit/pipeline/runner.hpp"
+
+#include <chrono>
+#include <cmath>
+
+namespace slamkit {
+
+namespace {
+
+double event_time(const Event& e) {
+  return std::visit([](const auto& ev) { return ev.t; }, e);
+}
+
+/// Time of the pose the stream starts from: just before the first control is applied.
+double start_time(const Dataset& dataset) {
+  for (const Event& e : dataset.events)
+    if (const auto* c = std::get_if<ControlEvent>(&e)) return c->t - c->dt;
+  return dataset.events.empty() ? 0.0 : event_time(dataset.events.front());
+}
+
+}  // namespace
+
+RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOptions& options) {
+  RunResult result;
+  result.filter = filter.name();
+  result.dataset = dataset.spec;
+  result.trajectory.reserve(dataset.events.size() + 1);
+  result.pose_covariances.reserve(dataset.events.size() + 1);
+
+  auto record = [&](double t) {
+    // Several events can share a time (a control then the scan taken there): keep the latest state.
+    if (!result.trajectory.empty() && result.trajectory.back().t == t) {
+      result.trajectory.back().pose = filter.pose();
+      result.pose_covariances.back() = filter.pose_covariance();
+      return;
+    }
+    result.trajectory.push_back({t, filter.pose()});
+    result.pose_covariances.push_back(filter.pose_covariance());
+  };
+
+  double last_std_time = -INFINITY;
+  const auto begin = std::chrono::steady_clock::now();
+  record(start_time(dataset));
+  for (const Event& event : dataset.events) {
+    if (const auto* control = std::get_if<ControlEvent>(&event)) {
+      filter.predict(*control);
+      ++result.steps;
+      record(control->t);
+    } else {
+      const auto& scan = std::get<ScanEvent>(event);
+      filter.update(scan);
+      ++result.scans;
+      result.observations += scan.observations.size();
+      record(scan.t);
+      if (scan.t - last_std_time >= options.std_interval_s) {
+        last_std_time = scan.t;
+        for (const Landmark& lm : filter.landmarks())
+          result.landmark_std.push_back({scan.t, lm.id, std::sqrt(std::max(0.0, lm.covariance(0, 0))),
+                                         std::sqrt(std::max(0.0, lm.covariance(1, 1)))});
+      }
+    }
+  }
+  result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
+  result.map = filter.landmarks();
+  result.dead_reckoning = dead_reckoning(dataset);
+  return result;
+}
+
+std::vector<StampedPose> dead_reckoning(const Dataset& dataset) {
+  std::vector<StampedPose> out;
+  Pose2 pose = dataset.initial_pose;
+  out.push_back({start_time(dataset), pose});
+  for (const Event& event : dataset.events) {
+    if (const auto* control = std::get_if<ControlEvent>(&event)) {
+      pose = dataset.motion->predict(pose, control->u, control->dt);
+      out.push_back({control->t, pose});
+    }
+  }
+  return out;
+}
+
+}  // namespace slamkit

@@ -1,0 +1,352 @@
+#include "slamkit/sim/simulator.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <cstdlib>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "slamkit/error.hpp"
+
+namespace slamkit {
+namespace {
+
+// ---- Config keys ------------------------------------------------------------------------------------
+
+// One real-valued setting: its JSON key (unit in the name), where it lives in the struct, whether
+// the JSON holds it in degrees, and the range it must lie in.
+struct RealKey {
+  const char* key;
+  double SimulatorConfig::*field;
+  bool degrees;
+  bool (*ok)(double);    // tests the struct's value, so radians for angles
+  const char* expected;  // the same range for the user, in the JSON's units
+};
+
+constexpr auto positive = [](double v) { return v > 0.0; };
+constexpr auto non_negative = [](double v) { return v >= 0.0; };
+
+const RealKey kRealKeys[] = {
+    {"speed_mps", &SimulatorConfig::speed, false, positive, "> 0"},
+    {"wheelbase_m", &SimulatorConfig::wheelbase, false, positive, "> 0"},
+    {"max_steer_deg", &SimulatorConfig::max_steer, true, [](double v) { return v > 0.0 && v < kPi / 2.0; },
+     "> 0 and < 90"},
+    {"max_steer_rate_deg_per_s", &SimulatorConfig::max_steer_rate, true, positive, "> 0"},
+    {"waypoint_tolerance_m", &SimulatorConfig::waypoint_tolerance, false, positive, "> 0"},
+    {"sigma_speed_mps", &SimulatorConfig::sigma_speed, false, non_negative, ">= 0"},
+    {"sigma_steer_deg", &SimulatorConfig::sigma_steer, true, non_negative, ">= 0"},
+    {"max_range_m", &SimulatorConfig::max_range, false, positive, "> 0"},
+    // Degrees-to-radians rounding may put 360 deg an ulp above 2 pi.
+    {"fov_deg", &SimulatorConfig::fov, true,
+     [](double v) { return v > 0.0 && v <= 2.0 * kPi * (1.0 + 1e-12); }, "> 0 and <= 360"},
+    {"sigma_range_m", &SimulatorConfig::sigma_range, false, non_negative, ">= 0"},
+    {"sigma_bearing_deg", &SimulatorConfig::sigma_bearing, true, non_negative, ">= 0"},
+    {"control_period_s", &SimulatorConfig::control_period, false, positive, "> 0"},
+    {"observation_period_s", &SimulatorConfig::observation_period, false, positive, "> 0"},
+};
+constexpr const char* kLoopsKey = "loops";
+constexpr const char* kSeedKey = "seed";
+
+// Rounded to 12 significant digits, so that an angle set in whole degrees prints as such rather
+// than as 3.0000000000000004 after the trip through radians, and reads back as the same radians.
+double json_value(const RealKey& k, const SimulatorConfig& c) {
+  const double v = c.*k.field;
+  return k.degrees ? std::strtod(fmt::format("{:.12g}", rad2deg(v)).c_str(), nullptr) : v;
+}
+
+// How many control periods make one observation period; 0 if it is not a whole number of them.
+long steps_per_observation(const SimulatorConfig& c) {
+  const double ratio = c.observation_period / c.control_period;
+  const double whole = std::round(ratio);
+  return whole >= 1.0 && std::abs(ratio - whole) <= 1e-9 * ratio ? static_cast<long>(whole) : 0;
+}
+
+void validate(const SimulatorConfig& c, const std::string& source) {
+  for (const RealKey& k : kRealKeys) {
+    const double v = c.*k.field;
+    if (!std::isfinite(v) || !k.ok(v))
+      throw InputError(
+          source, 0, fmt::format("'{}' must be {}, found {}", k.key, k.expected, k.degrees ? rad2deg(v) : v));
+  }
+  if (c.loops < 1)
+    throw InputError(source, 0, fmt::format("'{}' must be >= 1, found {}", kLoopsKey, c.loops));
+  if (steps_per_observation(c) == 0)
+    throw InputError(
+        source, 0,
+        fmt::format("'observation_period_s' must be a whole multiple of 'control_period_s' ({}), found {}",
+                    c.control_period, c.observation_period));
+}
+
+// ---- Randomness -------------------------------------------------------------------------------------
+
+// Standard normal samples by Box-Muller on the engine's raw output. std::normal_distribution's
+// algorithm differs between standard libraries; this keeps a seed's dataset the same with all of them.
+class Gaussian {
+ public:
+  explicit Gaussian(std::uint64_t seed) : rng_(seed) {}
+
+  double operator()() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    // 1 - u lies in (0, 1], so the logarithm is finite.
+    const double u1 = 1.0 - uniform01(), u2 = uniform01();
+    const double r = std::sqrt(-2.0 * std::log(u1));
+    spare_ = r * std::sin(2.0 * kPi * u2);
+    has_spare_ = true;
+    return r * std::cos(2.0 * kPi * u2);
+  }
+
+ private:
+  double uniform01() { return static_cast<double>(rng_() >> 11) * 0x1.0p-53; }
+
+  std::mt19937_64 rng_;
+  double spare_ = 0.0;
+  bool has_spare_ = false;
+};
+
+// ---- Visibility -------------------------------------------------------------------------------------
+
+// Landmarks bucketed in a uniform grid (cells at least a sensor range wide), so a sweep examines
+// the landmarks of a few cells rather than the whole map.
+class LandmarkGrid {
+ public:
+  LandmarkGrid(const std::vector<Landmark>& landmarks, double reach) {
+    if (landmarks.empty()) return;
+    origin_ = landmarks.front().position;
+    Vector2 top = origin_;
+    for (const Landmark& l : landmarks) {
+      origin_ = origin_.cwiseMin(l.position);
+      top = top.cwiseMax(l.position);
+    }
+    // A sensor range far below the map size must not explode the number of cells.
+    constexpr double kMaxCellsPerSide = 256.0;
+    cell_ = std::max(reach, (top - origin_).maxCoeff() / kMaxCellsPerSide);
+    nx_ = static_cast<long>((top.x() - origin_.x()) / cell_) + 1;
+    ny_ = static_cast<long>((top.y() - origin_.y()) / cell_) + 1;
+    start_.assign(static_cast<std::size_t>(nx_ * ny_ + 1), 0);
+    for (const Landmark& l : landmarks) ++start_[cell_index(l.position) + 1];
+    for (std::size_t i = 1; i < start_.size(); ++i) start_[i] += start_[i - 1];
+    items_.resize(landmarks.size());
+    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
+    for (std::size_t i = 0; i < landmarks.size(); ++i)
+      items_[fill[cell_index(landmarks[i].position)]++] = static_cast<int>(i);
+  }
+
+  /// Indices of the landmarks in the cells that overlap the square of half-side `reach` around p.
+  void gather(const Vector2& p, double reach, std::vector<int>& out) const {
+    out.clear();
+    if (nx_ == 0) return;
+    const auto span = [&](double lo, double hi, double origin, long n, long& first, long& last) {
+      const double a = std::floor((lo - origin) / cell_), b = std::floor((hi - origin) / cell_);
+      if (b < 0.0 || a >= static_cast<double>(n)) return false;
+      first = static_cast<long>(std::max(a, 0.0));
+      last = static_cast<long>(std::min(b, static_cast<double>(n - 1)));
+      return true;
+    };
+    long x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+    if (!span(p.x() - reach, p.x() + reach, origin_.x(), nx_, x0, x1) ||
+        !span(p.y() - reach, p.y() + reach, origin_.y(), ny_, y0, y1))
+      return;
+    for (long iy = y0; iy <= y1; ++iy) {
+      const std::size_t row = static_cast<std::size_t>(iy * nx_);
+      out.insert(out.end(), items_.begin() + static_cast<std::ptrdiff_t>(start_[row + x0]),
+                 items_.begin() + static_cast<std::ptrdiff_t>(start_[row + x1 + 1]));
+    }
+  }
+
+ private:
+  std::size_t cell_index(const Vector2& p) const {
+    const long ix = static_cast<long>((p.x() - origin_.x()) / cell_);
+    const long iy = static_cast<long>((p.y() - origin_.y()) / cell_);
+    return static_cast<std::size_t>(iy * nx_ + ix);
+  }
+
+  Vector2 origin_ = Vector2::Zero();
+  double cell_ = 1.0;
+  long nx_ = 0, ny_ = 0;
+  std::vector<std::size_t> start_;  // landmarks of cell c are items_[start_[c] .. start_[c + 1])
+  std::vector<int> items_;
+};
+
+// ---- Steering ----------------------------------------------------------------------------------------
+
+// The reference simulators' controller: turn the wheels towards the waypoint, no faster than the
+// steering rate allows and no further than the steering lock.
+double steer_towards(const Pose2& pose, const Vector2& target, double steer, const SimulatorConfig& c) {
+  const double wanted =
+      wrap_angle(std::atan2(target.y() - pose.y(), target.x() - pose.x()) - pose.z() - steer);
+  const double max_delta = c.max_steer_rate * c.control_period;
+  return std::clamp(steer + std::clamp(wanted, -max_delta, max_delta), -c.max_steer, c.max_steer);
+}
+
+double route_length(const std::vector<Vector2>& waypoints) {
+  double length = (waypoints.front() - waypoints.back()).norm();
+  for (std::size_t i = 1; i < waypoints.size(); ++i) length += (waypoints[i] - waypoints[i - 1]).norm();
+  return length;
+}
+
+}  // namespace
+
+void set_platform(Dataset& dataset, const SimulatorConfig& config) {
+  dataset.motion = std::make_shared<const AckermannModel>(
+      AckermannModel::Params{config.wheelbase, config.sigma_speed, config.sigma_steer});
+  RangeBearingModel::Params sensor;
+  sensor.sigma_range = config.sigma_range;
+  sensor.sigma_bearing = config.sigma_bearing;
+  dataset.observation = std::make_shared<const RangeBearingModel>(sensor);
+  dataset.sensor = SensorLimits{config.max_range, config.fov};
+}
+
+nlohmann::json to_json(const SimulatorConfig& config) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const RealKey& k : kRealKeys) j[k.key] = json_value(k, config);
+  j[kLoopsKey] = config.loops;
+  j[kSeedKey] = config.seed;
+  return j;
+}
+
+SimulatorConfig simulator_config_from_json(const nlohmann::json& json, const std::string& source_name) {
+  if (!json.is_object())
+    throw InputError(
+        source_name, 0,
+        fmt::format("expected the simulator config as a JSON object, found {}", json.type_name()));
+  SimulatorConfig c;
+  for (const auto& item : json.items()) {
+    const std::string& key = item.key();
+    const nlohmann::json& value = item.value();
+    const auto real = std::find_if(std::begin(kRealKeys), std::end(kRealKeys),
+                                   [&](const RealKey& k) { return key == k.key; });
+    if (real != std::end(kRealKeys)) {
+      if (!value.is_number())
+        throw InputError(source_name, 0,
+                         fmt::format("'{}' must be a number, found {}", key, value.type_name()));
+      const double v = value.get<double>();
+      c.*real->field = real->degrees ? deg2rad(v) : v;
+    } else if (key == kLoopsKey) {
+      if (!value.is_number_integer() || value.get<long long>() < 1 || value.get<long long>() > INT_MAX)
+        throw InputError(source_name, 0,
+                         fmt::format("'{}' must be an integer >= 1, found {}", key, value.dump()));
+      c.loops = value.get<int>();
+    } else if (key == kSeedKey) {
+      // JSON text parses a non-negative integer as unsigned; a json built in code may hold it signed.
+      if (!value.is_number_unsigned() && !(value.is_number_integer() && value.get<long long>() >= 0))
+        throw InputError(
+            source_name, 0,
+            fmt::format("'{}' must be an integer from 0 to 2^64 - 1, found {}", key, value.dump()));
+      c.seed = value.get<std::uint64_t>();
+    } else {
+      std::string known;
+      for (const RealKey& k : kRealKeys) known += fmt::format("{}, ", k.key);
+      throw InputError(source_name, 0,
+                       fmt::format("unknown key '{}' in the simulator config; expected one of: {}{}, {}", key,
+                                   known, kLoopsKey, kSeedKey));
+    }
+  }
+  validate(c, source_name);
+  return c;
+}
+
+Dataset simulate(const World& world, const SimulatorConfig& config) {
+  validate(config, "simulator config");
+  const std::vector<Vector2>& waypoints = world.waypoints;
+  if (waypoints.size() < 2)
+    throw InputError(fmt::format("world: expected at least 2 waypoints, found {}", waypoints.size()));
+
+  const double dt = config.control_period;
+  const long steps_per_scan = steps_per_observation(config);
+  Dataset out;
+  out.name = "simulated";
+  set_platform(out, config);
+  const MotionModel& motion = *out.motion;
+  const ObservationModel& sensor = *out.observation;
+  const Vector2 heading = waypoints[1] - waypoints[0];
+  Pose2 pose(waypoints[0].x(), waypoints[0].y(), std::atan2(heading.y(), heading.x()));
+  out.initial_pose = pose;
+  out.truth.poses_have_heading = true;
+  out.truth.landmarks = world.landmarks;
+
+  const auto expected_steps =
+      static_cast<std::size_t>(1.05 * config.loops * route_length(waypoints) / (config.speed * dt) + 16.0);
+  out.events.reserve(expected_steps + expected_steps / static_cast<std::size_t>(steps_per_scan));
+  out.truth.poses.reserve(expected_steps + 1);
+  out.truth.poses.push_back(StampedPose{0.0, pose});
+
+  // Separate streams, so that changing the sensor (and with it how many numbers a sweep draws)
+  // leaves the control noise of a seed unchanged.
+  Gaussian control_noise(config.seed);
+  Gaussian sensor_noise(config.seed ^ 0x9e3779b97f4a7c15ULL);
+  const LandmarkGrid grid(world.landmarks, config.max_range);
+  std::vector<int> candidates;
+
+  // A waypoint inside the turning circle is orbited forever; give up on one the vehicle has not
+  // reached in three times the length of a straight drive plus a full circle. The pose moves along
+  // heading + steer, so at full lock it circles with radius L / sin(max_steer).
+  const double turn_radius = config.wheelbase / std::sin(config.max_steer);
+  const std::size_t n = waypoints.size();
+  const std::size_t arrivals_to_finish = static_cast<std::size_t>(config.loops) * n + 1;
+  std::size_t arrivals = 0;
+  long deadline = 0;
+  double steer = 0.0;
+  for (long k = 1;; ++k) {
+    bool arrived = false;
+    while (arrivals < arrivals_to_finish &&
+           (waypoints[arrivals % n] - pose.head<2>()).norm() < config.waypoint_tolerance) {
+      ++arrivals;
+      arrived = true;
+    }
+    if (arrivals == arrivals_to_finish) break;
+    const Vector2& target = waypoints[arrivals % n];
+    if (arrived) {
+      const double patience =
+          3.0 * ((target - pose.head<2>()).norm() + 2.0 * kPi * turn_radius) / config.speed;
+      deadline = k + static_cast<long>(std::ceil(patience / dt));
+    } else if (k > deadline) {
+      throw InputError(fmt::format(
+          "world: the vehicle cannot reach waypoint {} at ({}, {}); it is {:.1f} m away after {:.0f} s. "
+          "Consecutive waypoints must allow for the turning radius of {:.1f} m",
+          arrivals % n + 1, target.x(), target.y(), (target - pose.head<2>()).norm(),
+          static_cast<double>(k) * dt, turn_radius));
+    }
+
+    steer = steer_towards(pose, target, steer, config);
+    Control u_true(2);
+    u_true << config.speed, steer;
+    pose = motion.predict(pose, u_true, dt);
+    const double t = static_cast<double>(k) * dt;
+    Control u(2);
+    u << config.speed + config.sigma_speed * control_noise(), steer + config.sigma_steer * control_noise();
+    out.events.emplace_back(ControlEvent{t, dt, u});
+    out.truth.poses.push_back(StampedPose{t, pose});
+
+    if (k % steps_per_scan != 0) continue;
+    grid.gather(pose.head<2>(), config.max_range, candidates);
+    // The grid yields landmarks cell by cell; map order makes a sweep independent of the grid.
+    std::sort(candidates.begin(), candidates.end());
+    ScanEvent scan{t, {}};
+    std::vector<int> true_ids;
+    for (const int i : candidates) {
+      const Landmark& landmark = world.landmarks[static_cast<std::size_t>(i)];
+      const Vector2 z = sensor.predict(pose, landmark.position);
+      if (z[0] > config.max_range || std::abs(z[1]) > config.fov / 2.0) continue;
+      const Vector2 noisy(z[0] + config.sigma_range * sensor_noise(),
+                          wrap_angle(z[1] + config.sigma_bearing * sensor_noise()));
+      // Only a landmark almost on top of the sensor can come out at a negative range: no real
+      // sensor reports one, so it counts as missed.
+      if (noisy[0] <= 0.0) continue;
+      scan.observations.push_back(Observation{noisy, landmark.id});
+      true_ids.push_back(landmark.id);
+    }
+    if (scan.observations.empty()) continue;
+    out.events.emplace_back(std::move(scan));
+    out.truth.observation_ids.push_back(std::move(true_ids));
+  }
+  return out;
+}
+
+}  // namespace slamkit

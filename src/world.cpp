@@ -1,0 +1,229 @@
+#include "slamkit/sim/world.hpp"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <climits>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <unordered_map>
+
+#include "slamkit/angles.hpp"
+#include "slamkit/error.hpp"
+#include "slamkit/io/text_reader.hpp"
+
+namespace slamkit {
+namespace {
+
+// Uniform on [0, 1) from the top 53 bits: unlike std::uniform_real_distribution its output is fixed
+// by the standard engine alone, so a seed gives the same world with every standard library.
+double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+
+// The route of a generated world: a rounded rectangle, lower straight centred on the origin, driven
+// counter-clockwise from (0, 0).
+class RoundedRectRoute {
+ public:
+  RoundedRectRoute(double width, double height)
+      : half_w_(width / 2.0), half_h_(height / 2.0), radius_(std::min(width, height) / 4.0) {
+    const double a = half_w_ - radius_, b = half_h_ - radius_, arc = radius_ * kPi / 2.0;
+    pieces_ = {{{a, false},
+                {arc, true},
+                {2 * b, false},
+                {arc, true},
+                {2 * a, false},
+                {arc, true},
+                {2 * b, false},
+                {arc, true},
+                {a, false}}};
+  }
+
+  double length() const {
+    double total = 0.0;
+    for (const Piece& p : pieces_) total += p.length;
+    return total;
+  }
+
+  // Walks the route like a turtle: straights keep the heading, corners turn left at the corner radius.
+  Vector2 point_at(double s) const {
+    Vector2 p = Vector2::Zero();
+    double heading = 0.0;
+    for (const Piece& piece : pieces_) {
+      const double step = std::min(s, piece.length);
+      if (piece.corner) {
+        const double turned = heading + step / radius_;
+        p += radius_ * Vector2(std::sin(turned) - std::sin(heading), std::cos(heading) - std::cos(turned));
+        heading = turned;
+      } else {
+        p += step * Vector2(std::cos(heading), std::sin(heading));
+      }
+      s -= step;
+      if (s <= 0.0) break;
+    }
+    return p;
+  }
+
+  // Unsigned distance to the route, from the signed distance of the rounded rectangle it encloses.
+  double distance(const Vector2& p) const {
+    const Vector2 q = (p - Vector2(0.0, half_h_)).cwiseAbs() - Vector2(half_w_ - radius_, half_h_ - radius_);
+    const double outside = q.cwiseMax(0.0).norm();
+    const double inside = std::min(std::max(q.x(), q.y()), 0.0);
+    return std::abs(outside + inside - radius_);
+  }
+
+ private:
+  struct Piece {
+    double length;
+    bool corner;
+  };
+  double half_w_, half_h_, radius_;
+  std::array<Piece, 9> pieces_;
+};
+
+void require(bool ok, const char* option, const char* expected, double found) {
+  if (!ok)
+    throw InputError(fmt::format("world generation: {} must be {}, found {}", option, expected, found));
+}
+
+void validate(const WorldGenOptions& o) {
+  require(std::isfinite(o.width) && o.width > 0.0, "width", "a positive number of metres", o.width);
+  require(std::isfinite(o.height) && o.height > 0.0, "height", "a positive number of metres", o.height);
+  require(o.landmarks >= 0, "landmarks", "zero or more", o.landmarks);
+  require(std::isfinite(o.band_inner) && o.band_inner >= 0.0, "band_inner", "a distance >= 0", o.band_inner);
+  require(std::isfinite(o.band_outer) && o.band_outer > o.band_inner, "band_outer",
+          "a distance greater than band_inner", o.band_outer);
+  require(std::isfinite(o.waypoint_spacing) && o.waypoint_spacing > 0.0, "waypoint_spacing",
+          "a positive number of metres", o.waypoint_spacing);
+  require(std::isfinite(o.min_spacing) && o.min_spacing > 0.0, "min_spacing", "a positive number of metres",
+          o.min_spacing);
+}
+
+// Buckets of already placed landmarks, so that the spacing test looks at a handful of neighbours
+// instead of all of them. Hashed cells keep memory proportional to the landmarks, not the area.
+class SpacingGrid {
+ public:
+  explicit SpacingGrid(double cell) : cell_(cell) {}
+
+  // Valid for any spacing up to the cell size: closer points are then always in adjacent cells.
+  bool has_neighbour_within(const Vector2& p, double spacing, const std::vector<Landmark>& placed) const {
+    const long long cx = cell_of(p.x()), cy = cell_of(p.y());
+    for (long long ix = cx - 1; ix <= cx + 1; ++ix) {
+      for (long long iy = cy - 1; iy <= cy + 1; ++iy) {
+        const auto it = cells_.find(key(ix, iy));
+        if (it == cells_.end()) continue;
+        for (const int i : it->second)
+          if ((placed[i].position - p).squaredNorm() < spacing * spacing) return true;
+      }
+    }
+    return false;
+  }
+
+  void add(const Vector2& p, int index) { cells_[key(cell_of(p.x()), cell_of(p.y()))].push_back(index); }
+
+ private:
+  long long cell_of(double v) const { return static_cast<long long>(std::floor(v / cell_)); }
+  static long long key(long long ix, long long iy) { return ix * 0x100000000LL + (iy & 0xffffffffLL); }
+
+  double cell_;
+  std::unordered_map<long long, std::vector<int>> cells_;
+};
+
+void write_file(const std::string& path, const fmt::memory_buffer& content) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw InputError(path, 0, "cannot open file for writing");
+  out.write(content.data(), static_cast<std::streamsize>(content.size()));
+  out.close();
+  if (!out) throw InputError(path, 0, "write failed");
+}
+
+}  // namespace
+
+World default_world() { return generate_world(WorldGenOptions{}); }
+
+World generate_world(const WorldGenOptions& o) {
+  validate(o);
+  const RoundedRectRoute route(o.width, o.height);
+  World world;
+
+  const double length = route.length();
+  const long n_waypoints = std::max(4L, std::lround(length / o.waypoint_spacing));
+  world.waypoints.reserve(static_cast<std::size_t>(n_waypoints));
+  for (long k = 0; k < n_waypoints; ++k)
+    world.waypoints.push_back(
+        route.point_at(length * static_cast<double>(k) / static_cast<double>(n_waypoints)));
+
+  // Rejection sampling from the bounding box of the band keeps the density uniform over the band.
+  const double x0 = -o.width / 2.0 - o.band_outer, x1 = o.width / 2.0 + o.band_outer;
+  const double y0 = -o.band_outer, y1 = o.height + o.band_outer;
+  // Past this many spacing rejections in a row the band is close to full at the current spacing;
+  // a band with room left essentially never produces such a run.
+  constexpr int kPatience = 1000;
+  std::mt19937_64 rng(o.seed);
+  SpacingGrid grid(o.min_spacing);
+  double spacing = o.min_spacing;
+  int rejected_in_a_row = 0;
+  world.landmarks.reserve(static_cast<std::size_t>(o.landmarks));
+  while (world.landmarks.size() < static_cast<std::size_t>(o.landmarks)) {
+    const Vector2 p(x0 + (x1 - x0) * uniform01(rng), y0 + (y1 - y0) * uniform01(rng));
+    const double d = route.distance(p);
+    if (d < o.band_inner || d > o.band_outer) continue;
+    if (grid.has_neighbour_within(p, spacing, world.landmarks)) {
+      if (++rejected_in_a_row == kPatience) {
+        spacing *= 0.9;
+        rejected_in_a_row = 0;
+      }
+      continue;
+    }
+    rejected_in_a_row = 0;
+    const int id = static_cast<int>(world.landmarks.size());
+    grid.add(p, id);
+    world.landmarks.push_back(Landmark{id, p, Matrix2::Zero()});
+  }
+  return world;
+}
+
+World read_world(const std::string& path) {
+  TextReader in(path);
+  World world;
+  std::unordered_map<long, std::size_t> line_of_id;
+  while (in.next()) {
+    const std::string_view keyword = in.field(0);
+    if (keyword == "landmark") {
+      in.expect_fields(4, "landmark <id> <x> <y>");
+      const long id = in.integer(1, "the landmark id");
+      if (id < 0 || id > INT_MAX)
+        in.fail(fmt::format("expected a landmark id from 0 to {}, found {}", INT_MAX, id));
+      if (const auto [it, fresh] = line_of_id.emplace(id, in.line_number()); !fresh)
+        in.fail(fmt::format("duplicate landmark id {} (first defined on line {})", id, it->second));
+      const Vector2 p(in.number(2, "landmark x"), in.number(3, "landmark y"));
+      world.landmarks.push_back(Landmark{static_cast<int>(id), p, Matrix2::Zero()});
+    } else if (keyword == "waypoint") {
+      in.expect_fields(3, "waypoint <x> <y>");
+      const Vector2 p(in.number(1, "waypoint x"), in.number(2, "waypoint y"));
+      if (!world.waypoints.empty() && p == world.waypoints.back())
+        in.fail("waypoint repeats the previous one; expected a distinct point");
+      world.waypoints.push_back(p);
+    } else {
+      in.fail(fmt::format("unknown keyword '{}'; expected 'landmark' or 'waypoint'", keyword));
+    }
+  }
+  if (world.waypoints.size() < 2)
+    throw InputError(path, 0, fmt::format("expected at least 2 waypoints, found {}", world.waypoints.size()));
+  return world;
+}
+
+void write_world(const std::string& path, const World& world) {
+  fmt::memory_buffer out;
+  auto it = std::back_inserter(out);
+  fmt::format_to(it,
+                 "# slamkit world\n"
+                 "# landmark <id> <x> <y>   point landmark, metres\n"
+                 "# waypoint <x> <y>        route point, metres, in driving order (the route is closed)\n");
+  for (const Landmark& l : world.landmarks)
+    fmt::format_to(it, "landmark {} {} {}\n", l.id, l.position.x(), l.position.y());
+  for (const Vector2& w : world.waypoints) fmt::format_to(it, "waypoint {} {}\n", w.x(), w.y());
+  write_file(path, out);
+}
+
+}  // namespace slamkit

@@ -1,0 +1,199 @@
+// The slamkit command line, end to end: the demo pipeline, its outputs, and how it fails on bad input
+// (one line on stderr naming the file, the line and what was expected; a non-zero exit code).
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+/// Runs the slamkit binary with `args` (shell-quoted by the caller), capturing stdout and stderr.
+Result slamkit(const std::string& args, const fs::path& work) {
+  const fs::path err_file = work / "stderr.txt";
+  const std::string command = std::string(SLAMKIT_CLI) + " " + args + " 2>" + err_file.string();
+  Result r;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return r;
+  std::array<char, 4096> buffer{};
+  while (fgets(buffer.data(), buffer.size(), pipe) != nullptr) r.out += buffer.data();
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(err_file);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  r.err = ss.str();
+  return r;
+}
+
+std::size_t count_lines(const std::string& s) { return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n')); }
+
+/// Replaces line `n` (1-based) of a file.
+void replace_line(const fs::path& file, std::size_t n, const std::string& text) {
+  std::ifstream in(file);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  in.close();
+  lines.at(n - 1) = text;
+  std::ofstream out(file);
+  for (const auto& line : lines) out << line << "\n";
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    work_ = new fs::path(fs::temp_directory_path() / ("slamkit_cli_test_" + std::to_string(getpid())));
+    fs::remove_all(*work_);
+    fs::create_directories(*work_);
+    const Result sim = slamkit("simulate --seed 3 --out " + (*work_ / "sim").string(), *work_);
+    ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*work_);
+    delete work_;
+  }
+  /// A private copy of the simulated log to damage.
+  fs::path copy_of_log(const std::string& name) const {
+    const fs::path dir = *work_ / name;
+    fs::remove_all(dir);
+    fs::copy(*work_ / "sim", dir, fs::copy_options::recursive);
+    return dir;
+  }
+  static fs::path* work_;
+};
+fs::path* Cli::work_ = nullptr;
+
+}  // namespace
+
+TEST_F(Cli, RunWritesResultsAndSlamBeatsDeadReckoning) {
+  const fs::path out = *work_ / "ekf";
+  const Result r = slamkit("run --filter ekf --data sim:" + (*work_ / "sim").string() + " --out " + out.string(), *work_);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("ATE RMSE"), std::string::npos);
+  for (const char* f : {"trajectory.tum", "pose_covariance.txt", "dead_reckoning.tum", "map.txt",
+                        "landmark_std.txt", "run.json", "metrics.json", "map.svg", "landmark_std.svg"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  std::ifstream in(out / "metrics.json");
+  const auto m = nlohmann::json::parse(in);
+  for (const char* key : {"filter", "dataset", "steps", "observations", "landmarks", "wall_time_s", "ate_rmse_m",
+                          "final_position_error_m", "map_rmse_m", "nees_pose_mean", "nees_pose_in_95_fraction"})
+    EXPECT_TRUE(m.contains(key)) << key;
+  EXPECT_EQ(m["filter"], "ekf");
+  EXPECT_EQ(m["landmarks"], 100);
+  EXPECT_LT(m["ate_rmse_m"].get<double>(), 0.25 * m["dead_reckoning_ate_rmse_m"].get<double>());
+  EXPECT_LT(m["map_rmse_m"].get<double>(), 0.5);
+
+  // evaluate recomputes the same numbers from the files alone.
+  const Result e = slamkit("evaluate " + out.string(), *work_);
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+  std::ifstream in2(out / "metrics.json");
+  const auto m2 = nlohmann::json::parse(in2);
+  EXPECT_NEAR(m2["ate_rmse_m"].get<double>(), m["ate_rmse_m"].get<double>(), 1e-9);
+  EXPECT_NEAR(m2["map_rmse_m"].get<double>(), m["map_rmse_m"].get<double>(), 1e-9);
+  EXPECT_NEAR(m2["nees_pose_mean"].get<double>(), m["nees_pose_mean"].get<double>(), 1e-6);
+}
+
+TEST_F(Cli, SameSeedSameLog) {
+  const Result a = slamkit("simulate --seed 3 --out " + (*work_ / "again").string(), *work_);
+  ASSERT_EQ(a.exit_code, 0);
+  std::ifstream x(*work_ / "sim" / "events.txt"), y(*work_ / "again" / "events.txt");
+  std::stringstream sx, sy;
+  sx << x.rdbuf();
+  sy << y.rdbuf();
+  EXPECT_EQ(sx.str(), sy.str());
+}
+
+TEST_F(Cli, EveryCommandHasHelp) {
+  for (const char* cmd : {"", "simulate", "make-world", "run", "evaluate"}) {
+    const Result r = slamkit(std::string(cmd) + " --help", *work_);
+    EXPECT_EQ(r.exit_code, 0) << cmd;
+    EXPECT_NE(r.out.find("--help"), std::string::npos) << cmd;
+  }
+}
+
+TEST_F(Cli, MissingDatasetIsOneLineError) {
+  const Result r = slamkit("run --filter ekf --data sim:/nonexistent/log --out " + (*work_ / "x").string(), *work_);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(count_lines(r.err), 1u) << r.err;
+  EXPECT_NE(r.err.find("/nonexistent/log"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, MalformedLineNamesFileAndLine) {
+  const fs::path log = copy_of_log("malformed");
+  replace_line(log / "events.txt", 40, "control 1.0 oops");
+  const Result r = slamkit("run --filter ekf --data sim:" + log.string() + " --out " + (*work_ / "y").string(), *work_);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(count_lines(r.err), 1u) << r.err;
+  EXPECT_NE(r.err.find("events.txt:40:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("expected"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, NanValueIsRejected) {
+  const fs::path log = copy_of_log("nan");
+  std::ifstream in(log / "events.txt");
+  std::size_t n = 0, target = 0;
+  for (std::string line; std::getline(in, line);) {
+    ++n;
+    if (target == 0 && line.rfind("obs ", 0) == 0) target = n;
+  }
+  in.close();
+  replace_line(log / "events.txt", target, "obs 0.2 5 nan 0.1");
+  const Result r = slamkit("run --filter ekf --data sim:" + log.string() + " --out " + (*work_ / "z").string(), *work_);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(count_lines(r.err), 1u) << r.err;
+  EXPECT_NE(r.err.find("events.txt:" + std::to_string(target) + ":"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("finite"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, UnknownOptionFilterAndDatasetKind) {
+  const Result opt = slamkit("run --data sim:" + (*work_ / "sim").string() + " --out " + (*work_ / "w").string() +
+                                 " --bogus 1",
+                             *work_);
+  EXPECT_EQ(opt.exit_code, 2);
+  EXPECT_EQ(count_lines(opt.err), 1u) << opt.err;
+  EXPECT_NE(opt.err.find("--bogus"), std::string::npos) << opt.err;
+  EXPECT_NE(opt.err.find("slamkit run --help"), std::string::npos) << opt.err;
+  const Result missing = slamkit("run --filter ekf", *work_);
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("--data is required"), std::string::npos) << missing.err;
+
+  const Result filter = slamkit("run --filter nope --data sim:" + (*work_ / "sim").string() + " --out " +
+                                    (*work_ / "w").string(), *work_);
+  EXPECT_NE(filter.exit_code, 0);
+  EXPECT_NE(filter.err.find("unknown filter 'nope'"), std::string::npos) << filter.err;
+
+  const Result kind = slamkit("run --data tape:/x --out " + (*work_ / "w").string(), *work_);
+  EXPECT_NE(kind.exit_code, 0);
+  EXPECT_NE(kind.err.find("unknown dataset kind 'tape'"), std::string::npos) << kind.err;
+
+  const Result no_cmd = slamkit("", *work_);
+  EXPECT_EQ(no_cmd.exit_code, 2);
+}
+
+TEST_F(Cli, EvaluateRejectsAFolderThatIsNotARun) {
+  const Result r = slamkit("evaluate " + (*work_ / "sim").string(), *work_);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_EQ(count_lines(r.err), 1u) << r.err;
+  EXPECT_NE(r.err.find("run.json"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, MakeWorldThenSimulateIt) {
+  const fs::path world = *work_ / "big.world";
+  const Result w = slamkit("make-world --landmarks 400 --width 300 --height 200 --out " + world.string(), *work_);
+  ASSERT_EQ(w.exit_code, 0) << w.err;
+  const Result s = slamkit("simulate --loops 1 --world " + world.string() + " --out " + (*work_ / "big").string(), *work_);
+  ASSERT_EQ(s.exit_code, 0) << s.err;
+  EXPECT_NE(s.out.find("400 landmarks"), std::string::npos) << s.out;
+}

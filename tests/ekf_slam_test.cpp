@@ -1,0 +1,171 @@
+// EKF-SLAM against known answers and the invariants of the tutorial's convergence section.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <random>
+
+#include "slamkit/angles.hpp"
+#include "slamkit/filters/ekf_slam.hpp"
+
+using namespace slamkit;
+
+namespace {
+
+/// x' = x + dt u with u = (vx, vy, omega): a linear motion model.
+class LinearMotion final : public MotionModel {
+ public:
+  std::string name() const override { return "linear"; }
+  int control_dim() const override { return 3; }
+  Pose2 predict(const Pose2& x, const Control& u, double dt) const override { return x + dt * u; }
+  Matrix3 jacobian_state(const Pose2&, const Control&, double) const override { return Matrix3::Identity(); }
+  ControlJacobian jacobian_control(const Pose2&, const Control&, double dt) const override {
+    return dt * Matrix3::Identity();
+  }
+  ControlCovariance control_noise(const Control&, double) const override {
+    return Eigen::Vector3d(0.04, 0.09, 0.001).asDiagonal();
+  }
+};
+
+/// z = m - (x, y): the landmark's offset from the vehicle in world axes, a linear observation.
+class LinearOffset final : public ObservationModel {
+ public:
+  std::string name() const override { return "offset"; }
+  Vector2 predict(const Pose2& x, const Vector2& m) const override { return m - x.head<2>(); }
+  void jacobians(const Pose2&, const Vector2&, Matrix23& hx, Matrix2& hm) const override {
+    hx << -1, 0, 0, 0, -1, 0;
+    hm.setIdentity();
+  }
+  Matrix2 noise() const override { return (Matrix2() << 0.02, 0.005, 0.005, 0.03).finished(); }
+  Vector2 residual(const Vector2& z, const Vector2& zhat) const override { return z - zhat; }
+  Vector2 inverse(const Pose2& x, const Vector2& z) const override { return x.head<2>() + z; }
+  void inverse_jacobians(const Pose2&, const Vector2&, Matrix23& gx, Matrix2& gz) const override {
+    gx << 1, 0, 0, 0, 1, 0;
+    gz.setIdentity();
+  }
+};
+
+/// A textbook Kalman filter on the full joint state, written densely and independently of EkfSlam:
+/// full F, full H, Joseph-form covariance update, augmentation as a linear map of the joint state.
+struct DenseKalman {
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(3);
+  Eigen::MatrixXd p = Eigen::MatrixXd::Zero(3, 3);
+  std::vector<int> ids;
+
+  void predict(const Eigen::Vector3d& u, double dt, const Matrix3& m) {
+    const auto n = x.size();
+    Eigen::MatrixXd g = Eigen::MatrixXd::Zero(n, 3);
+    g.topRows<3>() = dt * Matrix3::Identity();
+    const Eigen::MatrixXd f = Eigen::MatrixXd::Identity(n, n);
+    x = f * x + g * u;
+    p = f * p * f.transpose() + g * m * g.transpose();
+  }
+  Eigen::MatrixXd h_of(std::size_t k) const {
+    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(2, x.size());
+    h.block<2, 2>(0, 0) = -Matrix2::Identity();
+    h.block<2, 2>(0, 3 + 2 * k) = Matrix2::Identity();
+    return h;
+  }
+  void update(std::size_t k, const Vector2& z, const Matrix2& r) {
+    const Eigen::MatrixXd h = h_of(k);
+    const Eigen::MatrixXd s = h * p * h.transpose() + r;
+    const Eigen::MatrixXd gain = p * h.transpose() * s.inverse();
+    x += gain * (z - h * x);
+    const Eigen::MatrixXd a = Eigen::MatrixXd::Identity(x.size(), x.size()) - gain * h;
+    p = a * p * a.transpose() + gain * r * gain.transpose();
+  }
+  void add(const Vector2& z, const Matrix2& r, int id) {
+    const auto n = x.size();
+    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(n + 2, n);
+    a.topRows(n).setIdentity();
+    a.block(n, 0, 2, 2).setIdentity();
+    Eigen::MatrixXd b = Eigen::MatrixXd::Zero(n + 2, 2);
+    b.bottomRows<2>().setIdentity();
+    x = (a * x + b * z).eval();
+    p = (a * p * a.transpose() + b * r * b.transpose()).eval();
+    ids.push_back(id);
+  }
+};
+
+}  // namespace
+
+TEST(EkfSlam, LinearGaussianCaseEqualsPlainKalmanFilter) {
+  auto motion = std::make_shared<LinearMotion>();
+  auto obs = std::make_shared<LinearOffset>();
+  EkfSlamOptions options;
+  options.initial_pose = Pose2(1.0, -2.0, 0.1);
+  options.initial_covariance = Eigen::Vector3d(0.1, 0.2, 0.01).asDiagonal();
+  EkfSlam ekf(motion, obs, options);
+  DenseKalman kf;
+  kf.x = options.initial_pose;
+  kf.p = options.initial_covariance;
+
+  std::mt19937_64 rng(42);
+  std::normal_distribution<double> n01;
+  const std::vector<Vector2> world = {{5, 5}, {-4, 6}, {8, -3}, {0, 10}, {-6, -6}, {3, 1}};
+  for (int step = 0; step < 60; ++step) {
+    Control u(3);
+    u << 0.5 + 0.1 * n01(rng), 0.2 * n01(rng), 0.01 * n01(rng);
+    ekf.predict(u, 0.1);
+    kf.predict(u, 0.1, motion->control_noise(u, 0.1));
+    ScanEvent scan;
+    for (int id = 0; id < static_cast<int>(world.size()); ++id) {
+      if ((step + id) % 3 == 0) continue;  // a changing subset each scan, landmarks appear over time
+      if (step < 2 * id) continue;
+      scan.observations.push_back({world[id] - kf.x.head<2>() + 0.1 * Vector2(n01(rng), n01(rng)), id});
+    }
+    ekf.update(scan);
+    // The reference applies updates to known landmarks first, then adds new ones, as EkfSlam does.
+    for (const Observation& o : scan.observations) {
+      const auto it = std::find(kf.ids.begin(), kf.ids.end(), o.id);
+      if (it != kf.ids.end()) kf.update(static_cast<std::size_t>(it - kf.ids.begin()), o.z, obs->noise());
+    }
+    for (const Observation& o : scan.observations)
+      if (std::find(kf.ids.begin(), kf.ids.end(), o.id) == kf.ids.end()) kf.add(o.z, obs->noise(), o.id);
+
+    ASSERT_EQ(ekf.state_dim(), static_cast<std::size_t>(kf.x.size()));
+    EXPECT_LT((ekf.state() - kf.x).cwiseAbs().maxCoeff(), 1e-9) << "step " << step;
+    EXPECT_LT((ekf.covariance() - kf.p).cwiseAbs().maxCoeff(), 1e-9) << "step " << step;
+  }
+  EXPECT_EQ(ekf.num_landmarks(), world.size());
+}
+
+TEST(EkfSlam, NewLandmarkCarriesFullCrossCovariance) {
+  auto motion = std::make_shared<AckermannModel>();
+  auto obs = std::make_shared<RangeBearingModel>();
+  EkfSlam ekf(motion, obs);
+  Control u(2);
+  u << 3.0, 0.1;
+  for (int i = 0; i < 40; ++i) ekf.predict(u, 0.025);
+  ekf.add_landmark(Vector2(10.0, 0.3), 7);
+  const Eigen::MatrixXd p = ekf.covariance();
+  // cov(m, v) = Gx Pvv: non-zero, since the landmark inherits the vehicle's uncertainty.
+  EXPECT_GT((p.block<2, 3>(3, 0).norm()), 1e-6);
+  EXPECT_EQ(ekf.find_landmark(7), 0);
+  EXPECT_EQ(ekf.find_landmark(8), -1);
+  const double min_eigenvalue = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(p).eigenvalues().minCoeff();
+  EXPECT_GT(min_eigenvalue, -1e-12);
+}
+
+TEST(EkfSlam, RejectsObservationWithoutIdentity) {
+  EkfSlam ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>());
+  ScanEvent scan;
+  scan.observations.push_back({Vector2(5, 0), kUnknownId});
+  EXPECT_THROW(ekf.update(scan), std::invalid_argument);
+}
+
+TEST(EkfSlam, GrowsPastInitialCapacityWithoutLosingState) {
+  EkfSlam ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>());
+  Control u(2);
+  u << 3.0, 0.05;
+  ekf.predict(u, 0.5);
+  for (int i = 0; i < 300; ++i) ekf.add_landmark(Vector2(5.0 + i * 0.01, wrap_angle(i * 0.1)), i);
+  const Eigen::MatrixXd before = ekf.covariance();
+  ekf.predict(u, 0.1);
+  ekf.update_landmark(150, Vector2(6.5, wrap_angle(150 * 0.1)));
+  const Eigen::MatrixXd after = ekf.covariance();
+  EXPECT_EQ(ekf.num_landmarks(), 300u);
+  EXPECT_EQ(after.rows(), 3 + 600);
+  EXPECT_TRUE(after.isApprox(after.transpose()));
+  // An update only removes uncertainty from the map block.
+  EXPECT_LE(after.bottomRightCorner(600, 600).trace(), before.bottomRightCorner(600, 600).trace());
+}

@@ -1,0 +1,662 @@
+// SVG plots: well-formed XML with escaped text, 1-2-5 and log ticks, geometry that can be measured
+// back from the output (ellipse axes, equal aspect, log spacing), no non-finite numbers, compact
+// paths, and the SLAM pictures' legends.
+#include "slamkit/plot/svg_plot.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <numbers>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace slamkit;
+using namespace slamkit::plot;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// ---- A small XML well-formedness checker ------------------------------------------------------
+
+bool valid_references(const std::string& s) {
+  for (std::size_t at = s.find('&'); at != std::string::npos; at = s.find('&', at + 1)) {
+    const std::size_t end = s.find(';', at);
+    if (end == std::string::npos) return false;
+    const std::string name = s.substr(at + 1, end - at - 1);
+    const bool known = name == "amp" || name == "lt" || name == "gt" || name == "quot" || name == "apos" ||
+                       (name.size() > 1 && name[0] == '#');
+    if (!known) return false;
+  }
+  return true;
+}
+
+bool is_name_char(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == ':' || c == '_';
+}
+
+/// Empty if `xml` is well-formed (one root, balanced tags, quoted unique attributes, valid entity
+/// references, no raw '<' in text); otherwise what is wrong and where.
+std::string xml_error(const std::string& xml) {
+  std::vector<std::string> open;
+  int roots = 0;
+  std::size_t i = 0;
+  if (xml.rfind("<?xml", 0) == 0) {
+    i = xml.find("?>");
+    if (i == std::string::npos) return "unterminated XML declaration";
+    i += 2;
+  }
+  while (i < xml.size()) {
+    const std::size_t lt = xml.find('<', i);
+    const std::string text = xml.substr(i, lt == std::string::npos ? std::string::npos : lt - i);
+    if (!valid_references(text)) return "bad reference in text near offset " + std::to_string(i);
+    if (open.empty() && text.find_first_not_of(" \n\t\r") != std::string::npos)
+      return "text outside the root element at offset " + std::to_string(i);
+    if (lt == std::string::npos) break;
+    const std::size_t gt = xml.find('>', lt);
+    if (gt == std::string::npos) return "unterminated tag at offset " + std::to_string(lt);
+    std::string tag = xml.substr(lt + 1, gt - lt - 1);
+    i = gt + 1;
+    if (tag.find('<') != std::string::npos) return "'<' inside a tag at offset " + std::to_string(lt);
+    if (!tag.empty() && tag[0] == '/') {
+      const std::string name = tag.substr(1);
+      if (open.empty() || open.back() != name)
+        return "unbalanced </" + name + "> at offset " + std::to_string(lt);
+      open.pop_back();
+      continue;
+    }
+    const bool self_closing = !tag.empty() && tag.back() == '/';
+    if (self_closing) tag.pop_back();
+    std::size_t p = 0;
+    while (p < tag.size() && is_name_char(tag[p])) ++p;
+    const std::string name = tag.substr(0, p);
+    if (name.empty()) return "tag without a name at offset " + std::to_string(lt);
+    std::vector<std::string> attributes;
+    while (true) {
+      while (p < tag.size() && std::isspace(static_cast<unsigned char>(tag[p]))) ++p;
+      if (p >= tag.size()) break;
+      const std::size_t start = p;
+      while (p < tag.size() && is_name_char(tag[p])) ++p;
+      const std::string attribute = tag.substr(start, p - start);
+      if (attribute.empty() || p + 1 >= tag.size() || tag[p] != '=' || tag[p + 1] != '"')
+        return "malformed attribute in <" + name + "> at offset " + std::to_string(lt);
+      const std::size_t close = tag.find('"', p + 2);
+      if (close == std::string::npos) return "unterminated attribute value in <" + name + ">";
+      if (!valid_references(tag.substr(p + 2, close - p - 2))) return "bad reference in <" + name + ">";
+      if (std::find(attributes.begin(), attributes.end(), attribute) != attributes.end())
+        return "duplicate attribute " + attribute + " in <" + name + ">";
+      attributes.push_back(attribute);
+      p = close + 1;
+    }
+    if (open.empty()) ++roots;
+    if (!self_closing) open.push_back(name);
+  }
+  if (!open.empty()) return "unclosed <" + open.back() + ">";
+  if (roots != 1) return std::to_string(roots) + " root elements";
+  return {};
+}
+
+// ---- Reading paths back -------------------------------------------------------------------------
+
+/// The d attributes of all <path> elements that follow an opening tag containing `marker` (the
+/// group that carries a style) up to that group's end.
+std::vector<std::string> paths_in_group(const std::string& svg, const std::string& marker) {
+  std::vector<std::string> out;
+  const std::size_t at = svg.find(marker);
+  if (at == std::string::npos) return out;
+  const std::size_t end = svg.find("</g>", at);
+  for (std::size_t p = svg.find("<path d=\"", at); p != std::string::npos && p < end;
+       p = svg.find("<path d=\"", p + 1)) {
+    const std::size_t start = p + 9;
+    out.push_back(svg.substr(start, svg.find('"', start) - start));
+  }
+  return out;
+}
+
+/// Subpaths of path data made of M (absolute) and l (relative, repeated pairs) commands, which is
+/// what polylines and ellipses are written with.
+std::vector<std::vector<Vector2>> parse_polyline_path(const std::string& d) {
+  std::vector<std::vector<Vector2>> pieces;
+  std::istringstream in(d);
+  char command = 0;
+  Vector2 current = Vector2::Zero();
+  while (in >> std::ws && in.peek() != EOF) {
+    if (std::isalpha(in.peek())) in >> command;
+    double x = 0, y = 0;
+    if (!(in >> x >> y)) {
+      ADD_FAILURE() << "unparsable path data: " << d;
+      return pieces;
+    }
+    if (command == 'M') {
+      current = Vector2(x, y);
+      pieces.push_back({current});
+    } else if (command == 'l' && !pieces.empty()) {
+      current += Vector2(x, y);
+      pieces.back().push_back(current);
+    } else {
+      ADD_FAILURE() << "unexpected path command '" << command << "' in " << d;
+      return pieces;
+    }
+  }
+  return pieces;
+}
+
+std::size_t count(const std::string& haystack, const std::string& needle) {
+  std::size_t n = 0;
+  for (std::size_t p = haystack.find(needle); p != std::string::npos; p = haystack.find(needle, p + 1)) ++n;
+  return n;
+}
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+/// 1, 2 or 5 times a power of ten.
+bool is_125(double step) {
+  const double mantissa = step / std::pow(10.0, std::floor(std::log10(step) + 1e-9));
+  return std::abs(mantissa - 1) < 1e-6 || std::abs(mantissa - 2) < 1e-6 || std::abs(mantissa - 5) < 1e-6;
+}
+
+MapPlotData sample_map() {
+  MapPlotData m;
+  m.title = "EKF-SLAM map";
+  m.subtitle = "ATE 0.4 m";
+  for (int i = 0; i <= 200; ++i) {
+    const double a = 2 * std::numbers::pi * i / 200;
+    m.true_trajectory.emplace_back(30 * std::cos(a), 12 * std::sin(a));
+    m.estimated_trajectory.emplace_back(30.3 * std::cos(a), 12.2 * std::sin(a));
+    m.dead_reckoning.emplace_back(31 * std::cos(a) + 0.01 * i, 13 * std::sin(a));
+  }
+  m.reference_points = {{30, 0}, {0, 12}, {-30, 0}};
+  for (int k = 0; k < 10; ++k) {
+    Landmark l;
+    l.id = k;
+    l.position = Vector2(-25 + 5.0 * k, k % 2 ? 18 : -18);
+    m.true_landmarks.push_back(l);
+    l.position += Vector2(0.3, -0.2);
+    l.covariance << 0.2, 0.05, 0.05, 0.1;
+    m.estimated_landmarks.push_back(l);
+  }
+  return m;
+}
+
+StdPlotData sample_std(int landmarks) {
+  StdPlotData d;
+  d.title = "landmark uncertainty";
+  for (int k = 0; k < landmarks; ++k) {
+    StdSeries s;
+    s.id = k;
+    for (int i = 0; i < 300; ++i) {
+      const double t = 0.1 * i;
+      s.t.push_back(t);
+      const double v = t < 0.05 * k ? kNaN : 2.0 / (1.0 + t) + 0.01;
+      s.std_x.push_back(v);
+      s.std_y.push_back(0.5 * v);
+    }
+    d.series.push_back(s);
+  }
+  return d;
+}
+
+}  // namespace
+
+// ---- Ticks ----------------------------------------------------------------------------------------
+
+TEST(SvgPlotTicks, LinearTicksAre125StepsCoveringTheRange) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> exponent(-6, 6), unit(-1, 1);
+  std::vector<std::pair<double, double>> ranges = {{0, 1},      {-3.7, 12.2},  {1e-4, 3e-4},
+                                                   {-1e6, 2e6}, {99.5, 100.5}, {-0.03, 0}};
+  for (int i = 0; i < 500; ++i) {
+    const double scale = std::pow(10.0, exponent(rng));
+    const double a = unit(rng) * scale, b = a + std::abs(unit(rng)) * scale + 1e-3 * scale;
+    ranges.emplace_back(a, b);
+  }
+  for (const auto& [lo, hi] : ranges) {
+    const std::vector<double> t = linear_ticks(lo, hi, 6);
+    ASSERT_GE(t.size(), 2u) << lo << " " << hi;
+    EXPECT_LE(t.size(), 12u) << lo << " " << hi;
+    const double step = t[1] - t[0];
+    EXPECT_TRUE(is_125(step)) << "step " << step << " for [" << lo << ", " << hi << "]";
+    for (std::size_t k = 1; k < t.size(); ++k) EXPECT_NEAR(t[k] - t[k - 1], step, 1e-9 * step);
+    const double eps = 1e-9 * (hi - lo);
+    EXPECT_GE(t.front(), lo - eps);
+    EXPECT_LE(t.back(), hi + eps);
+    EXPECT_LT(t.front() - lo, step + eps) << "range start not covered";
+    EXPECT_LT(hi - t.back(), step + eps) << "range end not covered";
+  }
+}
+
+TEST(SvgPlotTicks, LinearTicksAreExactMultiplesOfTheStep) {
+  const std::vector<double> t = linear_ticks(-0.35, 0.35, 7);
+  ASSERT_FALSE(t.empty());
+  EXPECT_TRUE(std::find(t.begin(), t.end(), 0.0) != t.end()) << "zero must be an exact tick";
+  EXPECT_EQ(linear_ticks(0, 10, 5), (std::vector<double>{0, 2, 4, 6, 8, 10}));
+}
+
+TEST(SvgPlotTicks, LinearTicksHandleDegenerateInput) {
+  EXPECT_EQ(linear_ticks(3, 3, 5), std::vector<double>{3});
+  EXPECT_TRUE(linear_ticks(kNaN, 1, 5).empty());
+  EXPECT_TRUE(linear_ticks(0, kInf, 5).empty());
+  EXPECT_TRUE(linear_ticks(2, 1, 5).empty());
+}
+
+TEST(SvgPlotTicks, LogTicksArePowersOfTenAcrossDecades) {
+  const std::vector<double> t = log_ticks(0.003, 40);
+  ASSERT_EQ(t.size(), 4u);
+  const double expected[] = {0.01, 0.1, 1, 10};
+  for (std::size_t i = 0; i < t.size(); ++i) EXPECT_NEAR(t[i], expected[i], 1e-12 * expected[i]);
+
+  // Many decades: every n-th decade, still powers of ten, few enough to read.
+  const std::vector<double> wide = log_ticks(1e-9, 1e9);
+  EXPECT_GE(wide.size(), 4u);
+  EXPECT_LE(wide.size(), 9u);
+  for (const double v : wide) EXPECT_NEAR(std::log10(v), std::round(std::log10(v)), 1e-9);
+}
+
+TEST(SvgPlotTicks, LogTicksUse125WithinFewDecades) {
+  const std::vector<double> t = log_ticks(0.07, 2);
+  const std::vector<double> expected = {0.1, 0.2, 0.5, 1, 2};
+  ASSERT_EQ(t.size(), expected.size());
+  for (std::size_t i = 0; i < t.size(); ++i) EXPECT_NEAR(t[i], expected[i], 1e-12);
+  EXPECT_TRUE(log_ticks(-1, 10).empty());
+  EXPECT_GE(log_ticks(2.1, 4.9).size(), 2u) << "a narrow log range still gets ticks";
+}
+
+// ---- Well-formed output -------------------------------------------------------------------------
+
+TEST(SvgPlotXml, CheckerRejectsBrokenDocuments) {
+  EXPECT_EQ(xml_error("<svg><g></g></svg>"), "");
+  EXPECT_NE(xml_error("<svg><g></svg>"), "");
+  EXPECT_NE(xml_error("<svg><text>a < b</text></svg>"), "");
+  EXPECT_NE(xml_error("<svg><text>a & b</text></svg>"), "");
+  EXPECT_NE(xml_error("<svg a=\"1\" a=\"2\"/>"), "");
+  EXPECT_NE(xml_error("<svg/><svg/>"), "");
+}
+
+TEST(SvgPlotXml, EveryKindOfContentGivesWellFormedSvg) {
+  Figure fig;
+  fig.set_title("all\ncontent");
+  fig.set_subtitle("line one\nline two");
+  fig.set_x_label("x [m]");
+  fig.set_y_label("y [m]");
+  const std::vector<Vector2> pts = {{0, 0}, {1, 2}, {3, 1}};
+  fig.add_line(pts, {palette::kBlue, 1.5, Dash::kDashDot}, "line");
+  for (const Marker m : {Marker::kCircle, Marker::kCross, Marker::kPlus, Marker::kTriangle})
+    fig.add_markers(pts, {m, palette::kGreen, 6, 1, false}, "markers");
+  EXPECT_TRUE(
+      fig.add_ellipse({1, 1}, Matrix2::Identity() * 0.1, 2, {{palette::kVermillion, 1}, 0.2}, "ellipse"));
+  fig.add_text({2, 2}, "note");
+  fig.add_legend_entry("style", LineStyle{palette::kGrey, 1, Dash::kDotted});
+  fig.set_colorbar("colour", 0, 10);
+  const std::string svg = fig.to_svg();
+  EXPECT_EQ(xml_error(svg), "");
+  EXPECT_NE(svg.find("xmlns=\"http://www.w3.org/2000/svg\""), std::string::npos);
+  EXPECT_EQ(xml_error(map_figure(sample_map()).to_svg()), "");
+  EXPECT_EQ(xml_error(landmark_std_figure(sample_std(3)).to_svg()), "");
+  EXPECT_EQ(xml_error(landmark_std_figure(sample_std(120)).to_svg()), "");
+  EXPECT_EQ(xml_error(Figure().to_svg()), "") << "an empty figure is still a valid picture";
+}
+
+TEST(SvgPlotXml, ContainsTitleLegendAndAxisLabels) {
+  const std::string svg = map_figure(sample_map()).to_svg();
+  for (const char* text : {">EKF-SLAM map<", ">ATE 0.4 m<", ">x [m]<", ">y [m]<", ">true trajectory<",
+                           ">estimated trajectory<", ">dead reckoning<", ">reference fixes<",
+                           ">true landmarks<", ">estimated landmarks<", ">2\u03C3 covariance<"})
+    EXPECT_NE(svg.find(text), std::string::npos) << text;
+  const std::string std_svg = landmark_std_figure(sample_std(3)).to_svg();
+  for (const char* text : {">time [s]<", "standard deviation", ">landmark 0<", ">landmark 2<"})
+    EXPECT_NE(std_svg.find(text), std::string::npos) << text;
+}
+
+TEST(SvgPlotXml, EscapesSpecialCharacters) {
+  Figure fig;
+  fig.set_title("a & b <c> \"d\" 'e'");
+  fig.set_x_label("x<y");
+  const std::vector<Vector2> pts = {{0, 0}, {1, 1}};
+  fig.add_line(pts, {}, "R&D");
+  fig.add_text({0.5, 0.5}, "</text><script>");
+  // A stray Latin-1 byte and a control character would make browsers reject the whole file.
+  fig.set_subtitle(std::string("caf\xE9 \x01ok"));
+  const std::string svg = fig.to_svg();
+  EXPECT_EQ(xml_error(svg), "");
+  EXPECT_NE(svg.find("a &amp; b &lt;c&gt; &quot;d&quot; &apos;e&apos;"), std::string::npos);
+  EXPECT_NE(svg.find(">x&lt;y<"), std::string::npos);
+  EXPECT_NE(svg.find(">R&amp;D<"), std::string::npos);
+  EXPECT_NE(svg.find("&lt;/text&gt;&lt;script&gt;"), std::string::npos);
+  EXPECT_EQ(svg.find("<script>"), std::string::npos);
+  EXPECT_NE(svg.find("caf\uFFFD ok"), std::string::npos);
+  EXPECT_EQ(svg.find('\x01'), std::string::npos);
+}
+
+// ---- Geometry -------------------------------------------------------------------------------------
+
+TEST(SvgPlotGeometry, EllipseHasTheCovariancesSemiAxes) {
+  // Eigenvalues 9 and 1 along 30 degrees: the 2-sigma ellipse has semi-axes 6 and 2.
+  const double angle = std::numbers::pi / 6;
+  Eigen::Matrix2d r;
+  r << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
+  const Matrix2 cov = r * Eigen::Vector2d(9, 1).asDiagonal() * r.transpose();
+  const Vector2 centre(5, -3);
+
+  Figure fig;
+  fig.set_equal_aspect(true);
+  const std::vector<Vector2> box = {{-5, -13}, {15, 7}};
+  fig.add_markers(box, {});
+  ASSERT_TRUE(fig.add_ellipse(centre, cov, 2.0, {{Color{0x12, 0x34, 0x56}, 1}}));
+  const std::string svg = fig.to_svg();
+  const Frame f = fig.frame();
+  const std::vector<std::string> paths = paths_in_group(svg, "stroke=\"#123456\"");
+  ASSERT_EQ(paths.size(), 1u);
+  const auto pieces = parse_polyline_path(paths[0]);
+  ASSERT_EQ(pieces.size(), 1u);
+  ASSERT_GE(pieces[0].size(), 16u);
+
+  double longest = 0, shortest = kInf;
+  Vector2 far = Vector2::Zero();
+  for (const Vector2& px : pieces[0]) {
+    const Vector2 d = f.to_data(px) - centre;
+    if (d.norm() > longest) {
+      longest = d.norm();
+      far = d;
+    }
+    shortest = std::min(shortest, d.norm());
+  }
+  const double tolerance = 0.15 / (f.plot_width / (f.x_max - f.x_min));  // 0.15 px in metres
+  EXPECT_NEAR(longest, 6.0, tolerance);
+  EXPECT_NEAR(shortest, 2.0, tolerance);
+  // The major axis points along 30 degrees (either way).
+  EXPECT_NEAR(std::abs(far.normalized().dot(Vector2(std::cos(angle), std::sin(angle)))), 1.0, 1e-3);
+}
+
+TEST(SvgPlotGeometry, DegenerateCovariancesAreSkipped) {
+  Figure fig;
+  const EllipseStyle style{{Color{0x12, 0x34, 0x56}, 1}};
+  Matrix2 negative;
+  negative << 1, 0, 0, -1;
+  Matrix2 nan = Matrix2::Identity();
+  nan(0, 1) = kNaN;
+  EXPECT_FALSE(fig.add_ellipse({0, 0}, Matrix2::Zero(), 2, style));
+  EXPECT_FALSE(fig.add_ellipse({0, 0}, negative, 2, style));
+  EXPECT_FALSE(fig.add_ellipse({0, 0}, nan, 2, style));
+  EXPECT_FALSE(fig.add_ellipse({kNaN, 0}, Matrix2::Identity(), 2, style));
+  EXPECT_FALSE(fig.add_ellipse({0, 0}, Matrix2::Identity(), 0, style));
+  Matrix2 flat;  // rank one: a line segment is what the covariance says
+  flat << 1, 1, 1, 1;
+  EXPECT_TRUE(fig.add_ellipse({0, 0}, flat, 2, style));
+  const std::string svg = fig.to_svg();
+  EXPECT_EQ(xml_error(svg), "");
+  EXPECT_EQ(paths_in_group(svg, "stroke=\"#123456\"").size(), 1u);
+}
+
+TEST(SvgPlotGeometry, NonFiniteInputsNeverReachTheSvg) {
+  Figure fig;
+  const std::vector<Vector2> line = {{0, 0}, {1, 1}, {kNaN, 2}, {2, kInf}, {3, 1}, {4, 0}};
+  fig.add_line(line, {Color{0x12, 0x34, 0x56}});
+  const std::vector<Vector2> markers = {{kNaN, kNaN}, {1, 0.5}, {-kInf, 0}};
+  fig.add_markers(markers, {});
+  fig.add_text({kNaN, 0}, "lost");
+  const std::string svg = fig.to_svg();
+  EXPECT_EQ(xml_error(svg), "");
+  EXPECT_EQ(lower(svg).find("nan"), std::string::npos);
+  EXPECT_EQ(lower(svg).find("inf"), std::string::npos);
+  EXPECT_EQ(svg.find(">lost<"), std::string::npos);
+  // The gap splits the line in two pieces rather than joining across it.
+  const auto paths = paths_in_group(svg, "stroke=\"#123456\"");
+  ASSERT_EQ(paths.size(), 1u);
+  EXPECT_EQ(parse_polyline_path(paths[0]).size(), 2u);
+  // The auto-range ignores the non-finite points.
+  const Frame f = fig.frame();
+  EXPECT_TRUE(std::isfinite(f.x_min) && std::isfinite(f.x_max) && std::isfinite(f.y_min) &&
+              std::isfinite(f.y_max));
+  EXPECT_LT(f.x_max, 4.5);
+}
+
+TEST(SvgPlotGeometry, AutoRangeCoversTheDataWithASmallMargin) {
+  Figure fig;
+  const std::vector<Vector2> pts = {{-2, 10}, {8, 30}};
+  fig.add_line(pts, {});
+  const Frame f = fig.frame();
+  EXPECT_LT(f.x_min, -2);
+  EXPECT_GT(f.x_max, 8);
+  EXPECT_GT(f.x_min, -2 - 0.1 * 10);
+  EXPECT_LT(f.x_max, 8 + 0.1 * 10);
+  EXPECT_LT(f.y_min, 10);
+  EXPECT_GT(f.y_max, 30);
+  EXPECT_GT(f.y_min, 10 - 0.1 * 20);
+
+  Figure fixed;
+  fixed.add_line(pts, {});
+  fixed.set_x_limits(0, 5);
+  fixed.set_y_limits(-1, 1);
+  const Frame g = fixed.frame();
+  EXPECT_EQ(g.x_min, 0);
+  EXPECT_EQ(g.x_max, 5);
+  EXPECT_EQ(g.y_min, -1);
+  EXPECT_EQ(g.y_max, 1);
+  EXPECT_THROW(fixed.set_x_limits(1, 1), std::invalid_argument);
+}
+
+TEST(SvgPlotGeometry, EqualAspectGivesTheSameScaleOnBothAxes) {
+  for (const Vector2& extent : {Vector2(200, 10), Vector2(10, 200), Vector2(50, 40)}) {
+    Figure fig(900, 700);
+    fig.set_equal_aspect(true);
+    const std::vector<Vector2> pts = {{0, 0}, extent};
+    fig.add_line(pts, {}, "data");
+    const Frame f = fig.frame();
+    const double sx = f.plot_width / (f.x_max - f.x_min), sy = f.plot_height / (f.y_max - f.y_min);
+    EXPECT_NEAR(sx / sy, 1.0, 1e-9) << "extent " << extent.transpose();
+    // Pixels per metre measured through the transform agree too.
+    const Vector2 o = f.to_pixel({0, 0}), ex = f.to_pixel({1, 0}), ey = f.to_pixel({0, 1});
+    EXPECT_NEAR((ex - o).norm(), (ey - o).norm(), 1e-9);
+    EXPECT_LE(f.x_min, 0);
+    EXPECT_GE(f.x_max, extent.x());
+    EXPECT_LE(f.y_min, 0);
+    EXPECT_GE(f.y_max, extent.y());
+    EXPECT_LE(f.height, 700.0);
+  }
+  // A wide map gets a shorter canvas instead of empty bands.
+  Figure wide(900, 700);
+  wide.set_equal_aspect(true);
+  const std::vector<Vector2> strip = {{0, 0}, {200, 60}};
+  wide.add_line(strip, {});
+  EXPECT_LT(wide.frame().height, 650);
+  const std::string svg = wide.to_svg();
+  const std::size_t at = svg.find(" height=\"");
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_NEAR(std::stod(svg.substr(at + 9)), wide.frame().height, 0.05);
+}
+
+TEST(SvgPlotGeometry, LogScaleSpacesDecadesEvenly) {
+  Figure fig;
+  fig.set_log_y(true);
+  const std::vector<Vector2> pts = {{0, 1e-3}, {1, 0.5}, {2, -5}, {3, 100}, {4, 20}, {5, 0.0}};
+  fig.add_line(pts, {Color{0x12, 0x34, 0x56}});
+  const Frame f = fig.frame();
+  ASSERT_TRUE(f.log_y);
+  EXPECT_LT(f.y_min, 1e-3);
+  EXPECT_GT(f.y_min, 1e-4);
+  EXPECT_GT(f.y_max, 100);
+  EXPECT_LT(f.y_max, 1e3);
+  const double a = f.to_pixel({0, 0.01}).y(), b = f.to_pixel({0, 0.1}).y(), c = f.to_pixel({0, 1}).y();
+  EXPECT_NEAR(a - b, b - c, 1e-9);
+  EXPECT_GT(a - b, 20) << "a decade should span a readable distance";
+  EXPECT_FALSE(std::isfinite(f.to_pixel({0, 0}).y()));
+  EXPECT_FALSE(std::isfinite(f.to_pixel({0, -5}).y()));
+
+  const std::string svg = fig.to_svg();
+  EXPECT_EQ(xml_error(svg), "");
+  for (const char* label : {">0.001<", ">0.01<", ">0.1<", ">1<", ">10<", ">100<"})
+    EXPECT_NE(svg.find(label), std::string::npos) << label;
+  EXPECT_EQ(lower(svg).find("nan"), std::string::npos);
+  // Zero and negative values break the line like missing data.
+  const auto pieces = parse_polyline_path(paths_in_group(svg, "stroke=\"#123456\"").at(0));
+  ASSERT_EQ(pieces.size(), 2u);
+  EXPECT_EQ(pieces[0].size(), 2u);
+  EXPECT_EQ(pieces[1].size(), 2u);
+}
+
+TEST(SvgPlotGeometry, LogLabelsUsePowersOfTenForExtremeValues) {
+  Figure fig;
+  fig.set_log_y(true);
+  const std::vector<Vector2> pts = {{0, 1e-9}, {1, 1e-3}};
+  fig.add_line(pts, {});
+  const std::string svg = fig.to_svg();
+  EXPECT_NE(svg.find(">10\u207B\u2076<"), std::string::npos) << "10^-6 as a superscript";
+  EXPECT_THROW(fig.set_y_limits(0, 1), std::invalid_argument);
+  Figure late;
+  late.set_y_limits(-1, 1);
+  late.set_log_y(true);
+  EXPECT_THROW(late.to_svg(), std::invalid_argument);
+}
+
+// ---- Compact output ---------------------------------------------------------------------------------
+
+TEST(SvgPlotSize, LongPolylinesAreThinnedButKeepTheirShape) {
+  Figure fig(800, 600);
+  fig.set_equal_aspect(true);
+  std::vector<Vector2> circle;
+  for (int i = 0; i <= 20000; ++i) {
+    const double a = 2 * std::numbers::pi * i / 20000;
+    circle.emplace_back(std::cos(a), std::sin(a));
+  }
+  fig.add_line(circle, {Color{0x12, 0x34, 0x56}});
+  const std::string svg = fig.to_svg();
+  const Frame f = fig.frame();
+  const auto pieces = parse_polyline_path(paths_in_group(svg, "stroke=\"#123456\"").at(0));
+  ASSERT_EQ(pieces.size(), 1u);
+  const std::vector<Vector2>& kept = pieces[0];
+  EXPECT_LT(kept.size(), 1000u);
+  EXPECT_GT(kept.size(), 20u);
+  const double px_per_unit = f.plot_width / (f.x_max - f.x_min);
+  for (const Vector2& p : kept) EXPECT_NEAR(f.to_data(p).norm(), 1.0, 0.2 / px_per_unit);
+  EXPECT_LT((kept.front() - f.to_pixel(circle.front())).norm(), 0.1);
+  EXPECT_LT((kept.back() - f.to_pixel(circle.back())).norm(), 0.1);
+  // Apart from the data's true end, which is always kept, no two points are closer than ~0.5 px.
+  for (std::size_t i = 1; i + 1 < kept.size(); ++i) EXPECT_GE((kept[i] - kept[i - 1]).norm(), 0.4);
+  EXPECT_LT(svg.size(), 20000u);
+}
+
+TEST(SvgPlotSize, PathCoordinatesHaveAtMostOneDecimal) {
+  const std::string svg = map_figure(sample_map()).to_svg();
+  std::size_t checked = 0;
+  for (std::size_t p = svg.find(" d=\""); p != std::string::npos; p = svg.find(" d=\"", p + 1)) {
+    const std::string d = svg.substr(p + 4, svg.find('"', p + 4) - p - 4);
+    for (std::size_t dot = d.find('.'); dot != std::string::npos; dot = d.find('.', dot + 1)) {
+      ++checked;
+      ASSERT_TRUE(dot + 1 < d.size() && std::isdigit(static_cast<unsigned char>(d[dot + 1]))) << d;
+      EXPECT_FALSE(dot + 2 < d.size() && std::isdigit(static_cast<unsigned char>(d[dot + 2]))) << d;
+    }
+  }
+  EXPECT_GT(checked, 100u);
+}
+
+// ---- Files ----------------------------------------------------------------------------------------
+
+TEST(SvgPlotFile, SaveWritesTheSvg) {
+  const std::string path = ::testing::TempDir() + "/slamkit_svg_plot_map.svg";
+  write_map_svg(path, sample_map());
+  std::ifstream in(path);
+  std::stringstream content;
+  content << in.rdbuf();
+  EXPECT_EQ(content.str(), map_figure(sample_map()).to_svg());
+  std::remove(path.c_str());
+}
+
+TEST(SvgPlotFile, SaveToAnUnwritablePathThrowsNamingIt) {
+  const std::string path = ::testing::TempDir() + "/no/such/dir/plot.svg";
+  try {
+    Figure().save(path);
+    FAIL() << "expected std::runtime_error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(write_landmark_std_svg(path, sample_std(2)), std::runtime_error);
+}
+
+// ---- SLAM pictures ----------------------------------------------------------------------------------
+
+TEST(SvgPlotSlam, MapLeavesEmptySeriesOutOfTheLegend) {
+  MapPlotData m = sample_map();
+  m.dead_reckoning.clear();
+  m.reference_points = {{kNaN, kNaN}};  // nothing drawable is as good as empty
+  for (Landmark& l : m.estimated_landmarks) l.covariance.setZero();
+  const std::string svg = map_figure(m).to_svg();
+  EXPECT_EQ(svg.find("dead reckoning"), std::string::npos);
+  EXPECT_EQ(svg.find("reference fixes"), std::string::npos);
+  EXPECT_EQ(svg.find("covariance"), std::string::npos) << "no ellipse was drawn";
+  EXPECT_NE(svg.find(">estimated landmarks<"), std::string::npos);
+  EXPECT_NE(svg.find(">true trajectory<"), std::string::npos);
+}
+
+TEST(SvgPlotSlam, MapIsEqualAspectWithLegendOutsideThePlotArea) {
+  const Figure fig = map_figure(sample_map());
+  const Frame f = fig.frame();
+  EXPECT_NEAR(f.plot_width / (f.x_max - f.x_min), f.plot_height / (f.y_max - f.y_min), 1e-9);
+  const std::string svg = fig.to_svg();
+  const std::size_t legend = svg.find("rx=\"3\"");  // the legend box
+  ASSERT_NE(legend, std::string::npos);
+  const std::size_t rect = svg.rfind("<rect x=\"", legend);
+  const double legend_x = std::stod(svg.substr(rect + 9));
+  EXPECT_GT(legend_x, f.left + f.plot_width);
+}
+
+TEST(SvgPlotSlam, ManyLandmarksAreExplainedByStyleNotListed) {
+  const std::string svg = landmark_std_figure(sample_std(150)).to_svg();
+  EXPECT_EQ(xml_error(svg), "");
+  EXPECT_EQ(svg.find(">landmark 17<"), std::string::npos);
+  EXPECT_NE(svg.find(">one line per landmark<"), std::string::npos);
+  EXPECT_NE(svg.find(">landmark id<"), std::string::npos);
+  EXPECT_NE(svg.find("linearGradient"), std::string::npos);
+  // One path per landmark, coloured from the start to the end of the sequential palette.
+  EXPECT_GE(count(svg, "<path d=\"M"), 150u);
+  EXPECT_NE(svg.find(sequential_color(0).hex()), std::string::npos);
+  EXPECT_NE(svg.find(sequential_color(1).hex()), std::string::npos);
+}
+
+TEST(SvgPlotSlam, StdPlotDrawsTheLargerDeviationOnALogAxis) {
+  StdPlotData d;
+  d.series.push_back({4, {0, 1, 2}, {1.0, 0.1, 0.01}, {0.5, 0.5, 0.001}});
+  const Figure fig = landmark_std_figure(d);
+  const Frame f = fig.frame();
+  EXPECT_TRUE(f.log_y);
+  EXPECT_LT(f.y_min, 0.01);
+  EXPECT_GT(f.y_min, 0.005);
+  EXPECT_GT(f.y_max, 1.0);
+  const std::string svg = fig.to_svg();
+  const auto pieces =
+      parse_polyline_path(paths_in_group(svg, "stroke=\"" + categorical_color(0).hex()).at(0));
+  ASSERT_EQ(pieces.size(), 1u);
+  ASSERT_EQ(pieces[0].size(), 3u);
+  EXPECT_NEAR(f.to_data(pieces[0][1]).y(), 0.5, 0.01);  // max(0.1, 0.5)
+  EXPECT_NEAR(f.to_data(pieces[0][2]).y(), 0.01, 0.001);
+
+  d.log_y = false;
+  EXPECT_FALSE(landmark_std_figure(d).frame().log_y);
+}
+
+TEST(SvgPlotSlam, StdSeriesOfMismatchedLengthsThrow) {
+  StdPlotData d;
+  d.series.push_back({1, {0, 1}, {1, 2}, {1}});
+  EXPECT_THROW(landmark_std_figure(d), std::invalid_argument);
+}
+
+TEST(SvgPlotColors, PalettesAreDistinctAndClamped) {
+  for (std::size_t i = 0; i < kCategoricalColors; ++i)
+    for (std::size_t j = i + 1; j < kCategoricalColors; ++j)
+      EXPECT_NE(categorical_color(i), categorical_color(j));
+  EXPECT_EQ(categorical_color(kCategoricalColors), categorical_color(0));
+  EXPECT_EQ(sequential_color(-1), sequential_color(0));
+  EXPECT_EQ(sequential_color(2), sequential_color(1));
+  EXPECT_EQ(sequential_color(0).hex(), "#440154");  // viridis starts at its dark purple
+  EXPECT_NE(sequential_color(0.5), sequential_color(0.6));
+}
