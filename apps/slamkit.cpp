@@ -43,6 +43,14 @@ void print_outputs(const std::string& dir, const Metrics& metrics) {
   fmt::print("results in {}/: metrics.json, map.svg, landmark_std.svg, trajectory.tum, map.txt\n", dir);
 }
 
+bool has_landmark_ids(const Dataset& dataset) {
+  for (const Event& e : dataset.events)
+    if (const auto* scan = std::get_if<ScanEvent>(&e))
+      for (const Observation& o : scan->observations)
+        if (o.id != kUnknownId) return true;
+  return false;
+}
+
 /// Evaluates a run against its dataset's truth, writes metrics.json and the pictures.
 Metrics evaluate_and_report(const std::string& dir, const RunResult& run, const Dataset& dataset) {
   const Metrics metrics = evaluate_run(run, dataset.truth);
@@ -60,15 +68,24 @@ int main(int argc, char** argv) {
 
   // ---- simulate ----
   auto* simulate_cmd = app.add_subcommand("simulate", "Simulate a vehicle driving through a landmark world");
-  std::string world_path, config_path, sim_out;
+  std::string world_path, config_path, sim_out, scenario_name = "default";
   std::uint64_t sim_seed = 1;
   int loops = 0;
-  simulate_cmd->add_option("--world", world_path, "World file (landmarks and waypoints); default: built-in world")
+  double clutter = -1.0, detection = -1.0;
+  bool no_ids = false;
+  std::string scenario_help = "Built-in world and settings:";
+  for (const auto& n : scenario_names()) scenario_help += " " + n;
+  simulate_cmd->add_option("--scenario", scenario_name, scenario_help)->capture_default_str();
+  simulate_cmd->add_option("--world", world_path, "World file (landmarks and waypoints); replaces the scenario's world")
       ->check(CLI::ExistingFile);
   simulate_cmd->add_option("--config", config_path, "Simulator settings (JSON); default: the reference simulator's")
       ->check(CLI::ExistingFile);
   simulate_cmd->add_option("--seed", sim_seed, "Random seed; the same seed gives the same log")->capture_default_str();
   simulate_cmd->add_option("--loops", loops, "Laps of the route (overrides the config)")->check(CLI::PositiveNumber);
+  simulate_cmd->add_option("--clutter", clutter, "False detections per scan (Poisson mean)")->check(CLI::NonNegativeNumber);
+  simulate_cmd->add_option("--detection-prob", detection, "Probability of detecting a landmark in view")
+      ->check(CLI::Range(0.0, 1.0));
+  simulate_cmd->add_flag("--no-ids", no_ids, "Withhold landmark identities from the log (kept in the truth)");
   simulate_cmd->add_option("--out", sim_out, "Output folder for the log and ground truth")->required();
 
   // ---- make-world ----
@@ -85,8 +102,10 @@ int main(int argc, char** argv) {
   // ---- run ----
   auto* run_cmd = app.add_subcommand("run", "Run a SLAM filter on a dataset and evaluate it");
   FilterConfig filter;
-  std::string data_spec, run_out;
+  std::string data_spec, run_out, assoc_name = "known";
   run_cmd->add_option("--filter", filter.name, "Filter: ekf")->capture_default_str();
+  run_cmd->add_option("--assoc", assoc_name, "Data association: known (ids from the log), nn, jcbb")
+      ->capture_default_str();
   run_cmd->add_option("--data", data_spec, "Dataset, as KIND:PATH (sim:DIR)")->required();
   run_cmd->add_option("--seed", filter.seed, "Random seed for stochastic filters")->capture_default_str();
   run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots")->required();
@@ -111,10 +130,14 @@ int main(int argc, char** argv) {
 
   try {
     if (*simulate_cmd) {
-      const World world = world_path.empty() ? default_world() : read_world(world_path);
-      SimulatorConfig config = config_path.empty() ? SimulatorConfig{} : read_simulator_config(config_path);
+      const Scenario base = scenario(scenario_name);
+      const World world = world_path.empty() ? base.world : read_world(world_path);
+      SimulatorConfig config = config_path.empty() ? base.config : read_simulator_config(config_path);
       if (simulate_cmd->count("--seed") || config_path.empty()) config.seed = sim_seed;
       if (loops > 0) config.loops = loops;
+      if (clutter >= 0.0) config.clutter_rate = clutter;
+      if (detection >= 0.0) config.detection_probability = detection;
+      if (no_ids) config.provide_ids = false;
       const Dataset log = simulate(world, config);
       write_sim_log(sim_out, log, config, world);
       std::size_t scans = 0;
@@ -126,9 +149,13 @@ int main(int argc, char** argv) {
       write_world(world_out, generate_world(gen));
       fmt::print("wrote {} ({} landmarks)\n", world_out, gen.landmarks);
     } else if (*run_cmd) {
+      filter.association.method = parse_association_method(assoc_name);
       const Dataset dataset = load_dataset(data_spec);
+      if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
+        throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
       auto slam = make_filter(filter, dataset);
-      const RunResult run = run_filter(*slam, dataset);
+      RunResult run = run_filter(*slam, dataset);
+      run.association = assoc_name;
       write_run(run_out, run);
       print_outputs(run_out, evaluate_and_report(run_out, run, dataset));
     } else if (*eval_cmd) {

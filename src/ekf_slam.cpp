@@ -10,11 +10,18 @@ namespace slamkit {
 
 namespace {
 constexpr std::size_t kInitialLandmarkCapacity = 64;
-}
+
+bool full_circle(const SensorLimits& sensor) { return sensor.fov >= 2.0 * kPi - 1e-9; }
+}  // namespace
 
 EkfSlam::EkfSlam(std::shared_ptr<const MotionModel> motion,
                  std::shared_ptr<const ObservationModel> observation, const EkfSlamOptions& options)
-    : motion_(std::move(motion)), observation_(std::move(observation)) {
+    : motion_(std::move(motion)),
+      observation_(std::move(observation)),
+      association_(options.association),
+      sensor_(options.sensor),
+      // Cells of a third of the sensor range: a query touches a few dozen cells at most.
+      grid_(std::max(5.0, options.sensor.max_range / 3.0)) {
   if (!motion_ || !observation_) throw std::invalid_argument("EkfSlam needs a motion and an observation model");
   reserve(3 + 2 * kInitialLandmarkCapacity);
   x_.head<3>() = options.initial_pose;
@@ -64,11 +71,29 @@ Eigen::MatrixXd EkfSlam::covariance() const {
   return p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>();
 }
 
+Matrix23 EkfSlam::landmark_pose_covariance(std::size_t index) const {
+  return p_.block<2, 3>(static_cast<Eigen::Index>(landmark_offset(index)), 0);
+}
+
 std::vector<Landmark> EkfSlam::landmarks() const {
-  std::vector<Landmark> out(ids_.size());
+  std::vector<Landmark> out;
+  out.reserve(ids_.size());
   for (std::size_t i = 0; i < ids_.size(); ++i)
-    out[i] = Landmark{ids_[i], landmark_position(i), landmark_covariance(i)};
+    if (tracks_[i].confirmed) out.push_back(Landmark{ids_[i], landmark_position(i), landmark_covariance(i)});
   return out;
+}
+
+std::map<std::string, double> EkfSlam::statistics() const {
+  std::map<std::string, double> s = {{"discarded_observations", static_cast<double>(discarded_)},
+                                     {"landmarks_removed", static_cast<double>(removed_)},
+                                     {"landmarks_in_state", static_cast<double>(ids_.size())}};
+  if (association_.method != AssociationMethod::kKnown)
+    s["association_pairs_evaluated"] = static_cast<double>(association_stats_.candidate_pairs);
+  if (association_.method == AssociationMethod::kJcbb) {
+    s["jcbb_nodes"] = static_cast<double>(association_stats_.jcbb_nodes);
+    s["jcbb_budget_exhausted"] = association_stats_.jcbb_budget_exhausted ? 1.0 : 0.0;
+  }
+  return s;
 }
 
 long EkfSlam::find_landmark(int id) const {
@@ -173,19 +198,68 @@ std::size_t EkfSlam::add_landmark(const Vector2& z, int id) {
   const std::size_t index = ids_.size();
   ids_.push_back(id);
   if (id != kUnknownId) index_of_id_[id] = index;
+  Track track;
+  track.confirmed = association_.method == AssociationMethod::kKnown || association_.confirm_after <= 1;
+  tracks_.push_back(track);
+  grid_.add(index, landmark_position(index));
   return index;
 }
 
+void EkfSlam::remove_landmark(std::size_t index) {
+  const std::size_t n = dim_, l = landmark_offset(index);
+  std::copy(x_.data() + l + 2, x_.data() + n, x_.data() + l);
+  // Close the gap in the lower triangle column by column. Columns left of the landmark shift their
+  // rows below it up by two, in place; columns right of it come from two columns further right.
+  const auto stride = static_cast<std::size_t>(p_.rows());
+  double* base = p_.data();
+  for (std::size_t c = 0; c + 2 < n; ++c) {
+    double* dst = base + c * stride;
+    if (c < l) {
+      std::copy(dst + l + 2, dst + n, dst + l);
+    } else {
+      const double* src = base + (c + 2) * stride;
+      std::copy(src + c + 2, src + n, dst + c);
+    }
+  }
+  dim_ -= 2;
+  const int id = ids_[index];
+  ids_.erase(ids_.begin() + static_cast<std::ptrdiff_t>(index));
+  tracks_.erase(tracks_.begin() + static_cast<std::ptrdiff_t>(index));
+  if (id != kUnknownId) index_of_id_.erase(id);
+  for (auto& [key, i] : index_of_id_)
+    if (i > index) --i;
+  std::vector<Vector2> positions(ids_.size());
+  for (std::size_t i = 0; i < ids_.size(); ++i) positions[i] = landmark_position(i);
+  grid_.rebuild(positions);
+}
+
 void EkfSlam::update(const ScanEvent& scan) {
+  last_associations_.assign(scan.observations.size(), AssociationRecord{});
+  if (association_.method == AssociationMethod::kKnown)
+    update_known(scan);
+  else
+    update_unknown(scan);
+}
+
+void EkfSlam::update_known(const ScanEvent& scan) {
   new_observations_.clear();
+  auto apply = [&](std::size_t k, std::size_t index) {
+    if (update_landmark(index, scan.observations[k].z)) {
+      last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
+      ++tracks_[index].observations;
+    } else {
+      ++discarded_;
+    }
+  };
   for (std::size_t k = 0; k < scan.observations.size(); ++k) {
     const Observation& obs = scan.observations[k];
-    if (obs.id == kUnknownId)
-      throw std::invalid_argument(
-          "EKF-SLAM with known association got an observation without a landmark id");
+    if (obs.id == kUnknownId) {
+      ++discarded_;  // a detection without identity (e.g. clutter) cannot be placed by its id
+      continue;
+    }
     const long index = find_landmark(obs.id);
     if (index >= 0)
-      update_landmark(static_cast<std::size_t>(index), obs.z);
+      apply(k, static_cast<std::size_t>(index));
     else
       new_observations_.push_back(k);
   }
@@ -193,10 +267,96 @@ void EkfSlam::update(const ScanEvent& scan) {
   for (const std::size_t k : new_observations_) {
     const Observation& obs = scan.observations[k];
     const long index = find_landmark(obs.id);
-    if (index >= 0)
-      update_landmark(static_cast<std::size_t>(index), obs.z);  // seen twice in one scan
-    else
+    if (index >= 0) {
+      apply(k, static_cast<std::size_t>(index));  // seen twice in one scan
+    } else {
       add_landmark(obs.z, obs.id);
+      last_associations_[k] = {AssociationDecision::kNew, obs.id};
+    }
+  }
+}
+
+void EkfSlam::find_candidates(double range_margin, double angle_margin, std::vector<std::size_t>& out) const {
+  out.clear();
+  if (ids_.empty()) return;
+  // The grid bins landmarks where they were last re-binned; one extra cell covers the drift since.
+  const double reach = sensor_.max_range + range_margin;
+  std::vector<std::size_t> nearby;
+  grid_.query(x_.head<2>(), reach + grid_.cell_size(), nearby);
+  const Pose2 xv = pose();
+  for (const std::size_t j : nearby) {
+    const Vector2 z = observation_->predict(xv, landmark_position(j));
+    if (z[0] > reach) continue;
+    if (!full_circle(sensor_) && std::abs(z[1]) > 0.5 * sensor_.fov + angle_margin) continue;
+    out.push_back(j);
+  }
+  std::sort(out.begin(), out.end());
+}
+
+std::vector<Pairing> EkfSlam::associate_scan(const ScanEvent& scan) {
+  // Candidates reach a little beyond the sensor: a landmark just outside the predicted view may be
+  // the one seen at the edge.
+  find_candidates(association_.view_margin_m, association_.view_margin_rad, candidates_);
+  return associate(scan.observations, candidates_, *this, *observation_, association_, &association_stats_);
+}
+
+void EkfSlam::update_unknown(const ScanEvent& scan) {
+  const std::vector<Pairing> pairings = associate_scan(scan);
+
+  const Vector2 position_before = x_.head<2>();
+  std::vector<bool> seen(ids_.size(), false);
+  for (std::size_t k = 0; k < pairings.size(); ++k) {
+    if (pairings[k].decision != AssociationDecision::kUpdate) continue;
+    const std::size_t index = pairings[k].landmark;
+    if (!update_landmark(index, scan.observations[k].z)) continue;
+    last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
+    seen[index] = true;
+    Track& track = tracks_[index];
+    ++track.observations;
+    track.misses = 0;
+    if (track.observations >= association_.confirm_after) track.confirmed = true;
+  }
+  for (std::size_t k = 0; k < pairings.size(); ++k) {
+    if (pairings[k].decision == AssociationDecision::kNew) {
+      const int id = next_id_++;
+      add_landmark(scan.observations[k].z, id);
+      last_associations_[k] = {AssociationDecision::kNew, id};
+    } else if (last_associations_[k].decision == AssociationDecision::kDiscard) {
+      ++discarded_;
+    }
+  }
+
+  // Keep the grid honest: the landmarks just updated moved the most; a large vehicle correction
+  // (a loop closure) moved the whole map, so then the grid is rebuilt.
+  for (const std::size_t j : candidates_) grid_.move(j, landmark_position(j));
+  drift_since_rebuild_ += (x_.head<2>() - position_before).norm();
+  if (drift_since_rebuild_ > 0.5 * grid_.cell_size()) {
+    std::vector<Vector2> positions(ids_.size());
+    for (std::size_t i = 0; i < ids_.size(); ++i) positions[i] = landmark_position(i);
+    grid_.rebuild(positions);
+    drift_since_rebuild_ = 0.0;
+  }
+  manage_map(seen);
+}
+
+void EkfSlam::manage_map(const std::vector<bool>& seen) {
+  // Only landmarks predicted well inside the view count as missed: near the edge the sensor's own
+  // noise decides whether they are seen.
+  find_candidates(-association_.view_margin_m, -association_.view_margin_rad, candidates_);
+  std::vector<std::size_t> doomed;
+  for (const std::size_t j : candidates_) {
+    if (j >= seen.size() || seen[j]) continue;  // added this scan, or seen
+    Track& track = tracks_[j];
+    ++track.misses;
+    const bool expired = track.confirmed
+                             ? association_.confirmed_max_misses > 0 && track.misses >= association_.confirmed_max_misses
+                             : track.misses >= association_.provisional_max_misses;
+    if (expired) doomed.push_back(j);
+  }
+  // Highest index first, so the indices still to remove stay valid.
+  for (auto it = doomed.rbegin(); it != doomed.rend(); ++it) {
+    remove_landmark(*it);
+    ++removed_;
   }
 }
 

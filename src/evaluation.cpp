@@ -4,6 +4,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <unordered_map>
+#include <unordered_set>
 #include <nlohmann/json.hpp>
 
 #include "slamkit/error.hpp"
@@ -17,6 +19,69 @@ nlohmann::json optional_json(const std::optional<T>& v) {
   return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
 }
 
+struct OriginTable {
+  std::unordered_map<int, int> origin;  // filter landmark id -> true id of the observation that started it
+  AssociationMetrics metrics;
+};
+
+/// Scores the run's association decisions against the truth's identities (see the header).
+std::optional<OriginTable> score_associations(const RunResult& run, const GroundTruth& truth) {
+  if (truth.observation_ids.size() != run.associations.size()) return std::nullopt;
+  OriginTable table;
+  AssociationMetrics& m = table.metrics;
+  std::unordered_set<int> seen, mapped;
+  for (std::size_t k = 0; k < run.associations.size(); ++k) {
+    const auto& records = run.associations[k];
+    const auto& ids = truth.observation_ids[k];
+    if (ids.size() != records.size()) return std::nullopt;
+    for (std::size_t i = 0; i < records.size(); ++i) {
+      const int true_id = ids[i];
+      const AssociationRecord& r = records[i];
+      if (true_id == kUnknownId) ++m.clutter_observations;
+      else seen.insert(true_id);
+      switch (r.decision) {
+        case AssociationDecision::kNew:
+          table.origin[r.landmark_id] = true_id;
+          if (true_id != kUnknownId && !mapped.insert(true_id).second) ++m.missed;
+          break;
+        case AssociationDecision::kUpdate: {
+          const auto it = table.origin.find(r.landmark_id);
+          if (true_id != kUnknownId && it != table.origin.end() && it->second == true_id) ++m.correct;
+          else ++m.wrong;
+          break;
+        }
+        case AssociationDecision::kDiscard:
+          if (true_id == kUnknownId) ++m.clutter_discarded;
+          else if (mapped.count(true_id)) ++m.missed;
+          break;
+      }
+    }
+  }
+  m.landmarks_true_seen = seen.size();
+  std::unordered_set<int> origins_in_map;
+  for (const Landmark& lm : run.map) {
+    const auto it = table.origin.find(lm.id);
+    if (it == table.origin.end() || it->second == kUnknownId || !origins_in_map.insert(it->second).second)
+      ++m.spurious_landmarks;
+  }
+  return table;
+}
+
+/// The estimated map relabelled with the true ids of the landmarks' origins (the first landmark of
+/// each origin; clutter-born landmarks dropped), for pairing with the true map.
+std::vector<Landmark> relabel_by_origin(const std::vector<Landmark>& map, const OriginTable& table) {
+  std::vector<Landmark> out;
+  std::unordered_set<int> used;
+  for (const Landmark& lm : map) {
+    const auto it = table.origin.find(lm.id);
+    if (it == table.origin.end() || it->second == kUnknownId || !used.insert(it->second).second) continue;
+    Landmark relabelled = lm;
+    relabelled.id = it->second;
+    out.push_back(relabelled);
+  }
+  return out;
+}
+
 }  // namespace
 
 Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const EvaluationOptions& options) {
@@ -28,6 +93,10 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
   m.observations = run.observations;
   m.landmarks = run.map.size();
   m.wall_time_s = run.wall_time_s;
+  m.association_method = run.association;
+  m.filter_statistics = run.statistics;
+  const std::optional<OriginTable> origins = score_associations(run, truth);
+  if (origins) m.association = origins->metrics;
   if (truth.poses.empty()) return m;
 
   const auto pairs = eval::match_by_time(run.trajectory, truth.poses, options.max_interpolation_gap_s);
@@ -38,7 +107,8 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
     m.final_position_error_m = ate.final_error;
     m.alignment = ate.align;
     if (!truth.landmarks.empty()) {
-      const eval::MapError map_error = eval::map_rmse(run.map, truth.landmarks, ate.align);
+      const eval::MapError map_error =
+          eval::map_rmse(origins ? relabel_by_origin(run.map, *origins) : run.map, truth.landmarks, ate.align);
       m.map_rmse_m = map_error.rmse;
       m.map_landmarks_paired = map_error.paired;
     }
@@ -54,11 +124,12 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
     // Only where the estimate has a sample at the truth time: an interpolated covariance would be a
     // guess, and NEES is about the filter's own claims.
     std::vector<double> nees;
-    nees.reserve(pairs.size());
-    for (const auto& pair : pairs) {
+    const auto filtered_pairs = eval::match_by_time(run.filtered, truth.poses, options.max_interpolation_gap_s);
+    nees.reserve(filtered_pairs.size());
+    for (const auto& pair : filtered_pairs) {
       const auto i = static_cast<std::size_t>(pair.estimate_index);
-      if (run.trajectory[i].t != pair.t) continue;
-      nees.push_back(eval::pose_nees(run.trajectory[i].pose, run.pose_covariances[i], pair.truth));
+      if (run.filtered[i].t != pair.t) continue;
+      nees.push_back(eval::pose_nees(run.filtered[i].pose, run.pose_covariances[i], pair.truth));
     }
     // The first samples are usually the exactly known start pose, whose covariance is zero.
     std::erase_if(nees, [](double v) { return !std::isfinite(v); });
@@ -96,12 +167,28 @@ nlohmann::json to_json(const Metrics& m) {
     j["nees_pose_mean"] = nullptr;
     j["nees_pose_in_95_fraction"] = nullptr;
   }
+  j["association"] = m.association_method;
+  if (m.association) {
+    const AssociationMetrics& a = *m.association;
+    j["association_correct"] = a.correct;
+    j["association_wrong"] = a.wrong;
+    j["association_missed"] = a.missed;
+    j["clutter_observations"] = a.clutter_observations;
+    j["clutter_discarded"] = a.clutter_discarded;
+    j["spurious_landmarks"] = a.spurious_landmarks;
+    j["landmarks_true_seen"] = a.landmarks_true_seen;
+  }
+  for (const auto& [key, value] : m.filter_statistics) j[key] = value;
   j["metric_definitions"] = {
       {"ate_rmse_m", "position RMSE over time-matched truth samples after SE(2) least-squares alignment"},
       {"final_position_error_m", "position error at the last matched truth sample, same alignment"},
       {"map_rmse_m", "landmark position RMSE over landmarks paired with the truth, same alignment"},
       {"nees_pose_in_95_fraction",
-       "share of steps whose pose NEES (3 dof, unaligned) lies in the two-sided 95% chi-square interval"}};
+       "share of steps whose pose NEES (3 dof, unaligned) lies in the two-sided 95% chi-square interval"},
+      {"association_correct", "pairings whose observation's true landmark started the landmark it updated"},
+      {"association_wrong", "pairings of an observation with a landmark another true landmark (or clutter) started"},
+      {"association_missed", "observations of an already mapped true landmark left unpaired or starting a duplicate"},
+      {"spurious_landmarks", "final-map landmarks started by clutter or duplicating another landmark"}};
   return j;
 }
 
@@ -121,6 +208,9 @@ std::string headline(const Metrics& m) {
     add(ate);
   }
   if (m.map_rmse_m) add(fmt::format("map RMSE {:.3g} m", *m.map_rmse_m));
+  if (m.association && m.association_method != "known")
+    add(fmt::format("{} association: {} correct, {} wrong", m.association_method, m.association->correct,
+                    m.association->wrong));
   if (m.nees_pose)
     add(fmt::format("pose NEES in 95% bounds {:.0f}% of steps", 100.0 * m.nees_pose->in_interval_fraction));
   add(fmt::format("{} landmarks", m.landmarks));

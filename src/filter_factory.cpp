@@ -11,6 +11,8 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
   if (config.name == "ekf") {
     EkfSlamOptions options;
     options.initial_pose = dataset.initial_pose;
+    options.association = config.association;
+    options.sensor = dataset.sensor;
     return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
   }
   std::string names;

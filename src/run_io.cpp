@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <fmt/os.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -40,6 +41,63 @@ std::vector<LandmarkStdSample> read_landmark_std(const std::string& path) {
   return samples;
 }
 
+const char* decision_name(AssociationDecision d) {
+  switch (d) {
+    case AssociationDecision::kUpdate: return "update";
+    case AssociationDecision::kNew: return "new";
+    case AssociationDecision::kDiscard: return "discard";
+  }
+  return "discard";
+}
+
+void write_associations(const std::string& path, const std::vector<double>& times,
+                        const std::vector<std::vector<AssociationRecord>>& associations) {
+  std::ofstream out(path);
+  if (!out) throw InputError(path, 0, "cannot open file for writing");
+  out << "# scan t observation decision landmark_id  (decision: update | new | discard)\n"
+         "# a scan without observations is one line: scan t none\n";
+  for (std::size_t k = 0; k < associations.size(); ++k) {
+    if (associations[k].empty()) out << fmt::format("{} {:.6f} none\n", k, times[k]);
+    for (std::size_t i = 0; i < associations[k].size(); ++i)
+      out << fmt::format("{} {:.6f} {} {} {}\n", k, times[k], i, decision_name(associations[k][i].decision),
+                         associations[k][i].landmark_id);
+  }
+  if (!out) throw InputError(path, 0, "write failed");
+}
+
+void read_associations(const std::string& path, RunResult& run) {
+  TextReader in(path);
+  while (in.next()) {
+    const bool empty_scan = in.size() == 3 && in.field(2) == "none";
+    if (!empty_scan) in.expect_fields(5, "scan t observation decision landmark_id");
+    const long scan = in.integer(0, "scan");
+    const double t = in.number(1, "t");
+    if (scan < 0 || static_cast<std::size_t>(scan) > run.associations.size())
+      in.fail("expected scans in order, found scan " + std::to_string(scan));
+    if (static_cast<std::size_t>(scan) == run.associations.size()) {
+      run.associations.emplace_back();
+      run.scan_times.push_back(t);
+    }
+    if (empty_scan) continue;
+    const long obs = in.integer(2, "observation");
+    auto& records = run.associations.back();
+    if (obs != static_cast<long>(records.size()))
+      in.fail("expected observation " + std::to_string(records.size()) + ", found " + std::to_string(obs));
+    AssociationRecord r;
+    const std::string_view d = in.field(3);
+    if (d == "update")
+      r.decision = AssociationDecision::kUpdate;
+    else if (d == "new")
+      r.decision = AssociationDecision::kNew;
+    else if (d == "discard")
+      r.decision = AssociationDecision::kDiscard;
+    else
+      in.fail("expected a decision (update, new or discard), found '" + std::string(d) + "'");
+    r.landmark_id = static_cast<int>(in.integer(4, "landmark_id"));
+    records.push_back(r);
+  }
+}
+
 }  // namespace
 
 void write_run(const std::string& dir, const RunResult& run) {
@@ -48,16 +106,32 @@ void write_run(const std::string& dir, const RunResult& run) {
   if (ec) throw InputError(dir, 0, "cannot create output directory: " + ec.message());
 
   write_tum(path_in(dir, "trajectory.tum"), run.trajectory);
-  std::vector<double> times(run.trajectory.size());
-  for (std::size_t i = 0; i < times.size(); ++i) times[i] = run.trajectory[i].t;
+  // The per-step estimates get their own file only where they differ from the trajectory.
+  const bool separate_filtered = !std::equal(run.filtered.begin(), run.filtered.end(), run.trajectory.begin(),
+                                             run.trajectory.end(), [](const StampedPose& a, const StampedPose& b) {
+                                               return a.t == b.t && a.pose == b.pose;
+                                             });
+  const std::string filtered_path = path_in(dir, "filtered.tum");
+  if (separate_filtered)
+    write_tum(filtered_path, run.filtered);
+  else
+    fs::remove(filtered_path);
+  std::vector<double> times(run.filtered.size());
+  for (std::size_t i = 0; i < times.size(); ++i) times[i] = run.filtered[i].t;
   write_pose_covariances(path_in(dir, "pose_covariance.txt"), times, run.pose_covariances);
   write_tum(path_in(dir, "dead_reckoning.tum"), run.dead_reckoning);
   write_map(path_in(dir, "map.txt"), run.map);
   write_landmark_std(path_in(dir, "landmark_std.txt"), run.landmark_std);
+  write_associations(path_in(dir, "associations.txt"), run.scan_times, run.associations);
 
-  const nlohmann::json info = {{"filter", run.filter},     {"dataset", run.dataset},
-                               {"steps", run.steps},       {"scans", run.scans},
-                               {"observations", run.observations}, {"wall_time_s", run.wall_time_s}};
+  const nlohmann::json info = {{"filter", run.filter},
+                               {"dataset", run.dataset},
+                               {"association", run.association},
+                               {"steps", run.steps},
+                               {"scans", run.scans},
+                               {"observations", run.observations},
+                               {"wall_time_s", run.wall_time_s},
+                               {"statistics", run.statistics}};
   const std::string info_path = path_in(dir, "run.json");
   std::ofstream out(info_path);
   out << info.dump(2) << "\n";
@@ -78,21 +152,29 @@ RunResult read_run(const std::string& dir) {
     run.scans = info.at("scans").get<std::size_t>();
     run.observations = info.at("observations").get<std::size_t>();
     run.wall_time_s = info.at("wall_time_s").get<double>();
+    run.association = info.value("association", "known");
+    run.statistics = info.value("statistics", std::map<std::string, double>{});
   } catch (const nlohmann::json::exception& e) {
     throw InputError(info_path, 0, std::string("expected a run description: ") + e.what());
   }
 
   run.trajectory = read_tum(path_in(dir, "trajectory.tum"));
+  const std::string filtered_path = path_in(dir, "filtered.tum");
+  run.filtered = fs::exists(filtered_path) ? read_tum(filtered_path) : run.trajectory;
   const std::string cov_path = path_in(dir, "pose_covariance.txt");
   PoseCovariances covs = read_pose_covariances(cov_path);
-  if (covs.t.size() != run.trajectory.size())
+  if (covs.t.size() != run.filtered.size())
     throw InputError(cov_path, 0,
-                     fmt::format("expected one covariance per trajectory sample ({}), found {}",
-                                 run.trajectory.size(), covs.t.size()));
+                     fmt::format("expected one covariance per filtered pose ({}), found {}", run.filtered.size(),
+                                 covs.t.size()));
   run.pose_covariances = std::move(covs.covariance);
   run.dead_reckoning = read_tum(path_in(dir, "dead_reckoning.tum"));
   run.map = read_map(path_in(dir, "map.txt"));
   run.landmark_std = read_landmark_std(path_in(dir, "landmark_std.txt"));
+  read_associations(path_in(dir, "associations.txt"), run);
+  if (run.associations.size() != run.scans)
+    throw InputError(path_in(dir, "associations.txt"), 0,
+                     fmt::format("expected the associations of {} scans, found {}", run.scans, run.associations.size()));
   return run;
 }
 

@@ -24,17 +24,17 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
   RunResult result;
   result.filter = filter.name();
   result.dataset = dataset.spec;
-  result.trajectory.reserve(dataset.events.size() + 1);
+  result.filtered.reserve(dataset.events.size() + 1);
   result.pose_covariances.reserve(dataset.events.size() + 1);
 
   auto record = [&](double t) {
     // Several events can share a time (a control then the scan taken there): keep the latest state.
-    if (!result.trajectory.empty() && result.trajectory.back().t == t) {
-      result.trajectory.back().pose = filter.pose();
+    if (!result.filtered.empty() && result.filtered.back().t == t) {
+      result.filtered.back().pose = filter.pose();
       result.pose_covariances.back() = filter.pose_covariance();
       return;
     }
-    result.trajectory.push_back({t, filter.pose()});
+    result.filtered.push_back({t, filter.pose()});
     result.pose_covariances.push_back(filter.pose_covariance());
   };
 
@@ -50,6 +50,8 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
       const auto& scan = std::get<ScanEvent>(event);
       filter.update(scan);
       ++result.scans;
+      result.scan_times.push_back(scan.t);
+      result.associations.push_back(filter.last_associations());
       result.observations += scan.observations.size();
       record(scan.t);
       if (scan.t - last_std_time >= options.std_interval_s) {
@@ -62,6 +64,9 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
   }
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
   result.map = filter.landmarks();
+  result.trajectory = filter.smoothed_trajectory();
+  if (result.trajectory.empty()) result.trajectory = result.filtered;
+  result.statistics = filter.statistics();
   result.dead_reckoning = dead_reckoning(dataset);
   return result;
 }

@@ -1,6 +1,7 @@
 #include "slamkit/sim/simulator.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <climits>
@@ -47,9 +48,13 @@ const RealKey kRealKeys[] = {
     {"sigma_bearing_deg", &SimulatorConfig::sigma_bearing, true, non_negative, ">= 0"},
     {"control_period_s", &SimulatorConfig::control_period, false, positive, "> 0"},
     {"observation_period_s", &SimulatorConfig::observation_period, false, positive, "> 0"},
+    {"clutter_rate_per_scan", &SimulatorConfig::clutter_rate, false, non_negative, ">= 0"},
+    {"detection_probability", &SimulatorConfig::detection_probability, false,
+     [](double v) { return v > 0.0 && v <= 1.0; }, "> 0 and <= 1"},
 };
 constexpr const char* kLoopsKey = "loops";
 constexpr const char* kSeedKey = "seed";
+constexpr const char* kProvideIdsKey = "provide_ids";
 
 // Rounded to 12 significant digits, so that an angle set in whole degrees prints as such rather
 // than as 3.0000000000000004 after the trip through radians, and reads back as the same radians.
@@ -83,8 +88,14 @@ void validate(const SimulatorConfig& c, const std::string& source) {
 
 // ---- Randomness -------------------------------------------------------------------------------------
 
-// Standard normal samples by Box-Muller on the engine's raw output. std::normal_distribution's
-// algorithm differs between standard libraries; this keeps a seed's dataset the same with all of them.
+// Every sample is made from the engine's raw output by the transforms below: the standard library's
+// distributions (and std::shuffle) differ between implementations, and a seed must give the same
+// dataset with all of them.
+
+// Uniform on [0, 1) from the top 53 bits.
+double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+
+// Standard normal samples by Box-Muller.
 class Gaussian {
  public:
   explicit Gaussian(std::uint64_t seed) : rng_(seed) {}
@@ -95,7 +106,7 @@ class Gaussian {
       return spare_;
     }
     // 1 - u lies in (0, 1], so the logarithm is finite.
-    const double u1 = 1.0 - uniform01(), u2 = uniform01();
+    const double u1 = 1.0 - uniform01(rng_), u2 = uniform01(rng_);
     const double r = std::sqrt(-2.0 * std::log(u1));
     spare_ = r * std::sin(2.0 * kPi * u2);
     has_spare_ = true;
@@ -103,12 +114,28 @@ class Gaussian {
   }
 
  private:
-  double uniform01() { return static_cast<double>(rng_() >> 11) * 0x1.0p-53; }
-
   std::mt19937_64 rng_;
   double spare_ = 0.0;
   bool has_spare_ = false;
 };
+
+// Poisson-distributed count: the arrivals of a unit-rate Poisson process within [0, mean]. Unlike
+// the textbook product of uniforms against exp(-mean) it does not underflow for large means.
+long poisson(double mean, std::mt19937_64& rng) {
+  long count = 0;
+  for (double t = -std::log(1.0 - uniform01(rng)); t < mean; t -= std::log(1.0 - uniform01(rng))) ++count;
+  return count;
+}
+
+// Fisher-Yates on two parallel sequences. The modulo's bias, below n / 2^64, is far beyond detection.
+template <typename A, typename B>
+void shuffle_together(std::vector<A>& a, std::vector<B>& b, std::mt19937_64& rng) {
+  for (std::size_t i = a.size(); i > 1; --i) {
+    const std::size_t j = static_cast<std::size_t>(rng() % i);
+    std::swap(a[i - 1], a[j]);
+    std::swap(b[i - 1], b[j]);
+  }
+}
 
 // ---- Visibility -------------------------------------------------------------------------------------
 
@@ -185,6 +212,7 @@ double steer_towards(const Pose2& pose, const Vector2& target, double steer, con
   return std::clamp(steer + std::clamp(wanted, -max_delta, max_delta), -c.max_steer, c.max_steer);
 }
 
+// Of the closed route through the waypoints, which bounds an open route's laps too: it sizes buffers.
 double route_length(const std::vector<Vector2>& waypoints) {
   double length = (waypoints.front() - waypoints.back()).norm();
   for (std::size_t i = 1; i < waypoints.size(); ++i) length += (waypoints[i] - waypoints[i - 1]).norm();
@@ -208,6 +236,7 @@ nlohmann::json to_json(const SimulatorConfig& config) {
   for (const RealKey& k : kRealKeys) j[k.key] = json_value(k, config);
   j[kLoopsKey] = config.loops;
   j[kSeedKey] = config.seed;
+  j[kProvideIdsKey] = config.provide_ids;
   return j;
 }
 
@@ -240,12 +269,17 @@ SimulatorConfig simulator_config_from_json(const nlohmann::json& json, const std
             source_name, 0,
             fmt::format("'{}' must be an integer from 0 to 2^64 - 1, found {}", key, value.dump()));
       c.seed = value.get<std::uint64_t>();
+    } else if (key == kProvideIdsKey) {
+      if (!value.is_boolean())
+        throw InputError(source_name, 0,
+                         fmt::format("'{}' must be true or false, found {}", key, value.dump()));
+      c.provide_ids = value.get<bool>();
     } else {
       std::string known;
       for (const RealKey& k : kRealKeys) known += fmt::format("{}, ", k.key);
       throw InputError(source_name, 0,
-                       fmt::format("unknown key '{}' in the simulator config; expected one of: {}{}, {}", key,
-                                   known, kLoopsKey, kSeedKey));
+                       fmt::format("unknown key '{}' in the simulator config; expected one of: {}{}, {}, {}",
+                                   key, known, kLoopsKey, kSeedKey, kProvideIdsKey));
     }
   }
   validate(c, source_name);
@@ -278,9 +312,15 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
   out.truth.poses.push_back(StampedPose{0.0, pose});
 
   // Separate streams, so that changing the sensor (and with it how many numbers a sweep draws)
-  // leaves the control noise of a seed unchanged.
+  // leaves the control noise of a seed unchanged, and changing the detection settings leaves both
+  // noises unchanged. Every landmark in view draws its measurement noise, detected or not, so that
+  // the detections of a lower detection probability are a subset of those of a higher one.
   Gaussian control_noise(config.seed);
   Gaussian sensor_noise(config.seed ^ 0x9e3779b97f4a7c15ULL);
+  std::mt19937_64 detection_rng(config.seed ^ 0xbf58476d1ce4e5b9ULL);
+  std::mt19937_64 clutter_rng(config.seed ^ 0x94d049bb133111ebULL);
+  // Clutter would otherwise come last in a scan, and map order hints at the identities withheld.
+  const bool shuffle_scans = config.clutter_rate > 0.0 || !config.provide_ids;
   const LandmarkGrid grid(world.landmarks, config.max_range);
   std::vector<int> candidates;
 
@@ -289,7 +329,7 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
   // heading + steer, so at full lock it circles with radius L / sin(max_steer).
   const double turn_radius = config.wheelbase / std::sin(config.max_steer);
   const std::size_t n = waypoints.size();
-  const std::size_t arrivals_to_finish = static_cast<std::size_t>(config.loops) * n + 1;
+  const std::size_t arrivals_to_finish = static_cast<std::size_t>(config.loops) * n + (world.closed ? 1 : 0);
   std::size_t arrivals = 0;
   long deadline = 0;
   double steer = 0.0;
@@ -336,17 +376,67 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
       if (z[0] > config.max_range || std::abs(z[1]) > config.fov / 2.0) continue;
       const Vector2 noisy(z[0] + config.sigma_range * sensor_noise(),
                           wrap_angle(z[1] + config.sigma_bearing * sensor_noise()));
+      if (uniform01(detection_rng) >= config.detection_probability) continue;
       // Only a landmark almost on top of the sensor can come out at a negative range: no real
       // sensor reports one, so it counts as missed.
       if (noisy[0] <= 0.0) continue;
-      scan.observations.push_back(Observation{noisy, landmark.id});
+      scan.observations.push_back(Observation{noisy, config.provide_ids ? landmark.id : kUnknownId});
       true_ids.push_back(landmark.id);
     }
+    // Uniform over the visible sector: the area within radius r grows as r^2, hence the square root.
+    // 1 - u keeps the range above zero, as a sensor reports it.
+    for (long c = poisson(config.clutter_rate, clutter_rng); c > 0; --c) {
+      const double range = config.max_range * std::sqrt(1.0 - uniform01(clutter_rng));
+      const double bearing = wrap_angle(config.fov * (uniform01(clutter_rng) - 0.5));
+      scan.observations.push_back(Observation{Vector2(range, bearing), kUnknownId});
+      true_ids.push_back(kUnknownId);
+    }
     if (scan.observations.empty()) continue;
+    if (shuffle_scans) shuffle_together(scan.observations, true_ids, clutter_rng);
     out.events.emplace_back(std::move(scan));
     out.truth.observation_ids.push_back(std::move(true_ids));
   }
   return out;
+}
+
+namespace {
+
+struct ScenarioEntry {
+  const char* name;
+  World (*world)();
+  bool loop;       // one lap: a loop-closure route is driven once
+  bool cluttered;  // the detection of the data-association experiments
+};
+
+const ScenarioEntry kScenarios[] = {
+    {"default", &default_world, false, false},
+    {"loop-closure", &loop_closure_world, true, false},
+    {"cluttered", &default_world, false, true},
+    {"loop-closure-cluttered", &loop_closure_world, true, true},
+};
+
+}  // namespace
+
+Scenario scenario(const std::string& name) {
+  const auto entry = std::find_if(std::begin(kScenarios), std::end(kScenarios),
+                                  [&](const ScenarioEntry& e) { return name == e.name; });
+  if (entry == std::end(kScenarios))
+    throw InputError(
+        fmt::format("unknown scenario '{}'; expected one of: {}", name, fmt::join(scenario_names(), ", ")));
+  Scenario s{entry->name, entry->world(), SimulatorConfig{}};
+  if (entry->loop) s.config.loops = 1;
+  if (entry->cluttered) {
+    s.config.clutter_rate = 1.0;
+    s.config.detection_probability = 0.9;
+    s.config.provide_ids = false;
+  }
+  return s;
+}
+
+std::vector<std::string> scenario_names() {
+  std::vector<std::string> names;
+  for (const ScenarioEntry& e : kScenarios) names.emplace_back(e.name);
+  return names;
 }
 
 }  // namespace slamkit

@@ -141,6 +141,25 @@ void write_file(const std::string& path, const fmt::memory_buffer& content) {
 
 World default_world() { return generate_world(WorldGenOptions{}); }
 
+World loop_closure_world() {
+  WorldGenOptions o;
+  o.width = 300.0;
+  o.height = 200.0;
+  o.landmarks = 150;
+  o.band_inner = 4.0;
+  o.band_outer = 20.0;
+  o.seed = 20240607;
+  World world = generate_world(o);
+  // Past the start along the first straight; waypoints are ~10 m apart and the straight runs 100 m
+  // from the start to its corner, so the vehicle stops well before turning again.
+  constexpr std::size_t kWaypointsPastStart = 8;
+  const std::vector<Vector2> lap = world.waypoints;
+  world.waypoints.insert(world.waypoints.end(), lap.begin(),
+                         lap.begin() + static_cast<std::ptrdiff_t>(kWaypointsPastStart + 1));
+  world.closed = false;
+  return world;
+}
+
 World generate_world(const WorldGenOptions& o) {
   validate(o);
   const RoundedRectRoute route(o.width, o.height);
@@ -187,6 +206,7 @@ World read_world(const std::string& path) {
   TextReader in(path);
   World world;
   std::unordered_map<long, std::size_t> line_of_id;
+  std::size_t route_line = 0;
   while (in.next()) {
     const std::string_view keyword = in.field(0);
     if (keyword == "landmark") {
@@ -204,8 +224,17 @@ World read_world(const std::string& path) {
       if (!world.waypoints.empty() && p == world.waypoints.back())
         in.fail("waypoint repeats the previous one; expected a distinct point");
       world.waypoints.push_back(p);
+    } else if (keyword == "route") {
+      in.expect_fields(2, "route open|closed");
+      if (route_line != 0)
+        in.fail(fmt::format("duplicate route line (first on line {}); expected at most one", route_line));
+      route_line = in.line_number();
+      const std::string_view kind = in.field(1);
+      if (kind != "open" && kind != "closed")
+        in.fail(fmt::format("expected 'route open' or 'route closed', found 'route {}'", kind));
+      world.closed = kind == "closed";
     } else {
-      in.fail(fmt::format("unknown keyword '{}'; expected 'landmark' or 'waypoint'", keyword));
+      in.fail(fmt::format("unknown keyword '{}'; expected 'landmark', 'waypoint' or 'route'", keyword));
     }
   }
   if (world.waypoints.size() < 2)
@@ -219,7 +248,10 @@ void write_world(const std::string& path, const World& world) {
   fmt::format_to(it,
                  "# slamkit world\n"
                  "# landmark <id> <x> <y>   point landmark, metres\n"
-                 "# waypoint <x> <y>        route point, metres, in driving order (the route is closed)\n");
+                 "# waypoint <x> <y>        route point, metres, in driving order\n"
+                 "# route open|closed       closed: back to the first waypoint at the end\n"
+                 "route {}\n",
+                 world.closed ? "closed" : "open");
   for (const Landmark& l : world.landmarks)
     fmt::format_to(it, "landmark {} {} {}\n", l.id, l.position.x(), l.position.y());
   for (const Vector2& w : world.waypoints) fmt::format_to(it, "waypoint {} {}\n", w.x(), w.y());

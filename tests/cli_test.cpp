@@ -197,3 +197,36 @@ TEST_F(Cli, MakeWorldThenSimulateIt) {
   ASSERT_EQ(s.exit_code, 0) << s.err;
   EXPECT_NE(s.out.find("400 landmarks"), std::string::npos) << s.out;
 }
+
+TEST_F(Cli, UnknownAssociationOnALogWithoutIds) {
+  const fs::path log = *work_ / "noids";
+  const Result s = slamkit("simulate --scenario cluttered --out " + log.string(), *work_);
+  ASSERT_EQ(s.exit_code, 0) << s.err;
+  const Result known = slamkit("run --data sim:" + log.string() + " --out " + (*work_ / "k").string(), *work_);
+  EXPECT_NE(known.exit_code, 0);
+  EXPECT_EQ(count_lines(known.err), 1u) << known.err;
+  EXPECT_NE(known.err.find("--assoc nn"), std::string::npos) << known.err;
+
+  const fs::path out = *work_ / "jcbb";
+  const Result r = slamkit("run --assoc jcbb --data sim:" + log.string() + " --out " + out.string(), *work_);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream in(out / "metrics.json");
+  const auto m = nlohmann::json::parse(in);
+  EXPECT_EQ(m["association"], "jcbb");
+  for (const char* key : {"association_correct", "association_wrong", "association_missed", "spurious_landmarks",
+                          "landmarks_true_seen", "clutter_observations", "landmarks_removed"})
+    EXPECT_TRUE(m.contains(key)) << key;
+  EXPECT_EQ(m["landmarks_true_seen"], 100);
+  EXPECT_TRUE(fs::exists(out / "associations.txt"));
+
+  const Result e = slamkit("evaluate " + out.string(), *work_);
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+  std::ifstream in2(out / "metrics.json");
+  const auto m2 = nlohmann::json::parse(in2);
+  EXPECT_EQ(m2["association_correct"], m["association_correct"]);
+  EXPECT_EQ(m2["spurious_landmarks"], m["spurious_landmarks"]);
+
+  const Result bad = slamkit("run --assoc fuzzy --data sim:" + log.string() + " --out " + out.string(), *work_);
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("unknown association 'fuzzy'"), std::string::npos) << bad.err;
+}

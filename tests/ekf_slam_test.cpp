@@ -146,11 +146,46 @@ TEST(EkfSlam, NewLandmarkCarriesFullCrossCovariance) {
   EXPECT_GT(min_eigenvalue, -1e-12);
 }
 
-TEST(EkfSlam, RejectsObservationWithoutIdentity) {
+TEST(EkfSlam, KnownAssociationDiscardsObservationWithoutIdentity) {
   EkfSlam ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>());
   ScanEvent scan;
   scan.observations.push_back({Vector2(5, 0), kUnknownId});
-  EXPECT_THROW(ekf.update(scan), std::invalid_argument);
+  scan.observations.push_back({Vector2(6, 0.5), 4});
+  ekf.update(scan);
+  EXPECT_EQ(ekf.num_landmarks(), 1u);
+  ASSERT_EQ(ekf.last_associations().size(), 2u);
+  EXPECT_EQ(ekf.last_associations()[0].decision, AssociationDecision::kDiscard);
+  EXPECT_EQ(ekf.last_associations()[1].decision, AssociationDecision::kNew);
+  EXPECT_EQ(ekf.last_associations()[1].landmark_id, 4);
+  EXPECT_EQ(ekf.statistics().at("discarded_observations"), 1.0);
+}
+
+TEST(EkfSlam, RemovingALandmarkEqualsMarginalisingItOut) {
+  EkfSlam ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>());
+  Control u(2);
+  u << 3.0, 0.1;
+  for (int i = 0; i < 6; ++i) {
+    ekf.predict(u, 0.2);
+    ekf.add_landmark(Vector2(8.0 + i, wrap_angle(0.9 * i)), 10 + i);
+  }
+  ekf.update_landmark(2, Vector2(9.5, wrap_angle(1.7)));
+  for (const std::size_t victim : {std::size_t{0}, std::size_t{3}, std::size_t{5}}) {
+    EkfSlam copy = ekf;
+    const Eigen::MatrixXd before = copy.covariance();
+    const Eigen::VectorXd x_before = copy.state();
+    copy.remove_landmark(victim);
+    // The marginal of the remaining variables: drop the victim's rows and columns.
+    std::vector<Eigen::Index> keep;
+    for (Eigen::Index i = 0; i < before.rows(); ++i)
+      if (i < 3 + 2 * static_cast<Eigen::Index>(victim) || i >= 5 + 2 * static_cast<Eigen::Index>(victim))
+        keep.push_back(i);
+    const Eigen::MatrixXd expected = before(keep, keep);
+    EXPECT_EQ(copy.covariance(), expected) << "victim " << victim;
+    EXPECT_EQ(copy.state(), x_before(keep));
+    EXPECT_EQ(copy.num_landmarks(), 5u);
+    EXPECT_EQ(copy.find_landmark(10 + static_cast<int>(victim)), -1);
+    if (victim < 5) EXPECT_EQ(copy.find_landmark(15), 4);
+  }
 }
 
 TEST(EkfSlam, GrowsPastInitialCapacityWithoutLosingState) {

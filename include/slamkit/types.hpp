@@ -2,6 +2,7 @@
 // Basic value types shared by every module: poses, controls, observations and the timestamped
 // events a dataset reader yields and a filter consumes.
 #include <Eigen/Core>
+#include <numbers>
 #include <variant>
 #include <vector>
 
@@ -49,6 +50,18 @@ using Event = std::variant<ControlEvent, ScanEvent>;
 struct StampedPose {
   double t = 0.0;
   Pose2 pose = Pose2::Zero();
+};
+
+/// What the sensor can see: landmarks within max_range and within +-fov/2 of the sensor axis.
+struct SensorLimits {
+  double max_range = 30.0;             // m
+  double fov = 2.0 * std::numbers::pi; // rad, full opening angle
+};
+
+/// A pose hypothesis with its normalised weight (a particle).
+struct WeightedPose {
+  Pose2 pose = Pose2::Zero();
+  double weight = 0.0;
 };
 
 /// A point landmark of a map with a 2x2 covariance (zero for ground truth).

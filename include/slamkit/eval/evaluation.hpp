@@ -8,7 +8,16 @@
 //                           after the trajectory's alignment
 //   nees_pose_*             normalised estimation error squared of the pose (3 dof), unaligned (the
 //                           map frame is the truth frame at the start), where the truth has headings
+//   association             where the truth names the landmark of every observation: each filter
+//                           landmark's origin is the true landmark of the observation that started it;
+//                           a pairing is correct when the observation's true landmark is the origin of
+//                           the landmark it updated, wrong otherwise (clutter paired with a landmark
+//                           included); missed when an observation of a true landmark the filter already
+//                           had was not paired (discarded, or started a duplicate). Spurious landmarks
+//                           are final-map landmarks started by clutter or duplicating another's origin.
+//                           With unknown association the map is paired with the truth by origin.
 #include <nlohmann/json_fwd.hpp>
+#include <map>
 #include <optional>
 #include <string>
 
@@ -17,6 +26,13 @@
 #include "slamkit/pipeline/runner.hpp"
 
 namespace slamkit {
+
+struct AssociationMetrics {
+  std::size_t correct = 0, wrong = 0, missed = 0;
+  std::size_t clutter_observations = 0, clutter_discarded = 0;
+  std::size_t spurious_landmarks = 0;
+  std::size_t landmarks_true_seen = 0;
+};
 
 struct Metrics {
   std::string filter;
@@ -30,6 +46,9 @@ struct Metrics {
   std::optional<double> map_rmse_m;
   std::size_t map_landmarks_paired = 0;
   std::optional<eval::NeesSummary> nees_pose;
+  std::optional<AssociationMetrics> association;
+  std::string association_method;
+  std::map<std::string, double> filter_statistics;
 
   eval::Se2Transform alignment;                // estimate -> truth, used for the map and the pictures
   eval::Se2Transform dead_reckoning_alignment; // dead reckoning -> truth

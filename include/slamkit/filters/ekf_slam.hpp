@@ -14,6 +14,9 @@
 #include <unordered_map>
 #include <vector>
 
+#include "slamkit/assoc/association.hpp"
+#include "slamkit/assoc/association_config.hpp"
+#include "slamkit/assoc/landmark_grid.hpp"
 #include "slamkit/filters/slam_filter.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
@@ -24,23 +27,32 @@ struct EkfSlamOptions {
   Pose2 initial_pose = Pose2::Zero();
   /// The map frame is defined by the start pose, so by default it is known exactly.
   Matrix3 initial_covariance = Matrix3::Zero();
+  AssociationConfig association;
+  /// Decides which landmarks are association candidates and which count as missed when unseen.
+  SensorLimits sensor;
 };
 
-class EkfSlam final : public SlamFilter {
+class EkfSlam final : public SlamFilter, public GaussianMapView {
  public:
   EkfSlam(std::shared_ptr<const MotionModel> motion, std::shared_ptr<const ObservationModel> observation,
           const EkfSlamOptions& options = {});
 
   std::string name() const override { return "ekf"; }
   void predict(const ControlEvent& control) override;
-  /// Known association: an observation's id names its landmark; unseen ids become new landmarks
-  /// after the scan's updates. Throws std::invalid_argument for an observation without an id.
+  /// Pairs the scan's observations with landmarks (known ids, NN or JCBB, as configured), applies
+  /// the updates, then adds the new landmarks. With known association an observation without an id
+  /// is discarded. With unknown association the map is managed: provisional landmarks are confirmed
+  /// after repeated observations, and landmarks predicted in view but repeatedly unseen are removed.
   void update(const ScanEvent& scan) override;
 
   Pose2 pose() const override { return x_.head<3>(); }
   Matrix3 pose_covariance() const override;
+  /// Every landmark in the state, provisional ones included.
   std::size_t num_landmarks() const override { return ids_.size(); }
+  /// The map: confirmed landmarks only (with known association, every landmark is confirmed).
   std::vector<Landmark> landmarks() const override;
+  const std::vector<AssociationRecord>& last_associations() const override { return last_associations_; }
+  std::map<std::string, double> statistics() const override;
 
   // ---- Lower-level operations, for association strategies, tests and benchmarks ----
   /// Eqs. (8)-(9) with an explicit control.
@@ -57,10 +69,16 @@ class EkfSlam final : public SlamFilter {
   Eigen::VectorXd state() const { return x_.head(dim_); }
   /// The full symmetric covariance (a copy: O(n^2); for tests and exports, not for the hot path).
   Eigen::MatrixXd covariance() const;
-  Vector2 landmark_position(std::size_t index) const { return x_.segment<2>(landmark_offset(index)); }
+  Vector2 landmark_position(std::size_t index) const override { return x_.segment<2>(landmark_offset(index)); }
   Matrix2 landmark_covariance(std::size_t index) const;
   /// Cross-covariance block cov(m_i, m_j).
-  Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const;
+  Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override;
+  Matrix23 landmark_pose_covariance(std::size_t index) const override;
+  /// Takes landmark `index` out of the state: its rows and columns leave the covariance. O(n^2).
+  void remove_landmark(std::size_t index);
+  /// The association step of update() alone (NN or JCBB, as configured): pairs the scan's
+  /// observations with the landmarks that can be in view. Changes no estimate.
+  std::vector<Pairing> associate_scan(const ScanEvent& scan);
   int landmark_id(std::size_t index) const { return ids_[index]; }
   /// Map index of the landmark with this id, or -1.
   long find_landmark(int id) const;
@@ -76,6 +94,19 @@ class EkfSlam final : public SlamFilter {
   Eigen::Matrix<double, N, N> diagonal_block(std::size_t offset) const;
   /// Fills pht_ with P H^T for an observation Jacobian with blocks hx (vehicle) and hm (landmark).
   void covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm);
+  void update_known(const ScanEvent& scan);
+  void update_unknown(const ScanEvent& scan);
+  /// Landmarks that can be in view from the current pose (range and field of view plus margins).
+  void find_candidates(double range_margin, double angle_margin, std::vector<std::size_t>& out) const;
+  /// Counts misses of landmarks predicted well inside the view and removes those past their limit.
+  void manage_map(const std::vector<bool>& seen);
+
+  /// Bookkeeping of map management, one per landmark, parallel to ids_.
+  struct Track {
+    int observations = 1;
+    int misses = 0;
+    bool confirmed = false;
+  };
 
   std::shared_ptr<const MotionModel> motion_;
   std::shared_ptr<const ObservationModel> observation_;
@@ -87,7 +118,19 @@ class EkfSlam final : public SlamFilter {
   Eigen::Matrix<double, Eigen::Dynamic, 2> pht_;       // capacity x 2, P H^T of the current update
   std::vector<int> ids_;
   std::unordered_map<int, std::size_t> index_of_id_;
-  std::vector<std::size_t> new_observations_;  // reused per scan
+  std::vector<Track> tracks_;
+  int next_id_ = 0;  // ids of landmarks started without a known identity
+  AssociationConfig association_;
+  SensorLimits sensor_;
+  LandmarkGrid grid_;
+  double drift_since_rebuild_ = 0.0;  // vehicle corrections since the grid was last rebuilt [m]
+  std::vector<AssociationRecord> last_associations_;
+  // Reused per scan.
+  std::vector<std::size_t> new_observations_;
+  std::vector<std::size_t> candidates_;
+  // Statistics.
+  AssociationStats association_stats_;
+  std::size_t discarded_ = 0, removed_ = 0;
 };
 
 }  // namespace slamkit

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "slamkit/assoc/association_config.hpp"
 #include "slamkit/filters/slam_filter.hpp"
 #include "slamkit/io/dataset.hpp"
 
@@ -13,6 +14,7 @@ namespace slamkit {
 struct FilterConfig {
   std::string name = "ekf";
   std::uint64_t seed = 1;
+  AssociationConfig association;
 };
 
 /// The filter names make_filter accepts.

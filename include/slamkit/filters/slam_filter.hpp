@@ -3,12 +3,23 @@
 // events and the measurement update (eq. 5) driven by observation scans, plus read access to the
 // current estimate. The runner feeds a dataset's event stream through it and never needs to know
 // which filter it drives.
+#include <map>
 #include <string>
 #include <vector>
 
 #include "slamkit/types.hpp"
 
 namespace slamkit {
+
+/// What a filter did with one observation: updated a landmark, started a new one from it, or
+/// discarded it (ambiguous, or outside every gate).
+enum class AssociationDecision { kUpdate, kNew, kDiscard };
+
+struct AssociationRecord {
+  AssociationDecision decision = AssociationDecision::kDiscard;
+  /// The landmark updated or created (its map id); kUnknownId when discarded.
+  int landmark_id = kUnknownId;
+};
 
 class SlamFilter {
  public:
@@ -25,6 +36,16 @@ class SlamFilter {
   virtual std::size_t num_landmarks() const = 0;
   /// The current map, each landmark with its marginal 2x2 covariance.
   virtual std::vector<Landmark> landmarks() const = 0;
+  /// One record per observation of the last scan given to update(), in the scan's order.
+  virtual const std::vector<AssociationRecord>& last_associations() const = 0;
+
+  /// The whole trajectory as the filter now believes it, where that differs from the sequence of
+  /// its per-step estimates (FastSLAM: the highest-weight particle's path). Empty otherwise.
+  virtual std::vector<StampedPose> smoothed_trajectory() const { return {}; }
+  /// Pose samples with their normalised weights (particle filters); empty for Gaussian filters.
+  virtual std::vector<WeightedPose> pose_samples() const { return {}; }
+  /// Filter-specific figures for metrics.json, e.g. {"particles": 100, "ess_mean": 61.2}.
+  virtual std::map<std::string, double> statistics() const { return {}; }
 };
 
 }  // namespace slamkit

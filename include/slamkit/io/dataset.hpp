@@ -12,12 +12,6 @@
 
 namespace slamkit {
 
-/// What the sensor can see: landmarks within max_range and within +-fov/2 of the sensor axis.
-struct SensorLimits {
-  double max_range = 30.0;  // m
-  double fov = kPi;         // rad, full opening angle
-};
-
 struct GroundTruth {
   std::vector<StampedPose> poses;
   /// False where the truth has positions only (GPS): then no pose NEES is computed.

@@ -22,11 +22,21 @@ struct LandmarkStdSample {
 struct RunResult {
   std::string filter;
   std::string dataset;
+  std::string association;  // "known", "nn" or "jcbb"
+  /// The estimated trajectory: the filter's smoothed trajectory where it has one (FastSLAM's best
+  /// particle), else the per-step estimates.
   std::vector<StampedPose> trajectory;
-  std::vector<Matrix3> pose_covariances;  // one per trajectory sample
+  /// The per-step (filtering) estimates with their covariances: what NEES is computed on.
+  std::vector<StampedPose> filtered;
+  std::vector<Matrix3> pose_covariances;  // one per filtered sample
   std::vector<StampedPose> dead_reckoning;
   std::vector<Landmark> map;
   std::vector<LandmarkStdSample> landmark_std;
+  /// Per scan, in stream order, what the filter did with each observation.
+  std::vector<double> scan_times;
+  std::vector<std::vector<AssociationRecord>> associations;
+  /// Filter-specific figures (SlamFilter::statistics at the end of the run).
+  std::map<std::string, double> statistics;
   std::size_t steps = 0;         // control events
   std::size_t scans = 0;         // observation scans
   std::size_t observations = 0;  // individual landmark observations

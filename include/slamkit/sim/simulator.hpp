@@ -2,10 +2,13 @@
 // The landmark-SLAM simulator of the tutorial's reference implementation (Tim Bailey's MATLAB
 // EKF-SLAM and FastSLAM simulators): a car-like vehicle drives round the waypoints of a World with a
 // rate-limited steering controller, and a range-bearing sensor sees every landmark within range.
-// The result is a Dataset: noisy controls and observations for the filter, and the ground truth.
+// Beyond the reference, the sensor may miss landmarks, report clutter and withhold identities, the
+// conditions data association has to cope with. The result is a Dataset: noisy controls and
+// observations for the filter, and the ground truth.
 #include <cstdint>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
+#include <vector>
 
 #include "slamkit/angles.hpp"
 #include "slamkit/io/dataset.hpp"
@@ -30,13 +33,18 @@ struct SimulatorConfig {
   double fov = 2.0 * kPi;               // rad, full opening angle centred on the heading
   double sigma_range = 0.1;             // m
   double sigma_bearing = deg2rad(1.0);  // rad
+  // Detection. The defaults make the reference's ideal detector.
+  double clutter_rate = 0.0;           // false detections per scan, mean of a Poisson count
+  double detection_probability = 1.0;  // of each landmark in range and field of view, independently
+  bool provide_ids = true;             // false: observations carry kUnknownId, the truth keeps the ids
   // Timing.
   double control_period = 0.025;    // s
   double observation_period = 0.2;  // s, a whole multiple of control_period
   std::uint64_t seed = 1;
 };
 
-/// The config as JSON: angles in degrees, every key named with its unit (e.g. "sigma_steer_deg").
+/// The config as JSON: angles in degrees, every key named with its unit (e.g. "sigma_steer_deg");
+/// clutter_rate is "clutter_rate_per_scan".
 nlohmann::json to_json(const SimulatorConfig& config);
 
 /// Reads what to_json writes. Missing keys keep their defaults; an unknown key, a value of the wrong
@@ -54,13 +62,42 @@ void set_platform(Dataset& dataset, const SimulatorConfig& config);
 /// Every control period the steering turns towards the current waypoint (rate- and angle-limited)
 /// and the vehicle moves with AckermannModel::predict; the step yields a ControlEvent carrying the
 /// control plus Gaussian noise and a truth pose (plus one at t = 0 for the start). Every observation
-/// period, right after that step's control, a ScanEvent holds a noisy range-bearing measurement,
-/// with its true id, of each landmark within range and field of view; a sweep that sees nothing
-/// yields no ScanEvent. The run ends when the vehicle gets back to the first waypoint after the
-/// last lap.
+/// period, right after that step's control, a ScanEvent holds a noisy range-bearing measurement of
+/// each landmark within range and field of view that the sensor detects (each with probability
+/// detection_probability), and a Poisson number (mean clutter_rate) of false detections spread
+/// uniformly over the area in range and field of view. Observations carry the landmark's id, or
+/// kUnknownId for clutter and whenever provide_ids is false; truth.observation_ids always has the
+/// true ids (kUnknownId for clutter). With clutter or without ids a scan's observations come in a
+/// random order, so that neither clutter nor identity shows in the position within the scan; else
+/// in the order of world.landmarks. A sweep that yields nothing yields no ScanEvent.
+///
+/// The vehicle drives the waypoints in order `loops` times, heading from the last back to the first
+/// between laps. A closed route ends back at the first waypoint, an open one at the last.
+///
+/// Misses, clutter and the order of a scan have random streams of their own, so with the default
+/// detection settings a seed gives the same data as before those settings existed, and changing
+/// them leaves the control and measurement noise of a seed unchanged.
 ///
 /// Throws InputError for an invalid config, a world with fewer than 2 waypoints, or a route the
 /// vehicle cannot follow (a waypoint inside its turning circle, which it would orbit forever).
 Dataset simulate(const World& world, const SimulatorConfig& config);
+
+/// A named world and config, for experiments that should be reproducible by name.
+struct Scenario {
+  std::string name;
+  World world;
+  SimulatorConfig config;
+};
+
+/// The scenarios, by name:
+///   default                 default_world() and the default config
+///   loop-closure            loop_closure_world(), one lap
+///   cluttered               default_world(), 1 clutter per scan, 90% detection, no ids
+///   loop-closure-cluttered  loop-closure with the detection of cluttered
+/// Throws InputError for an unknown name, listing the known ones.
+Scenario scenario(const std::string& name);
+
+/// The names scenario() knows, in the order above.
+std::vector<std::string> scenario_names();
 
 }  // namespace slamkit

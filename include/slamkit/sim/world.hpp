@@ -1,14 +1,16 @@
 #pragma once
-// A simulated world: the true landmark map and the closed route the simulated vehicle drives.
+// A simulated world: the true landmark map and the route the simulated vehicle drives.
 //
 // World file format (plain text, one item per line, '#' starts a comment, blank lines ignored):
 //
 //   landmark <id> <x> <y>     a point landmark; id a unique integer >= 0, x and y in metres
 //   waypoint <x> <y>          a point of the route, in driving order
+//   route open|closed         optional, at most once; closed when absent
 //
-// Lines of the two kinds may be interleaved; only the order of the waypoint lines matters. The route
-// is closed: after the last waypoint the vehicle heads back to the first. At least two waypoints are
-// required, and no waypoint may repeat the one before it. Every number must be finite.
+// Lines may be interleaved; only the order of the waypoint lines matters. A closed route ends where
+// it began: after the last waypoint the vehicle heads back to the first. An open route ends at its
+// last waypoint. At least two waypoints are required, and no waypoint may repeat the one before it.
+// Every number must be finite.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -20,6 +22,7 @@ namespace slamkit {
 struct World {
   std::vector<Landmark> landmarks;  // covariance zero: this is the truth
   std::vector<Vector2> waypoints;   // driving order; the vehicle starts at the first, facing the second
+  bool closed = true;               // false: the route ends at the last waypoint (see simulate())
 };
 
 /// Parameters of a generated world: a rounded rectangle of width x height metres (corner radius a
@@ -41,6 +44,13 @@ struct WorldGenOptions {
 
 /// The built-in world: generate_world with the default options, ~366 m around, 100 landmarks.
 World default_world();
+
+/// The loop-closure test bed: a 300 m x 200 m loop (generate_world's shape, ~910 m around) with
+/// 150 landmarks, sparse enough that the vehicle sees about nine at a time (3 to 17), so that the pose
+/// uncertainty of a filter grows markedly over the lap. The route is open: one lap and then ~80 m on
+/// along the first straight, so that a single loop returns to the start, re-observes the first
+/// landmarks (the loop closure) and goes on a little through the already mapped area.
+World loop_closure_world();
 
 /// Throws InputError when an option is out of range (non-positive size, empty band, ...).
 World generate_world(const WorldGenOptions& options);

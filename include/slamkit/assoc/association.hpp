@@ -1,0 +1,63 @@
+#pragma once
+// Data association: which landmark, if any, each observation of a scan comes from. Written against
+// GaussianMapView, the part of a filter's belief association needs, so every filter can use it.
+//
+//  - Nearest neighbour (individual compatibility): each observation's Mahalanobis distance to every
+//    candidate landmark; pairs are taken greedily in order of increasing distance, each landmark at
+//    most once per scan. An unpaired observation beyond the new-landmark gate of every candidate
+//    starts a landmark; one between the gates is ambiguous and discarded.
+//  - JCBB (Neira and Tardos, joint compatibility branch and bound): searches the pairings of a whole
+//    scan for the hypothesis with the most pairings whose JOINT innovation passes the chi-square
+//    gate (2k dof), ties broken by the smaller joint Mahalanobis distance. The joint covariance
+//    includes the correlations through the vehicle and the map, which is what rejects pairings that
+//    are individually plausible but jointly inconsistent. The joint distance is extended by one
+//    block Cholesky step per node, O(k^2) per node for k pairings.
+#include <Eigen/Core>
+#include <span>
+#include <vector>
+
+#include "slamkit/assoc/association_config.hpp"
+#include "slamkit/filters/slam_filter.hpp"
+#include "slamkit/models/observation_model.hpp"
+
+namespace slamkit {
+
+/// The Gaussian belief over the vehicle pose and a map, as association sees it.
+class GaussianMapView {
+ public:
+  virtual ~GaussianMapView() = default;
+  virtual Pose2 pose() const = 0;
+  virtual Matrix3 pose_covariance() const = 0;
+  virtual Vector2 landmark_position(std::size_t index) const = 0;
+  /// cov(m_index, x_vehicle), 2x3.
+  virtual Matrix23 landmark_pose_covariance(std::size_t index) const = 0;
+  /// cov(m_i, m_j); the marginal covariance when i == j.
+  virtual Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const = 0;
+};
+
+/// Squared Mahalanobis distance thresholds derived from the configured probabilities (2 dof).
+struct Gates {
+  double accept = 0.0;
+  double new_landmark = 0.0;
+  static Gates from(const AssociationConfig& config);
+};
+
+/// The decision for one observation; `landmark` is a map index, meaningful for kUpdate only.
+struct Pairing {
+  AssociationDecision decision = AssociationDecision::kDiscard;
+  std::size_t landmark = 0;
+};
+
+struct AssociationStats {
+  std::size_t candidate_pairs = 0;  // observation-landmark pairs evaluated
+  std::size_t jcbb_nodes = 0;       // search nodes JCBB expanded
+  bool jcbb_budget_exhausted = false;
+};
+
+/// Pairs each of `observations` with one of `candidates` (map indices of landmarks that can be in
+/// view) or decides it is new or ambiguous. `method` must be kNearestNeighbour or kJcbb.
+std::vector<Pairing> associate(std::span<const Observation> observations, std::span<const std::size_t> candidates,
+                               const GaussianMapView& belief, const ObservationModel& model,
+                               const AssociationConfig& config, AssociationStats* stats = nullptr);
+
+}  // namespace slamkit

@@ -1,0 +1,46 @@
+#pragma once
+// Settings of data association and map management, shared by every filter: how observations are
+// paired with landmarks (known identities, nearest neighbour, joint compatibility), the chi-square
+// gates, and when provisional landmarks are confirmed or removed.
+#include <cstddef>
+#include <string>
+
+namespace slamkit {
+
+enum class AssociationMethod {
+  kKnown,             // the observation's id names its landmark
+  kNearestNeighbour,  // individual compatibility, Mahalanobis nearest neighbour with two gates
+  kJcbb,              // joint compatibility branch and bound over a whole scan
+};
+
+/// "known", "nn" or "jcbb"; throws std::invalid_argument naming the accepted values otherwise.
+AssociationMethod parse_association_method(const std::string& name);
+std::string to_string(AssociationMethod method);
+
+struct AssociationConfig {
+  AssociationMethod method = AssociationMethod::kKnown;
+  /// An observation is paired with a landmark only if its innovation's Mahalanobis distance squared
+  /// lies inside this chi-square quantile (2 dof): 0.99 -> 9.21. JCBB applies the same confidence
+  /// to the joint innovation of a whole hypothesis (2k dof).
+  double accept_probability = 0.99;
+  /// An unpaired observation starts a new landmark only if it lies outside this quantile for every
+  /// candidate (0.9999 -> 18.4); between the two gates it is ambiguous and discarded.
+  double new_landmark_probability = 0.9999;
+  /// A new landmark is provisional until it has been observed this many times (the first included).
+  int confirm_after = 3;
+  /// A provisional landmark predicted in view but not seen this many scans in a row is removed.
+  int provisional_max_misses = 3;
+  /// A confirmed landmark predicted in view but not seen this many scans in a row is removed
+  /// (0: never remove confirmed landmarks).
+  int confirmed_max_misses = 8;
+  /// "In view" for the miss count means inside the sensor's range and field of view shrunk by these
+  /// margins, so landmarks at the edge are not punished for the sensor's noise.
+  double view_margin_m = 2.0;
+  double view_margin_rad = 0.1;
+  /// JCBB explores at most this many nodes of its search tree per scan. Past the budget it returns
+  /// the best hypothesis found so far; the first one it completes is the nearest-neighbour-like
+  /// descent, so the budget degrades JCBB towards NN rather than towards nothing.
+  std::size_t jcbb_max_nodes = 20000;
+};
+
+}  // namespace slamkit

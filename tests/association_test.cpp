@@ -1,0 +1,169 @@
+// Data association: the gates, nearest neighbour, joint compatibility (JCBB), and the grid that finds
+// the candidates.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "slamkit/angles.hpp"
+#include "slamkit/assoc/association.hpp"
+#include "slamkit/assoc/landmark_grid.hpp"
+
+using namespace slamkit;
+
+namespace {
+
+/// A belief with independent, well-known landmarks and a pose whose y is uncertain.
+class FakeBelief final : public GaussianMapView {
+ public:
+  FakeBelief(Pose2 pose, Matrix3 pose_cov, std::vector<Vector2> landmarks, double landmark_sigma)
+      : pose_(pose), pose_cov_(pose_cov), landmarks_(std::move(landmarks)), sigma_(landmark_sigma) {}
+  Pose2 pose() const override { return pose_; }
+  Matrix3 pose_covariance() const override { return pose_cov_; }
+  Vector2 landmark_position(std::size_t i) const override { return landmarks_[i]; }
+  Matrix23 landmark_pose_covariance(std::size_t) const override { return Matrix23::Zero(); }
+  Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override {
+    return i == j ? Matrix2(sigma_ * sigma_ * Matrix2::Identity()) : Matrix2::Zero();
+  }
+
+ private:
+  Pose2 pose_;
+  Matrix3 pose_cov_;
+  std::vector<Vector2> landmarks_;
+  double sigma_;
+};
+
+AssociationConfig config_for(AssociationMethod method) {
+  AssociationConfig c;
+  c.method = method;
+  return c;
+}
+
+}  // namespace
+
+TEST(Gates, AreChiSquareQuantilesWithTwoDegreesOfFreedom) {
+  const Gates g = Gates::from(AssociationConfig{});
+  EXPECT_NEAR(g.accept, 9.2103, 1e-3);
+  EXPECT_NEAR(g.new_landmark, 18.4207, 1e-3);
+  AssociationConfig bad;
+  bad.accept_probability = 0.9999;
+  bad.new_landmark_probability = 0.99;
+  EXPECT_THROW(Gates::from(bad), std::invalid_argument);
+  EXPECT_THROW(parse_association_method("fuzzy"), std::invalid_argument);
+  EXPECT_EQ(parse_association_method("jcbb"), AssociationMethod::kJcbb);
+  EXPECT_EQ(to_string(AssociationMethod::kNearestNeighbour), "nn");
+}
+
+TEST(Association, AmbiguityThatNearestNeighbourGetsWrongAndJcbbGetsRight) {
+  // Landmarks A and B lie 1.5 m apart; C is further off. The vehicle is really 0.8 m to the right of
+  // where it believes it is (y uncertain, sigma 1 m), so everything appears shifted 0.8 m left.
+  // Seen alone, the observation of A is nearer to B (0.7 m) than to A (0.8 m); jointly with the
+  // observation of C, only "A and C" explains both by one common shift.
+  const std::vector<Vector2> map = {{10.0, 0.0}, {10.0, 1.5}, {10.0, -5.0}};  // A, B, C
+  const Pose2 believed(0, 0, 0);
+  const Pose2 actual(0, -0.8, 0);
+  const FakeBelief belief(believed, Eigen::Vector3d(1e-4, 1.0, 1e-8).asDiagonal(), map, 0.01);
+  RangeBearingModel::Params params;
+  params.sigma_range = 0.05;
+  params.sigma_bearing = 0.005;
+  const RangeBearingModel model(params);
+  const std::vector<Observation> scan = {{model.predict(actual, map[0]), kUnknownId},
+                                         {model.predict(actual, map[2]), kUnknownId}};
+  const std::vector<std::size_t> candidates = {0, 1, 2};
+
+  const auto nn = associate(scan, candidates, belief, model, config_for(AssociationMethod::kNearestNeighbour));
+  ASSERT_EQ(nn[0].decision, AssociationDecision::kUpdate);
+  EXPECT_EQ(nn[0].landmark, 1u) << "nearest neighbour takes the individually nearest, B";
+  EXPECT_EQ(nn[1].landmark, 2u);
+
+  AssociationStats stats;
+  const auto jcbb = associate(scan, candidates, belief, model, config_for(AssociationMethod::kJcbb), &stats);
+  ASSERT_EQ(jcbb[0].decision, AssociationDecision::kUpdate);
+  EXPECT_EQ(jcbb[0].landmark, 0u) << "the joint test sees the common shift: A";
+  ASSERT_EQ(jcbb[1].decision, AssociationDecision::kUpdate);
+  EXPECT_EQ(jcbb[1].landmark, 2u);
+  EXPECT_GT(stats.jcbb_nodes, 0u);
+  EXPECT_FALSE(stats.jcbb_budget_exhausted);
+}
+
+TEST(Association, GatesDecideBetweenUpdateNewAndDiscard) {
+  const std::vector<Vector2> map = {{10.0, 0.0}};
+  const FakeBelief belief(Pose2::Zero(), Eigen::Vector3d(0.01, 0.01, 1e-6).asDiagonal(), map, 0.05);
+  const RangeBearingModel model;
+  const Matrix2 s_approx = Eigen::Vector2d(0.01 + 0.0125, 0.01 * 0.0003 + 0.0003).asDiagonal();
+  (void)s_approx;
+  const std::vector<std::size_t> candidates = {0};
+  for (const auto method : {AssociationMethod::kNearestNeighbour, AssociationMethod::kJcbb}) {
+    // On top of the landmark: update. Far away: new. In between the gates: discarded as ambiguous.
+    const std::vector<Observation> scan = {{Vector2(10.0, 0.0), kUnknownId},
+                                           {Vector2(20.0, 1.0), kUnknownId},
+                                           {Vector2(10.5, 0.0), kUnknownId}};
+    const auto out = associate(scan, candidates, belief, model, config_for(method));
+    EXPECT_EQ(out[0].decision, AssociationDecision::kUpdate);
+    EXPECT_EQ(out[1].decision, AssociationDecision::kNew);
+    EXPECT_EQ(out[2].decision, AssociationDecision::kDiscard) << to_string(method);
+  }
+}
+
+TEST(Association, EachLandmarkIsPairedAtMostOncePerScan) {
+  const std::vector<Vector2> map = {{10.0, 0.0}, {30.0, 30.0}};
+  const FakeBelief belief(Pose2::Zero(), Eigen::Vector3d(0.04, 0.04, 1e-4).asDiagonal(), map, 0.05);
+  const RangeBearingModel model;
+  const std::vector<Observation> scan = {{Vector2(10.0, 0.0), kUnknownId}, {Vector2(10.05, 0.002), kUnknownId}};
+  const std::vector<std::size_t> candidates = {0, 1};
+  for (const auto method : {AssociationMethod::kNearestNeighbour, AssociationMethod::kJcbb}) {
+    const auto out = associate(scan, candidates, belief, model, config_for(method));
+    const int updates = static_cast<int>(std::count_if(out.begin(), out.end(), [](const Pairing& p) {
+      return p.decision == AssociationDecision::kUpdate;
+    }));
+    EXPECT_EQ(updates, 1) << to_string(method);
+  }
+}
+
+TEST(Association, JcbbBudgetReturnsTheBestHypothesisFoundSoFar) {
+  // Many observations of a regular row of landmarks: a large search tree.
+  std::vector<Vector2> map;
+  for (int i = 0; i < 30; ++i) map.push_back(Vector2(10.0, -15.0 + i));
+  const FakeBelief belief(Pose2::Zero(), Eigen::Vector3d(0.3, 0.3, 1e-4).asDiagonal(), map, 0.05);
+  const RangeBearingModel model;
+  std::vector<Observation> scan;
+  for (const Vector2& m : map) scan.push_back({model.predict(Pose2::Zero(), m), kUnknownId});
+  std::vector<std::size_t> candidates(map.size());
+  for (std::size_t i = 0; i < map.size(); ++i) candidates[i] = i;
+  AssociationConfig config = config_for(AssociationMethod::kJcbb);
+  config.jcbb_max_nodes = 200;
+  AssociationStats stats;
+  const auto out = associate(scan, candidates, belief, model, config, &stats);
+  EXPECT_LE(stats.jcbb_nodes, 200u);
+  std::size_t correct = 0;
+  for (std::size_t i = 0; i < out.size(); ++i)
+    correct += out[i].decision == AssociationDecision::kUpdate && out[i].landmark == i;
+  EXPECT_EQ(correct, map.size()) << "the first descent is already the right answer here";
+}
+
+TEST(LandmarkGrid, QueryFindsEveryLandmarkInTheDiscAndFewOthers) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-500.0, 500.0);
+  std::vector<Vector2> points(5000);
+  for (auto& p : points) p = Vector2(u(rng), u(rng));
+  LandmarkGrid grid(10.0);
+  grid.rebuild(points);
+  for (int trial = 0; trial < 50; ++trial) {
+    const Vector2 centre(u(rng), u(rng));
+    std::vector<std::size_t> found;
+    grid.query(centre, 30.0, found);
+    std::sort(found.begin(), found.end());
+    std::size_t inside = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if ((points[i] - centre).norm() > 30.0) continue;
+      ++inside;
+      EXPECT_TRUE(std::binary_search(found.begin(), found.end(), i));
+    }
+    EXPECT_LE(found.size(), 3 * inside + 20) << "the query must stay local";
+  }
+  // Moving a landmark re-bins it.
+  grid.move(7, Vector2(1000.0, 1000.0));
+  std::vector<std::size_t> found;
+  grid.query(Vector2(1000.0, 1000.0), 1.0, found);
+  EXPECT_NE(std::find(found.begin(), found.end(), 7u), found.end());
+}
