@@ -8,7 +8,7 @@ SLAMKIT := $(BUILD_DIR)/slamkit
 
 # Everything the build and the tests need, all from Debian 12.
 DEB_PACKAGES := cmake make g++ libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev \
-                nlohmann-json3-dev libcli11-dev libfmt-dev
+                nlohmann-json3-dev libcli11-dev libfmt-dev zlib1g-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps build demo test bench clean

@@ -103,11 +103,20 @@ int main(int argc, char** argv) {
   auto* run_cmd = app.add_subcommand("run", "Run a SLAM filter on a dataset and evaluate it");
   FilterConfig filter;
   std::string data_spec, run_out, assoc_name = "known";
-  run_cmd->add_option("--filter", filter.name, "Filter: ekf")->capture_default_str();
+  run_cmd->add_option("--filter", filter.name, "Filter: ekf, fastslam1, fastslam2")->capture_default_str();
   run_cmd->add_option("--assoc", assoc_name, "Data association: known (ids from the log), nn, jcbb")
       ->capture_default_str();
   run_cmd->add_option("--data", data_spec, "Dataset, as KIND:PATH (sim:DIR)")->required();
   run_cmd->add_option("--seed", filter.seed, "Random seed for stochastic filters")->capture_default_str();
+  run_cmd->add_option("--particles", filter.particles, "FastSLAM: number of particles")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  run_cmd->add_option("--resample", filter.resample, "FastSLAM: multinomial, stratified, systematic or residual")
+      ->capture_default_str();
+  run_cmd->add_option("--resample-when", filter.resample_when,
+                      "FastSLAM: always, every:K (scans) or ess:F (effective sample size below F*N)")
+      ->capture_default_str();
+  run_cmd->add_option("--threads", filter.threads, "FastSLAM: worker threads (0: all cores)")->capture_default_str();
   run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots")->required();
 
   // ---- evaluate ----

@@ -3,11 +3,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cstdlib>
+#include <filesystem>
 #include <iterator>
 #include <string_view>
 
 #include "slamkit/error.hpp"
 #include "slamkit/io/sim_log.hpp"
+#include "slamkit/io/victoria_park.hpp"
 
 namespace slamkit {
 namespace {
@@ -15,11 +18,17 @@ namespace {
 struct DatasetKind {
   std::string_view name;
   Dataset (*read)(const std::string& path);
+  /// Where the dataset lives inside a datasets folder ($SLAMKIT_DATA), for specs without a path;
+  /// empty if the kind has no standard place.
+  std::string_view default_folder;
 };
+
+Dataset read_victoria_park_defaults(const std::string& path) { return read_victoria_park(path); }
 
 // Every reader slamkit has, by the kind that selects it in a "kind:PATH" spec.
 constexpr DatasetKind kKinds[] = {
-    {"sim", &read_sim_log},
+    {"sim", &read_sim_log, ""},
+    {"victoria-park", &read_victoria_park_defaults, "victoria_park"},
 };
 
 std::string kind_names() {
@@ -30,19 +39,32 @@ std::string kind_names() {
 
 }  // namespace
 
+std::string datasets_folder() {
+  if (const char* env = std::getenv("SLAMKIT_DATA"); env != nullptr && *env != '\0') return env;
+  return "../shared/datasets";
+}
+
 Dataset load_dataset(const std::string& spec) {
   const std::size_t colon = spec.find(':');
-  if (colon == std::string::npos)
-    throw InputError(spec, 0,
-                     fmt::format("expected a dataset as KIND:PATH with KIND one of: {}", kind_names()));
   const std::string_view kind = std::string_view(spec).substr(0, colon);
-  const std::string path = spec.substr(colon + 1);
   const auto match = std::find_if(std::begin(kKinds), std::end(kKinds),
                                   [&](const DatasetKind& k) { return k.name == kind; });
-  if (match == std::end(kKinds))
-    throw InputError(spec, 0,
-                     fmt::format("unknown dataset kind '{}'; expected one of: {}", kind, kind_names()));
-  if (path.empty()) throw InputError(spec, 0, fmt::format("expected a path after '{}:'", kind));
+  if (match == std::end(kKinds)) {
+    if (colon == std::string::npos)
+      throw InputError(spec, 0, fmt::format("expected a dataset as KIND:PATH with KIND one of: {}", kind_names()));
+    throw InputError(spec, 0, fmt::format("unknown dataset kind '{}'; expected one of: {}", kind, kind_names()));
+  }
+  std::string path = colon == std::string::npos ? std::string() : spec.substr(colon + 1);
+  if (path.empty()) {
+    if (match->default_folder.empty()) throw InputError(spec, 0, fmt::format("expected a path after '{}:'", kind));
+    // A real dataset named without a path is looked up in the datasets folder.
+    path = (std::filesystem::path(datasets_folder()) / match->default_folder).string();
+    if (!std::filesystem::exists(path))
+      throw InputError(spec, 0,
+                       fmt::format("no path given and {} does not exist; set SLAMKIT_DATA to the folder holding "
+                                   "{}/ or give {}:PATH",
+                                   path, match->default_folder, kind));
+  }
   Dataset dataset = match->read(path);
   dataset.spec = spec;
   return dataset;

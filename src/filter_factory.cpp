@@ -2,10 +2,11 @@
 
 #include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/filters/factory.hpp"
+#include "slamkit/filters/fastslam.hpp"
 
 namespace slamkit {
 
-std::vector<std::string> filter_names() { return {"ekf"}; }
+std::vector<std::string> filter_names() { return {"ekf", "fastslam1", "fastslam2"}; }
 
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset) {
   if (config.name == "ekf") {
@@ -14,6 +15,19 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
     options.association = config.association;
     options.sensor = dataset.sensor;
     return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
+  }
+  if (config.name == "fastslam1" || config.name == "fastslam2") {
+    FastSlamConfig fs;
+    fs.version = config.name == "fastslam1" ? 1 : 2;
+    fs.particles = config.particles;
+    fs.resample = parse_resample_method(config.resample);
+    fs.policy = parse_resample_policy(config.resample_when);
+    fs.association = config.association;
+    fs.seed = config.seed;
+    fs.threads = config.threads;
+    fs.initial_pose = dataset.initial_pose;
+    fs.sensor = dataset.sensor;
+    return std::make_unique<FastSlam>(dataset.motion, dataset.observation, fs);
   }
   std::string names;
   for (const auto& n : filter_names()) names += (names.empty() ? "" : ", ") + n;

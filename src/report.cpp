@@ -19,6 +19,8 @@ std::vector<Vector2> positions(const std::vector<StampedPose>& poses, const eval
 
 std::string filter_title(const std::string& filter) {
   if (filter == "ekf") return "EKF-SLAM";
+  if (filter == "fastslam1") return "FastSLAM 1.0";
+  if (filter == "fastslam2") return "FastSLAM 2.0";
   return filter;
 }
 
@@ -47,7 +49,24 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
     lm.covariance = rotation * lm.covariance * rotation.transpose();
     map.estimated_landmarks.push_back(lm);
   }
-  plot::write_map_svg((fs::path(dir) / "map.svg").string(), map);
+  plot::Figure figure = plot::map_figure(map);
+  if (!run.particles.empty()) {
+    // The clouds, thinned to at most ~100 particles per sample time so the map stays readable.
+    std::vector<Vector2> cloud;
+    std::size_t per_time = 0;
+    double t = -1.0;
+    for (const ParticleSample& s : run.particles) {
+      per_time = s.t == t ? per_time + 1 : 0;
+      t = s.t;
+      if (per_time < 100) cloud.push_back(align.apply(Vector2(s.particle.pose.head<2>())));
+    }
+    plot::MarkerStyle style;
+    style.color = plot::palette::kPurple;
+    style.size = 2.0;
+    style.opacity = 0.35;
+    figure.add_markers(cloud, style, "particles (every second)");
+  }
+  figure.save((fs::path(dir) / "map.svg").string());
 
   plot::StdPlotData std_plot;
   std_plot.title = "Landmark uncertainty over time: " + title;

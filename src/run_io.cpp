@@ -98,6 +98,31 @@ void read_associations(const std::string& path, RunResult& run) {
   }
 }
 
+void write_particles(const std::string& path, const std::vector<ParticleSample>& samples) {
+  std::ofstream out(path);
+  if (!out) throw InputError(path, 0, "cannot open file for writing");
+  out << "# t x y theta weight  (particle clouds over time)\n";
+  for (const auto& s : samples)
+    out << fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} {:.6g}\n", s.t, s.particle.pose.x(), s.particle.pose.y(),
+                       s.particle.pose.z(), s.particle.weight);
+  if (!out) throw InputError(path, 0, "write failed");
+}
+
+std::vector<ParticleSample> read_particles(const std::string& path) {
+  std::vector<ParticleSample> samples;
+  TextReader in(path);
+  while (in.next()) {
+    in.expect_fields(5, "t x y theta weight");
+    ParticleSample s;
+    s.t = in.number(0, "t");
+    s.particle.pose = Pose2(in.number(1, "x"), in.number(2, "y"), in.number(3, "theta"));
+    s.particle.weight = in.number(4, "weight");
+    if (s.particle.weight < 0) in.fail("expected a non-negative weight");
+    samples.push_back(s);
+  }
+  return samples;
+}
+
 }  // namespace
 
 void write_run(const std::string& dir, const RunResult& run) {
@@ -123,6 +148,11 @@ void write_run(const std::string& dir, const RunResult& run) {
   write_map(path_in(dir, "map.txt"), run.map);
   write_landmark_std(path_in(dir, "landmark_std.txt"), run.landmark_std);
   write_associations(path_in(dir, "associations.txt"), run.scan_times, run.associations);
+  const std::string particles_path = path_in(dir, "particles.txt");
+  if (!run.particles.empty())
+    write_particles(particles_path, run.particles);
+  else
+    fs::remove(particles_path);
 
   const nlohmann::json info = {{"filter", run.filter},
                                {"dataset", run.dataset},
@@ -172,6 +202,7 @@ RunResult read_run(const std::string& dir) {
   run.map = read_map(path_in(dir, "map.txt"));
   run.landmark_std = read_landmark_std(path_in(dir, "landmark_std.txt"));
   read_associations(path_in(dir, "associations.txt"), run);
+  if (fs::exists(path_in(dir, "particles.txt"))) run.particles = read_particles(path_in(dir, "particles.txt"));
   if (run.associations.size() != run.scans)
     throw InputError(path_in(dir, "associations.txt"), 0,
                      fmt::format("expected the associations of {} scans, found {}", run.scans, run.associations.size()));

@@ -59,6 +59,7 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
         for (const Landmark& lm : filter.landmarks())
           result.landmark_std.push_back({scan.t, lm.id, std::sqrt(std::max(0.0, lm.covariance(0, 0))),
                                          std::sqrt(std::max(0.0, lm.covariance(1, 1)))});
+        for (const WeightedPose& p : filter.pose_samples()) result.particles.push_back({scan.t, p});
       }
     }
   }

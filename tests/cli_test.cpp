@@ -230,3 +230,29 @@ TEST_F(Cli, UnknownAssociationOnALogWithoutIds) {
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.err.find("unknown association 'fuzzy'"), std::string::npos) << bad.err;
 }
+
+TEST_F(Cli, FastSlamRunWritesParticlesAndItsStatistics) {
+  const fs::path out = *work_ / "fastslam2";
+  const Result r = slamkit("run --filter fastslam2 --particles 20 --resample residual --resample-when every:5 --data sim:" +
+                               (*work_ / "sim").string() + " --out " + out.string(),
+                           *work_);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* f : {"trajectory.tum", "filtered.tum", "particles.txt", "map.svg"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  std::ifstream in(out / "metrics.json");
+  const auto m = nlohmann::json::parse(in);
+  EXPECT_EQ(m["filter"], "fastslam2");
+  EXPECT_EQ(m["particles"], 20);
+  EXPECT_TRUE(m.contains("ess_mean"));
+  EXPECT_TRUE(m.contains("resamples"));
+  EXPECT_LT(m["ate_rmse_m"].get<double>(), 0.5 * m["dead_reckoning_ate_rmse_m"].get<double>());
+  const Result e = slamkit("evaluate " + out.string(), *work_);
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+
+  const Result bad = slamkit("run --filter fastslam1 --resample-when sometimes --data sim:" + (*work_ / "sim").string() +
+                                 " --out " + out.string(),
+                             *work_);
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_EQ(count_lines(bad.err), 1u) << bad.err;
+  EXPECT_NE(bad.err.find("sometimes"), std::string::npos) << bad.err;
+}

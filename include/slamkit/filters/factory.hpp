@@ -15,6 +15,11 @@ struct FilterConfig {
   std::string name = "ekf";
   std::uint64_t seed = 1;
   AssociationConfig association;
+  // Particle filters only.
+  int particles = 100;
+  std::string resample = "systematic";  // multinomial | stratified | systematic | residual
+  std::string resample_when = "ess:0.5";  // always | every:K | ess:F
+  unsigned threads = 0;                   // 0: all cores
 };
 
 /// The filter names make_filter accepts.

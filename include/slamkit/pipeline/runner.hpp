@@ -11,6 +11,12 @@
 
 namespace slamkit {
 
+/// One particle at one time, for pictures of the cloud.
+struct ParticleSample {
+  double t = 0.0;
+  WeightedPose particle;
+};
+
 struct LandmarkStdSample {
   double t = 0.0;
   int id = 0;
@@ -35,6 +41,8 @@ struct RunResult {
   /// Per scan, in stream order, what the filter did with each observation.
   std::vector<double> scan_times;
   std::vector<std::vector<AssociationRecord>> associations;
+  /// Particle clouds (particle filters only), sampled like landmark_std.
+  std::vector<ParticleSample> particles;
   /// Filter-specific figures (SlamFilter::statistics at the end of the run).
   std::map<std::string, double> statistics;
   std::size_t steps = 0;         // control events
@@ -44,7 +52,8 @@ struct RunResult {
 };
 
 struct RunOptions {
-  /// Landmark standard deviations are sampled at most this often [s] (every scan if 0).
+  /// Landmark standard deviations and particle clouds are sampled at most this often [s] (every
+  /// scan if 0).
   double std_interval_s = 1.0;
 };
 

@@ -1,0 +1,829 @@
+#include "slamkit/filters/fastslam.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <condition_variable>
+#include <exception>
+#include <functional>
+#include <limits>
+#include <mutex>
+#include <random>
+#include <span>
+#include <stdexcept>
+#include <thread>
+#include <tuple>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "slamkit/angles.hpp"
+#include "slamkit/eval/chi_square.hpp"
+#include "slamkit/filters/landmark_tree.hpp"
+
+namespace slamkit {
+
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093454836;
+constexpr double kMinusInf = -std::numeric_limits<double>::infinity();
+
+// Work per task below which handing work to another thread costs more than it saves (a wake-up and
+// a join are some microseconds): a prediction is well under a microsecond per particle, a scan
+// update some microseconds.
+constexpr std::size_t kPredictGrain = 256;
+constexpr std::size_t kUpdateGrain = 4;
+
+// The candidate grid is rebuilt this often [scans]; landmarks appended in between are candidates
+// regardless of position, so the only staleness is estimates moving, allowed for by kDriftMargin.
+constexpr std::size_t kGridRebuildScans = 5;
+constexpr double kDriftMargin = 5.0;  // m
+
+std::uint64_t splitmix64(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+/// Inverse and log-determinant of a 2x2 covariance; false if it is not positive definite.
+bool invert_spd(const Matrix2& s, Matrix2& inverse, double& log_det) {
+  const double det = s(0, 0) * s(1, 1) - s(0, 1) * s(1, 0);
+  if (!(det > 0.0) || !(s(0, 0) > 0.0) || !std::isfinite(det)) return false;
+  inverse << s(1, 1), -s(0, 1), -s(1, 0), s(0, 0);
+  inverse /= det;
+  log_det = std::log(det);
+  return true;
+}
+
+/// The symmetric part of a covariance expression: rounding breaks symmetry, and a 2x2 inverse and
+/// an LDLT read both triangles.
+template <class Derived>
+typename Derived::PlainObject symmetric(const Eigen::MatrixBase<Derived>& expression) {
+  const typename Derived::PlainObject m = expression;
+  return 0.5 * (m + m.transpose());
+}
+
+/// A draw from N(mean, cov) for a positive semi-definite cov: the motion noise of a two-entry
+/// control makes a rank-2 pose covariance, which LDLT factors where LLT would fail.
+Pose2 sample_gaussian(const Pose2& mean, const Matrix3& cov, std::mt19937_64& rng) {
+  const Eigen::LDLT<Matrix3> ldlt(cov);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Eigen::Vector3d e;
+  for (int i = 0; i < 3; ++i) e[i] = normal(rng);
+  const Eigen::Vector3d scaled = ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().cwiseProduct(e);
+  const Eigen::Vector3d correlated = ldlt.matrixL() * scaled;
+  Pose2 x = mean + ldlt.transpositionsP().transpose() * correlated;
+  x[2] = wrap_angle(x[2]);
+  return x;
+}
+
+// ---- Worker pool ---------------------------------------------------------------------------------
+
+/// Runs a loop body over [0, n) in contiguous chunks on persistent threads plus the calling thread.
+class WorkerPool {
+ public:
+  using Body = std::function<void(std::size_t begin, std::size_t end)>;
+
+  explicit WorkerPool(unsigned threads) {
+    for (unsigned i = 1; i < threads; ++i) workers_.emplace_back([this] { loop(); });
+  }
+  ~WorkerPool() {
+    {
+      const std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    for (std::thread& t : workers_) t.join();
+  }
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+
+  unsigned size() const { return static_cast<unsigned>(workers_.size()) + 1; }
+
+  /// At most size() chunks of at least `grain` items; one chunk runs inline with no hand-over.
+  /// Rethrows the first exception a chunk threw, after every chunk has finished.
+  void run(std::size_t n, std::size_t grain, const Body& body) {
+    const std::size_t chunks = std::min<std::size_t>(size(), std::max<std::size_t>(1, n / grain));
+    if (chunks <= 1) {
+      if (n > 0) body(0, n);
+      return;
+    }
+    {
+      const std::lock_guard lock(mutex_);
+      body_ = &body;
+      n_ = n;
+      chunks_ = chunks;
+      next_.store(0, std::memory_order_relaxed);
+      busy_ = workers_.size();
+      ++generation_;
+    }
+    wake_.notify_all();
+    work();
+    std::unique_lock lock(mutex_);
+    done_.wait(lock, [this] { return busy_ == 0; });
+    if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+  }
+
+ private:
+  void work() {
+    for (std::size_t c; (c = next_.fetch_add(1, std::memory_order_relaxed)) < chunks_;) {
+      try {
+        (*body_)(c * n_ / chunks_, (c + 1) * n_ / chunks_);
+      } catch (...) {
+        const std::lock_guard lock(mutex_);
+        if (!error_) error_ = std::current_exception();
+      }
+    }
+  }
+  void loop() {
+    std::uint64_t seen = 0;
+    std::unique_lock lock(mutex_);
+    for (;;) {
+      wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
+      if (stop_) return;
+      seen = generation_;
+      lock.unlock();
+      work();
+      lock.lock();
+      if (--busy_ == 0) done_.notify_one();
+    }
+  }
+
+  std::vector<std::thread> workers_;
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  // Set under the mutex before a generation starts and read-only until every worker is done.
+  const Body* body_ = nullptr;
+  std::size_t n_ = 0, chunks_ = 0;
+  std::atomic<std::size_t> next_{0};
+  std::size_t busy_ = 0;
+  std::uint64_t generation_ = 0;
+  bool stop_ = false;
+  std::exception_ptr error_;
+};
+
+// ---- Trajectory history --------------------------------------------------------------------------
+
+/// One pose of a particle's path. Paths share their common past: resampling copies the pointer.
+struct PathNode {
+  PathNode(double t_, const Pose2& pose_, std::shared_ptr<PathNode> parent_)
+      : t(t_), pose(pose_), parent(std::move(parent_)) {}
+  // Unlinks the ancestors this node alone keeps alive one at a time: releasing them recursively
+  // would nest one destructor call per step of a path thousands of steps long.
+  ~PathNode() {
+    std::shared_ptr<PathNode> next = std::move(parent);
+    while (next && next.use_count() == 1) next = std::move(next->parent);
+  }
+  PathNode(const PathNode&) = delete;
+  PathNode& operator=(const PathNode&) = delete;
+
+  double t;
+  Pose2 pose;
+  std::shared_ptr<PathNode> parent;
+};
+
+// ---- Candidate grid ------------------------------------------------------------------------------
+
+/// Landmark indices by position, over every particle's version of every landmark.
+class CandidateGrid {
+ public:
+  explicit CandidateGrid(double cell) : cell_(cell) {}
+
+  void build(std::span<const LandmarkTree* const> maps) {
+    cells_.clear();
+    indexed_ = 0;
+    for (const LandmarkTree* map : maps) indexed_ = std::max(indexed_, map->size());
+    LandmarkTree::for_each_version(maps, [&](std::size_t index, const LandmarkGaussian& lm) {
+      if (!lm.removed) cells_[key(lm.mean)].push_back(static_cast<std::uint32_t>(index));
+    });
+    for (auto& [k, indices] : cells_) {
+      std::sort(indices.begin(), indices.end());
+      indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
+    }
+  }
+
+  /// Indices of landmarks possibly within `radius` of `centre`, sorted, unique: those of the cells
+  /// touching the disc's bounding box, and every index at or past the last build's map size.
+  void query(const Vector2& centre, double radius, std::size_t map_size, std::vector<std::uint32_t>& out) const {
+    out.clear();
+    const auto lo = cell_of(centre - Vector2::Constant(radius));
+    const auto hi = cell_of(centre + Vector2::Constant(radius));
+    for (std::int64_t ix = lo.first; ix <= hi.first; ++ix)
+      for (std::int64_t iy = lo.second; iy <= hi.second; ++iy) {
+        const auto it = cells_.find(pack(ix, iy));
+        if (it != cells_.end()) out.insert(out.end(), it->second.begin(), it->second.end());
+      }
+    for (std::size_t i = indexed_; i < map_size; ++i) out.push_back(static_cast<std::uint32_t>(i));
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+  }
+
+ private:
+  std::pair<std::int64_t, std::int64_t> cell_of(const Vector2& p) const {
+    return {static_cast<std::int64_t>(std::floor(p.x() / cell_)), static_cast<std::int64_t>(std::floor(p.y() / cell_))};
+  }
+  static std::uint64_t pack(std::int64_t ix, std::int64_t iy) {
+    return (static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffULL);
+  }
+  std::uint64_t key(const Vector2& p) const {
+    const auto [ix, iy] = cell_of(p);
+    return pack(ix, iy);
+  }
+
+  double cell_;
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
+  std::size_t indexed_ = 0;
+};
+
+}  // namespace
+
+// ---- Filter state --------------------------------------------------------------------------------
+
+struct FastSlam::Impl {
+  struct Particle {
+    Pose2 pose = Pose2::Zero();  // FastSLAM 2.0 between scans: the mean of the motion prediction
+    Matrix3 pose_cov = Matrix3::Zero();  // FastSLAM 2.0: prediction covariance since the last scan
+    double log_weight = 0.0;             // log of the normalised weight
+    LandmarkTree map;
+    std::shared_ptr<PathNode> path;
+  };
+
+  /// What one particle does with one observation; `index` is in that particle's map.
+  struct Pairing {
+    AssociationDecision decision = AssociationDecision::kDiscard;
+    std::uint32_t index = 0;
+  };
+
+  /// A landmark in view of a particle, with what gating needs, computed once per scan.
+  struct Candidate {
+    std::uint32_t index;
+    Vector2 zhat;
+    Matrix2 s_inverse;
+  };
+
+  /// Per particle slot (not per particle: resampling moves particles, slots stay): the random
+  /// stream and the scratch of a scan update.
+  struct Slot {
+    std::mt19937_64 rng;
+    std::vector<Pairing> pairings;
+    std::vector<Candidate> candidates;
+    std::vector<std::tuple<double, std::uint32_t, std::uint32_t>> pairs;  // d2, observation, candidate
+    std::vector<double> min_d2;
+    std::vector<char> candidate_taken;
+    std::vector<std::uint32_t> observed;
+    double log_likelihood = 0.0;
+  };
+
+  Impl(std::shared_ptr<const MotionModel> motion_model, std::shared_ptr<const ObservationModel> observation_model,
+       const FastSlamConfig& cfg);
+
+  bool known() const { return config.association.method == AssociationMethod::kKnown; }
+  bool in_view(const Vector2& zhat, double range_margin, double bearing_margin) const {
+    return zhat[0] <= config.sensor.max_range + range_margin &&
+           (config.sensor.fov >= 2.0 * kPi || std::abs(zhat[1]) <= 0.5 * config.sensor.fov + bearing_margin);
+  }
+
+  void start(double t);
+  void predict_particle(std::size_t i, const ControlEvent& control);
+  void plan_known_association(const ScanEvent& scan, std::size_t scan_index);
+  void gather_candidates();
+  void associate(const Particle& p, Slot& s, const ScanEvent& scan) const;
+  void update_particle(std::size_t i, const ScanEvent& scan);
+  double update_landmark(LandmarkGaussian& lm, const Pose2& x, const Vector2& z) const;
+  LandmarkGaussian new_landmark(const Pose2& x, const Vector2& z, int id) const;
+  void count_misses(Particle& p, Slot& s) const;
+  void assign_new_ids(std::size_t observations, std::size_t scan_index);
+  std::vector<AssociationRecord> records(std::size_t slot) const;
+  void reweight_and_resample();
+  void rebuild_grid();
+  const Particle& best_particle() const { return particles[best]; }
+
+  FastSlamConfig config;
+  std::shared_ptr<const MotionModel> motion;
+  std::shared_ptr<const ObservationModel> observation;
+  Matrix2 r;
+  double accept_gate = 0.0;
+  double new_gate = 0.0;
+  double log_p0 = 0.0;
+
+  WorkerPool pool;
+  std::vector<Particle> particles;
+  std::vector<Slot> slots;
+  std::vector<double> weights;
+  std::vector<double> log_weights;  // scratch of reweighting
+  std::mt19937_64 resample_rng;
+  std::size_t best = 0;
+
+  std::vector<char> valid;  // per observation of the current scan: finite measurement
+  std::vector<Pairing> known_plan;
+  std::unordered_map<int, std::uint32_t> known_index;
+  CandidateGrid grid;
+  std::size_t scans_since_grid = kGridRebuildScans;
+  std::vector<std::uint32_t> scan_candidates;
+
+  int next_id = 0;
+  std::vector<int> new_ids;  // per observation of the current scan
+  std::unordered_map<int, LandmarkOrigin> origins;
+  std::vector<AssociationRecord> last_records;
+
+  std::size_t scans = 0;
+  std::size_t resamples = 0;
+  std::size_t collapses = 0;
+  double ess_sum = 0.0;
+};
+
+namespace {
+
+void validate(const FastSlamConfig& c) {
+  auto fail = [](const std::string& what) { throw std::invalid_argument("FastSLAM config: " + what); };
+  if (c.version != 1 && c.version != 2) fail(fmt::format("version must be 1 or 2, found {}", c.version));
+  if (c.particles < 1) fail(fmt::format("particles must be >= 1, found {}", c.particles));
+  if (c.policy.kind == ResamplePolicy::Kind::kEvery && c.policy.every < 1)
+    fail(fmt::format("resampling every K scans needs K >= 1, found {}", c.policy.every));
+  if (c.policy.kind == ResamplePolicy::Kind::kEss && !(c.policy.ess_fraction > 0.0 && c.policy.ess_fraction <= 1.0))
+    fail(fmt::format("the ESS fraction must lie in (0, 1], found {}", c.policy.ess_fraction));
+  const AssociationConfig& a = c.association;
+  if (!(a.accept_probability > 0.0 && a.accept_probability < 1.0))
+    fail(fmt::format("accept_probability must lie in (0, 1), found {}", a.accept_probability));
+  if (!(a.new_landmark_probability >= a.accept_probability && a.new_landmark_probability < 1.0))
+    fail(fmt::format("new_landmark_probability must lie in [accept_probability, 1), found {}",
+                     a.new_landmark_probability));
+  if (a.confirm_after < 1) fail(fmt::format("confirm_after must be >= 1, found {}", a.confirm_after));
+  if (a.provisional_max_misses < 1)
+    fail(fmt::format("provisional_max_misses must be >= 1, found {}", a.provisional_max_misses));
+  if (a.confirmed_max_misses < 0)
+    fail(fmt::format("confirmed_max_misses must be >= 0, found {}", a.confirmed_max_misses));
+  if (!(a.view_margin_m >= 0.0) || !(a.view_margin_rad >= 0.0)) fail("view margins must be >= 0");
+  if (!(c.sensor.max_range > 0.0) || !(c.sensor.fov > 0.0)) fail("sensor range and field of view must be > 0");
+  if (!c.initial_pose.allFinite()) fail("the initial pose must be finite");
+}
+
+unsigned thread_count(unsigned requested) {
+  return requested > 0 ? requested : std::max(1u, std::thread::hardware_concurrency());
+}
+
+}  // namespace
+
+FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
+                     std::shared_ptr<const ObservationModel> observation_model, const FastSlamConfig& cfg)
+    : config((validate(cfg), cfg)),
+      motion(std::move(motion_model)),
+      observation(std::move(observation_model)),
+      pool(thread_count(cfg.threads)),
+      resample_rng(splitmix64(cfg.seed ^ 0x526573616d706c65ULL)),
+      grid(std::max(5.0, 0.5 * cfg.sensor.max_range)) {
+  if (!motion || !observation) throw std::invalid_argument("FastSLAM needs a motion and an observation model");
+  r = observation->noise();
+  Matrix2 unused;
+  double log_det_2r = 0.0;
+  if (!invert_spd(2.0 * r, unused, log_det_2r))
+    throw std::invalid_argument("FastSLAM needs a positive definite measurement noise R");
+  accept_gate = eval::chi_square_quantile(config.association.accept_probability, 2.0);
+  new_gate = eval::chi_square_quantile(config.association.new_landmark_probability, 2.0);
+  log_p0 = -0.5 * new_gate - kLog2Pi - 0.5 * log_det_2r;
+
+  const auto n = static_cast<std::size_t>(config.particles);
+  particles.resize(n);
+  for (Particle& p : particles) {
+    p.pose = config.initial_pose;
+    p.pose[2] = wrap_angle(p.pose[2]);
+    p.log_weight = -std::log(static_cast<double>(n));
+  }
+  slots.resize(n);
+  for (std::size_t i = 0; i < n; ++i) slots[i].rng.seed(splitmix64(splitmix64(config.seed) ^ i));
+  weights.assign(n, 1.0 / static_cast<double>(n));
+}
+
+void FastSlam::Impl::start(double t) {
+  if (particles.front().path) return;
+  const auto root = std::make_shared<PathNode>(t, particles.front().pose, nullptr);
+  for (Particle& p : particles) p.path = root;
+}
+
+void FastSlam::Impl::predict_particle(std::size_t i, const ControlEvent& c) {
+  Particle& p = particles[i];
+  if (config.version == 1) {
+    const Control u = motion->sample_control(c.u, c.dt, slots[i].rng);
+    p.pose = motion->predict(p.pose, u, c.dt);
+  } else {
+    const Matrix3 f = motion->jacobian_state(p.pose, c.u, c.dt);
+    p.pose_cov = symmetric(f * p.pose_cov * f.transpose() + motion->process_noise(p.pose, c.u, c.dt));
+    p.pose = motion->predict(p.pose, c.u, c.dt);
+  }
+  p.path = std::make_shared<PathNode>(c.t, p.pose, std::move(p.path));
+}
+
+void FastSlam::Impl::plan_known_association(const ScanEvent& scan, std::size_t scan_index) {
+  // Known identities make every particle's decisions the same, and so its map indices.
+  auto next_index = static_cast<std::uint32_t>(particles.front().map.size());
+  known_plan.assign(scan.observations.size(), Pairing{});
+  for (std::size_t k = 0; k < scan.observations.size(); ++k) {
+    const int id = scan.observations[k].id;
+    if (!valid[k] || id == kUnknownId) continue;
+    const auto [it, inserted] = known_index.try_emplace(id, next_index);
+    if (inserted) {
+      known_plan[k] = {AssociationDecision::kNew, next_index++};
+      origins[id] = {scan_index, k};
+    } else {
+      known_plan[k] = {AssociationDecision::kUpdate, it->second};
+    }
+  }
+}
+
+void FastSlam::Impl::gather_candidates() {
+  const Pose2 centre_pose = [&] {
+    Pose2 mean = Pose2::Zero();
+    double s = 0.0, c = 0.0;
+    for (std::size_t i = 0; i < particles.size(); ++i) {
+      mean.head<2>() += weights[i] * particles[i].pose.head<2>();
+      s += weights[i] * std::sin(particles[i].pose[2]);
+      c += weights[i] * std::cos(particles[i].pose[2]);
+    }
+    mean[2] = std::atan2(s, c);
+    return mean;
+  }();
+  double spread = 0.0;
+  std::size_t max_size = 0;
+  for (const Particle& p : particles) {
+    spread = std::max(spread, (p.pose.head<2>() - centre_pose.head<2>()).norm());
+    max_size = std::max(max_size, p.map.size());
+  }
+  // A zero measurement is the sensor itself, which may be mounted off the pose origin.
+  const Vector2 sensor = observation->inverse(centre_pose, Vector2::Zero());
+  const double radius = config.sensor.max_range + config.association.view_margin_m + kDriftMargin + spread +
+                        (sensor - centre_pose.head<2>()).norm();
+  grid.query(sensor, radius, max_size, scan_candidates);
+}
+
+void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan) const {
+  const AssociationConfig& a = config.association;
+  const std::size_t n_obs = scan.observations.size();
+  // Gating uses the pose as predicted: for FastSLAM 2.0 its covariance enters S, as the proposal's
+  // uncertainty should when judging whether an observation fits a landmark.
+  const Pose2& x = p.pose;
+  s.candidates.clear();
+  for (const std::uint32_t index : scan_candidates) {
+    if (index >= p.map.size()) break;
+    const LandmarkGaussian& lm = p.map[index];
+    if (lm.removed) continue;
+    const Vector2 zhat = observation->predict(x, lm.mean);
+    if (!in_view(zhat, a.view_margin_m, a.view_margin_rad)) continue;
+    Matrix23 hx;
+    Matrix2 hm;
+    observation->jacobians(x, lm.mean, hx, hm);
+    Matrix2 cov = hm * lm.covariance * hm.transpose() + r;
+    if (config.version == 2) cov += hx * p.pose_cov * hx.transpose();
+    Matrix2 inverse;
+    double log_det = 0.0;
+    if (invert_spd(symmetric(cov), inverse, log_det)) s.candidates.push_back({index, zhat, inverse});
+  }
+
+  s.pairs.clear();
+  s.min_d2.assign(n_obs, std::numeric_limits<double>::infinity());
+  for (std::size_t k = 0; k < n_obs; ++k) {
+    if (!valid[k]) continue;
+    const Vector2& z = scan.observations[k].z;
+    for (std::size_t c = 0; c < s.candidates.size(); ++c) {
+      const Vector2 nu = observation->residual(z, s.candidates[c].zhat);
+      const double d2 = nu.dot(s.candidates[c].s_inverse * nu);
+      s.min_d2[k] = std::min(s.min_d2[k], d2);
+      if (d2 < accept_gate) s.pairs.emplace_back(d2, static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(c));
+    }
+  }
+  // Greedy by distance: the most certain pairings first, each observation and landmark once.
+  std::sort(s.pairs.begin(), s.pairs.end());
+  s.pairings.assign(n_obs, Pairing{});
+  s.candidate_taken.assign(s.candidates.size(), 0);
+  for (const auto& [d2, k, c] : s.pairs) {
+    if (s.pairings[k].decision != AssociationDecision::kDiscard || s.candidate_taken[c]) continue;
+    s.candidate_taken[c] = 1;
+    s.pairings[k] = {AssociationDecision::kUpdate, s.candidates[c].index};
+  }
+  auto next_index = static_cast<std::uint32_t>(p.map.size());
+  for (std::size_t k = 0; k < n_obs; ++k)
+    if (valid[k] && s.pairings[k].decision == AssociationDecision::kDiscard && s.min_d2[k] > new_gate)
+      s.pairings[k] = {AssociationDecision::kNew, next_index++};
+}
+
+double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, const Vector2& z) const {
+  Matrix23 hx;
+  Matrix2 hm;
+  observation->jacobians(x, lm.mean, hx, hm);
+  const Vector2 nu = observation->residual(z, observation->predict(x, lm.mean));
+  const Matrix2 pht = lm.covariance * hm.transpose();
+  Matrix2 s_inverse;
+  double log_det = 0.0;
+  if (!nu.allFinite() || !invert_spd(symmetric(hm * pht + r), s_inverse, log_det)) return kMinusInf;
+  const Matrix2 gain = pht * s_inverse;
+  lm.mean += gain * nu;
+  // Joseph form: stays symmetric positive definite however the gain is rounded.
+  const Matrix2 ikh = Matrix2::Identity() - gain * hm;
+  lm.covariance = symmetric(ikh * lm.covariance * ikh.transpose() + gain * r * gain.transpose());
+  ++lm.observations;
+  lm.misses = 0;
+  return -0.5 * nu.dot(s_inverse * nu) - kLog2Pi - 0.5 * log_det;
+}
+
+LandmarkGaussian FastSlam::Impl::new_landmark(const Pose2& x, const Vector2& z, int id) const {
+  Matrix23 gx;
+  Matrix2 gz;
+  observation->inverse_jacobians(x, z, gx, gz);
+  LandmarkGaussian lm;
+  lm.mean = observation->inverse(x, z);
+  lm.covariance = symmetric(gz * r * gz.transpose());
+  lm.id = id;
+  lm.observations = 1;
+  return lm;
+}
+
+void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
+  Particle& p = particles[i];
+  Slot& s = slots[i];
+  const std::size_t n_obs = scan.observations.size();
+  if (!known()) associate(p, s, scan);
+  const std::vector<Pairing>& pairings = known() ? known_plan : s.pairings;
+  const std::size_t old_size = p.map.size();
+  auto is_old_update = [&](std::size_t k) {
+    return pairings[k].decision == AssociationDecision::kUpdate && pairings[k].index < old_size;
+  };
+  double log_likelihood = 0.0;
+
+  if (config.version == 2) {
+    // The proposal (eq. 18): the prediction refined by each paired observation in turn.
+    Pose2 mu = p.pose;
+    Matrix3 sigma = p.pose_cov;
+    for (std::size_t k = 0; k < n_obs; ++k) {
+      if (!is_old_update(k)) continue;
+      const LandmarkGaussian& lm = p.map[pairings[k].index];
+      Matrix23 hx;
+      Matrix2 hm;
+      observation->jacobians(mu, lm.mean, hx, hm);
+      const Vector2 nu = observation->residual(scan.observations[k].z, observation->predict(mu, lm.mean));
+      const Matrix2 z_cov = hm * lm.covariance * hm.transpose() + r;
+      const Eigen::Matrix<double, 3, 2> sht = sigma * hx.transpose();
+      Matrix2 s_inverse;
+      double log_det = 0.0;
+      if (!nu.allFinite() || !invert_spd(symmetric(hx * sht + z_cov), s_inverse, log_det)) {
+        log_likelihood = kMinusInf;
+        continue;
+      }
+      log_likelihood += -0.5 * nu.dot(s_inverse * nu) - kLog2Pi - 0.5 * log_det;
+      const Eigen::Matrix<double, 3, 2> gain = sht * s_inverse;
+      mu += gain * nu;
+      mu[2] = wrap_angle(mu[2]);
+      const Matrix3 ikh = Matrix3::Identity() - gain * hx;
+      sigma = symmetric(ikh * sigma * ikh.transpose() + gain * z_cov * gain.transpose());
+    }
+    p.pose = sample_gaussian(mu, sigma, s.rng);
+    p.pose_cov.setZero();
+    p.path = std::make_shared<PathNode>(p.path->t, p.pose, p.path->parent);
+  }
+
+  // Landmark updates at the particle's final pose; for FastSLAM 1.0 they also give the weight.
+  for (std::size_t k = 0; k < n_obs; ++k) {
+    if (!is_old_update(k)) continue;
+    const double ll = update_landmark(p.map.mutate(pairings[k].index), p.pose, scan.observations[k].z);
+    if (config.version == 1) log_likelihood += ll;
+  }
+  // New landmarks, and repeated observations of landmarks started in this scan, in scan order.
+  for (std::size_t k = 0; k < n_obs; ++k) {
+    const Pairing& pairing = pairings[k];
+    const Vector2& z = scan.observations[k].z;
+    if (pairing.decision == AssociationDecision::kNew) {
+      p.map.push_back(new_landmark(p.pose, z, known() ? scan.observations[k].id : kUnknownId));
+      log_likelihood += log_p0;
+    } else if (pairing.decision == AssociationDecision::kDiscard) {
+      log_likelihood += log_p0;
+    } else if (!is_old_update(k)) {
+      log_likelihood += update_landmark(p.map.mutate(pairing.index), p.pose, z);
+    }
+  }
+  if (!known()) count_misses(p, s);
+  s.log_likelihood = log_likelihood;
+}
+
+void FastSlam::Impl::count_misses(Particle& p, Slot& s) const {
+  const AssociationConfig& a = config.association;
+  s.observed.clear();
+  for (const Pairing& pairing : s.pairings)
+    if (pairing.decision == AssociationDecision::kUpdate) s.observed.push_back(pairing.index);
+  std::sort(s.observed.begin(), s.observed.end());
+  // The candidates were chosen with generous margins at the predicted pose, so they include every
+  // landmark inside the shrunk view of the final pose.
+  for (const Candidate& c : s.candidates) {
+    if (std::binary_search(s.observed.begin(), s.observed.end(), c.index)) continue;
+    if (!in_view(observation->predict(p.pose, p.map[c.index].mean), -a.view_margin_m, -a.view_margin_rad)) continue;
+    LandmarkGaussian& lm = p.map.mutate(c.index);
+    ++lm.misses;
+    const bool confirmed = lm.observations >= a.confirm_after;
+    if (confirmed ? a.confirmed_max_misses > 0 && lm.misses >= a.confirmed_max_misses
+                  : lm.misses >= a.provisional_max_misses)
+      lm.removed = true;
+  }
+}
+
+void FastSlam::Impl::assign_new_ids(std::size_t observations, std::size_t scan_index) {
+  new_ids.assign(observations, kUnknownId);
+  for (const Slot& s : slots)
+    for (std::size_t k = 0; k < observations; ++k)
+      if (s.pairings[k].decision == AssociationDecision::kNew) new_ids[k] = 0;
+  for (std::size_t k = 0; k < observations; ++k) {
+    if (new_ids[k] == kUnknownId) continue;
+    new_ids[k] = next_id++;
+    origins[new_ids[k]] = {scan_index, k};
+  }
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    for (std::size_t k = 0; k < observations; ++k)
+      if (slots[i].pairings[k].decision == AssociationDecision::kNew)
+        particles[i].map.mutate(slots[i].pairings[k].index).id = new_ids[k];
+}
+
+std::vector<AssociationRecord> FastSlam::Impl::records(std::size_t slot) const {
+  const std::vector<Pairing>& pairings = known() ? known_plan : slots[slot].pairings;
+  std::vector<AssociationRecord> out(pairings.size());
+  for (std::size_t k = 0; k < pairings.size(); ++k)
+    if (pairings[k].decision != AssociationDecision::kDiscard)
+      out[k] = {pairings[k].decision, particles[slot].map[pairings[k].index].id};
+  return out;
+}
+
+void FastSlam::Impl::reweight_and_resample() {
+  const std::size_t n = particles.size();
+  log_weights.resize(n);
+  for (std::size_t i = 0; i < n; ++i) log_weights[i] = particles[i].log_weight + slots[i].log_likelihood;
+  if (!normalize_log_weights(log_weights, weights)) ++collapses;
+  const double ess = effective_sample_size(weights);
+  ess_sum += ess;
+  best = static_cast<std::size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
+  last_records = records(best);
+
+  if (config.policy.should_resample(scans, ess, n)) {
+    const std::vector<std::size_t> parents = resample(config.resample, weights, resample_rng);
+    std::vector<Particle> next;
+    next.reserve(n);
+    // Copies share the maps and paths: O(1) per particle however large the maps.
+    for (const std::size_t parent : parents) next.push_back(particles[parent]);
+    // The best particle stays best: the first copy of the highest-weight parent drawn.
+    std::size_t new_best = 0;
+    for (std::size_t j = 1; j < n; ++j)
+      if (weights[parents[j]] > weights[parents[new_best]]) new_best = j;
+    best = new_best;
+    particles.swap(next);
+    weights.assign(n, 1.0 / static_cast<double>(n));
+    ++resamples;
+  }
+  for (std::size_t i = 0; i < n; ++i) particles[i].log_weight = std::log(weights[i]);
+}
+
+void FastSlam::Impl::rebuild_grid() {
+  std::vector<const LandmarkTree*> maps;
+  maps.reserve(particles.size());
+  for (const Particle& p : particles) maps.push_back(&p.map);
+  grid.build(maps);
+  scans_since_grid = 0;
+}
+
+// ---- Public interface ----------------------------------------------------------------------------
+
+FastSlam::FastSlam(std::shared_ptr<const MotionModel> motion, std::shared_ptr<const ObservationModel> observation,
+                   const FastSlamConfig& config)
+    : impl_(std::make_unique<Impl>(std::move(motion), std::move(observation), config)) {}
+
+FastSlam::~FastSlam() = default;
+
+std::string FastSlam::name() const { return impl_->config.version == 1 ? "fastslam1" : "fastslam2"; }
+
+const FastSlamConfig& FastSlam::config() const { return impl_->config; }
+
+unsigned FastSlam::threads() const { return impl_->pool.size(); }
+
+void FastSlam::predict(const ControlEvent& control) {
+  Impl& s = *impl_;
+  if (control.u.size() != s.motion->control_dim())
+    throw std::invalid_argument(fmt::format("FastSLAM: a control of size {} for the {} motion model, which takes {}",
+                                            control.u.size(), s.motion->name(), s.motion->control_dim()));
+  s.start(control.t - control.dt);
+  s.pool.run(s.particles.size(), kPredictGrain, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) s.predict_particle(i, control);
+  });
+}
+
+void FastSlam::update(const ScanEvent& scan) {
+  Impl& s = *impl_;
+  s.start(scan.t);
+  const std::size_t scan_index = s.scans++;
+  const std::size_t n_obs = scan.observations.size();
+  s.valid.resize(n_obs);
+  for (std::size_t k = 0; k < n_obs; ++k) s.valid[k] = scan.observations[k].z.allFinite();
+
+  if (s.known())
+    s.plan_known_association(scan, scan_index);
+  else
+    s.gather_candidates();
+  s.pool.run(s.particles.size(), kUpdateGrain, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) s.update_particle(i, scan);
+  });
+  if (!s.known()) s.assign_new_ids(n_obs, scan_index);
+  s.reweight_and_resample();
+  if (!s.known() && ++s.scans_since_grid >= kGridRebuildScans) s.rebuild_grid();
+}
+
+Pose2 FastSlam::pose() const {
+  const Impl& s = *impl_;
+  Pose2 mean = Pose2::Zero();
+  double sin_sum = 0.0, cos_sum = 0.0;
+  for (std::size_t i = 0; i < s.particles.size(); ++i) {
+    const Pose2& x = s.particles[i].pose;
+    mean.head<2>() += s.weights[i] * x.head<2>();
+    sin_sum += s.weights[i] * std::sin(x[2]);
+    cos_sum += s.weights[i] * std::cos(x[2]);
+  }
+  mean[2] = std::atan2(sin_sum, cos_sum);
+  return mean;
+}
+
+Matrix3 FastSlam::pose_covariance() const {
+  const Impl& s = *impl_;
+  const Pose2 mean = pose();
+  Matrix3 cov = Matrix3::Zero();
+  for (std::size_t i = 0; i < s.particles.size(); ++i) {
+    Eigen::Vector3d d = s.particles[i].pose - mean;
+    d[2] = wrap_angle(d[2]);
+    cov += s.weights[i] * (d * d.transpose() + s.particles[i].pose_cov);
+  }
+  return cov;
+}
+
+std::size_t FastSlam::num_landmarks() const {
+  std::size_t n = 0;
+  impl_->best_particle().map.for_each([&](std::size_t, const LandmarkGaussian& lm) { n += lm.removed ? 0 : 1; });
+  return n;
+}
+
+std::vector<Landmark> FastSlam::landmarks() const {
+  std::vector<Landmark> out;
+  impl_->best_particle().map.for_each([&](std::size_t, const LandmarkGaussian& lm) {
+    if (!lm.removed) out.push_back({lm.id, lm.mean, lm.covariance});
+  });
+  return out;
+}
+
+const std::vector<AssociationRecord>& FastSlam::last_associations() const { return impl_->last_records; }
+
+std::vector<StampedPose> FastSlam::smoothed_trajectory() const {
+  std::vector<StampedPose> out;
+  for (const PathNode* node = impl_->best_particle().path.get(); node != nullptr; node = node->parent.get())
+    out.push_back({node->t, node->pose});
+  std::reverse(out.begin(), out.end());
+  return out;
+}
+
+std::vector<WeightedPose> FastSlam::pose_samples() const {
+  const Impl& s = *impl_;
+  std::vector<WeightedPose> out(s.particles.size());
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = {s.particles[i].pose, s.weights[i]};
+  return out;
+}
+
+std::map<std::string, double> FastSlam::statistics() const {
+  const Impl& s = *impl_;
+  const auto n = static_cast<double>(s.particles.size());
+  return {{"particles", n},
+          {"ess_mean", s.scans > 0 ? s.ess_sum / static_cast<double>(s.scans) : n},
+          {"resamples", static_cast<double>(s.resamples)},
+          {"weight_collapses", static_cast<double>(s.collapses)}};
+}
+
+void FastSlam::set_initial_map(const std::vector<Landmark>& map) {
+  Impl& s = *impl_;
+  if (s.scans > 0) throw std::logic_error("FastSLAM: set_initial_map after the first update");
+  std::unordered_set<int> ids;
+  LandmarkTree tree;
+  s.known_index.clear();
+  s.next_id = 0;
+  for (const Landmark& lm : map) {
+    if (lm.id == kUnknownId || !ids.insert(lm.id).second)
+      throw std::invalid_argument(fmt::format("FastSLAM: initial map landmark id {} is unknown or repeated", lm.id));
+    LandmarkGaussian g;
+    g.mean = lm.position;
+    g.covariance = lm.covariance;
+    g.id = lm.id;
+    g.observations = s.config.association.confirm_after;
+    s.known_index[lm.id] = static_cast<std::uint32_t>(tree.size());
+    s.next_id = std::max(s.next_id, lm.id + 1);
+    tree.push_back(g);
+  }
+  for (Impl::Particle& p : s.particles) p.map = tree;
+  if (!s.known()) s.rebuild_grid();
+}
+
+std::optional<LandmarkOrigin> FastSlam::landmark_origin(int id) const {
+  const auto it = impl_->origins.find(id);
+  if (it == impl_->origins.end()) return std::nullopt;
+  return it->second;
+}
+
+}  // namespace slamkit

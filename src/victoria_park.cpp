@@ -1,0 +1,330 @@
+#include "slamkit/io/victoria_park.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <initializer_list>
+#include <iterator>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <vector>
+
+#include "slamkit/error.hpp"
+#include "slamkit/io/gzip_lines.hpp"
+#include "slamkit/io/text_reader.hpp"
+
+namespace slamkit {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kAsciiFolder = "acfr_ascii";
+constexpr const char* kDrFile = "DRS.txt";
+constexpr const char* kGpsFile = "GPS.txt";
+constexpr const char* kLaserFile = "LASER.txt.gz";
+constexpr std::size_t kBeams = 361;
+
+// ---- Options ------------------------------------------------------------------------------------
+
+// One real-valued option: its JSON key (unit in the name), where it lives, whether the JSON holds
+// it in degrees, and the range it must lie in (tested on the stored value, so radians for angles).
+struct RealKey {
+  const char* key;
+  double& (*field)(VictoriaParkOptions&);
+  bool degrees;
+  bool (*ok)(double);
+  const char* expected;  // the same range for the user, in the JSON's units
+};
+
+// NaN fails every one of these, as it fails every comparison.
+constexpr auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+constexpr auto non_negative = [](double v) { return v >= 0.0 && std::isfinite(v); };
+constexpr auto any_finite = [](double v) { return std::isfinite(v); };
+
+const RealKey kTopKeys[] = {
+    {"max_range_m", [](VictoriaParkOptions& o) -> double& { return o.max_range; }, false, positive, "> 0"},
+    {"sigma_speed_mps", [](VictoriaParkOptions& o) -> double& { return o.car.sigma_speed; }, false,
+     non_negative, ">= 0"},
+    {"sigma_steer_deg", [](VictoriaParkOptions& o) -> double& { return o.car.sigma_steer; }, true,
+     non_negative, ">= 0"},
+    {"sigma_range_m", [](VictoriaParkOptions& o) -> double& { return o.sigma_range; }, false, non_negative,
+     ">= 0"},
+    {"sigma_bearing_deg", [](VictoriaParkOptions& o) -> double& { return o.sigma_bearing; }, true,
+     non_negative, ">= 0"},
+    {"initial_heading_deg", [](VictoriaParkOptions& o) -> double& { return o.initial_heading; }, true,
+     any_finite, "a finite number"},
+    {"start_time_s", [](VictoriaParkOptions& o) -> double& { return o.start_time; }, false, non_negative,
+     ">= 0"},
+    // Unset, it is infinite: no limit.
+    {"end_time_s", [](VictoriaParkOptions& o) -> double& { return o.end_time; }, false,
+     [](double v) { return v >= 0.0; }, ">= 0"},
+};
+
+const RealKey kCarKeys[] = {
+    {"wheelbase_m", [](VictoriaParkOptions& o) -> double& { return o.car.wheelbase; }, false, positive,
+     "> 0"},
+    {"encoder_offset_m", [](VictoriaParkOptions& o) -> double& { return o.car.encoder_offset; }, false,
+     non_negative, ">= 0"},
+    {"laser_forward_m", [](VictoriaParkOptions& o) -> double& { return o.car.laser_forward; }, false,
+     any_finite, "a finite number"},
+    {"laser_left_m", [](VictoriaParkOptions& o) -> double& { return o.car.laser_left; }, false, any_finite,
+     "a finite number"},
+};
+
+const RealKey kDetectorKeys[] = {
+    {"max_beam_range_m", [](VictoriaParkOptions& o) -> double& { return o.detector.max_beam_range; }, false,
+     positive, "> 0"},
+    {"segment_range_jump_m", [](VictoriaParkOptions& o) -> double& { return o.detector.segment_range_jump; },
+     false, positive, "> 0"},
+    {"segment_angle_gap_deg", [](VictoriaParkOptions& o) -> double& { return o.detector.segment_angle_gap; },
+     true, positive, "> 0"},
+    {"clutter_distance_m", [](VictoriaParkOptions& o) -> double& { return o.detector.clutter_distance; },
+     false, non_negative, ">= 0"},
+    {"occlusion_angle_deg", [](VictoriaParkOptions& o) -> double& { return o.detector.occlusion_angle; },
+     true, non_negative, ">= 0"},
+    {"max_extent_m", [](VictoriaParkOptions& o) -> double& { return o.detector.max_extent; }, false, positive,
+     "> 0"},
+    {"min_range_m", [](VictoriaParkOptions& o) -> double& { return o.detector.min_range; }, false,
+     non_negative, ">= 0"},
+    {"edge_margin_deg", [](VictoriaParkOptions& o) -> double& { return o.detector.edge_margin; }, true,
+     non_negative, ">= 0"},
+    {"max_depth_ratio", [](VictoriaParkOptions& o) -> double& { return o.detector.max_depth_ratio; }, false,
+     positive, "> 0"},
+};
+constexpr const char* kClutterLookaheadKey = "clutter_lookahead";
+constexpr const char* kCarKey = "car";
+constexpr const char* kDetectorKey = "tree_detector";
+
+std::string key_names(std::span<const RealKey> keys, std::initializer_list<const char*> others) {
+  std::string names;
+  for (const RealKey& k : keys) names += fmt::format("{}{}", names.empty() ? "" : ", ", k.key);
+  for (const char* k : others) names += fmt::format(", {}", k);
+  return names;
+}
+
+// Handles the keys of an object that are not real numbers; false for a key it does not know.
+using OtherKeys = std::function<bool(const std::string& key, const nlohmann::json& value)>;
+
+// Reads the real-valued keys of one JSON object into `options`, the others through `other`.
+
+void read_object(const nlohmann::json& json, std::span<const RealKey> keys, VictoriaParkOptions& options,
+                 const std::string& source, const std::string& context,
+                 std::initializer_list<const char*> other_names, const OtherKeys& other) {
+  if (!json.is_object())
+    throw InputError(source, 0,
+                     fmt::format("expected {} as a JSON object, found {}", context, json.type_name()));
+  for (const auto& [key, value] : json.items()) {
+    const auto real = std::find_if(keys.begin(), keys.end(), [&](const RealKey& k) { return key == k.key; });
+    if (real != keys.end()) {
+      if (!value.is_number())
+        throw InputError(source, 0, fmt::format("'{}' must be a number, found {}", key, value.dump()));
+      const double v = value.get<double>();
+      real->field(options) = real->degrees ? deg2rad(v) : v;
+    } else if (!other(key, value)) {
+      throw InputError(source, 0,
+                       fmt::format("unknown key '{}' in {}; expected one of: {}", key, context,
+                                   key_names(keys, other_names)));
+    }
+  }
+}
+
+// Takes a copy because the key table reaches the values through mutable references.
+void validate(VictoriaParkOptions options, const std::string& source) {
+  const auto check = [&](std::span<const RealKey> keys) {
+    for (const RealKey& k : keys) {
+      const double v = k.field(options);
+      if (!k.ok(v))
+        throw InputError(
+            source, 0,
+            fmt::format("'{}' must be {}, found {}", k.key, k.expected, k.degrees ? rad2deg(v) : v));
+    }
+  };
+  check(kTopKeys);
+  check(kCarKeys);
+  check(kDetectorKeys);
+  if (options.detector.clutter_lookahead < 0)
+    throw InputError(
+        source, 0,
+        fmt::format("'{}' must be >= 0, found {}", kClutterLookaheadKey, options.detector.clutter_lookahead));
+  if (options.end_time < options.start_time)
+    throw InputError(source, 0,
+                     fmt::format("'end_time_s' ({}) must not be before 'start_time_s' ({})", options.end_time,
+                                 options.start_time));
+}
+
+// ---- Files --------------------------------------------------------------------------------------
+
+// The acfr_ascii folder, given it or the victoria_park folder above it.
+fs::path ascii_folder(const std::string& dir) {
+  const fs::path given(dir);
+  if (fs::is_directory(given / kAsciiFolder)) return given / kAsciiFolder;
+  if (fs::exists(given / kDrFile)) return given;
+  if (!fs::is_directory(given))
+    throw InputError(dir, 0, "no such folder; expected the Victoria Park dataset folder");
+  throw InputError(dir, 0,
+                   fmt::format("expected the Victoria Park folder (holding {}/) or the {} folder itself "
+                               "(holding {}, {} and {})",
+                               kAsciiFolder, kAsciiFolder, kDrFile, kGpsFile, kLaserFile));
+}
+
+std::string required_file(const fs::path& folder, const char* name) {
+  const fs::path path = folder / name;
+  if (!fs::exists(path)) throw InputError(path.string(), 0, "missing file (part of ACFR's ASCII release)");
+  return path.string();
+}
+
+// Each file's times must increase line by line: the events are merged on them.
+template <typename Reader>
+void expect_later(const Reader& in, double t, double previous, bool first) {
+  if (!first && !(t > previous))
+    in.fail(fmt::format("expected the time to increase, found {} after {}", t, previous));
+}
+
+struct DrRow {
+  double t;
+  double speed;
+  double steer;
+};
+
+std::vector<DrRow> read_dr(const std::string& path) {
+  TextReader in(path);
+  std::vector<DrRow> rows;
+  while (in.next()) {
+    in.expect_fields(3, "time_s speed_m/s steering_rad");
+    const DrRow row{in.number(0, "the time"), in.number(1, "the speed"), in.number(2, "the steering angle")};
+    expect_later(in, row.t, rows.empty() ? 0.0 : rows.back().t, rows.empty());
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+std::vector<StampedPose> read_gps(const std::string& path) {
+  TextReader in(path);
+  std::vector<StampedPose> fixes;
+  while (in.next()) {
+    in.expect_fields(3, "time_s north_m east_m");
+    const double t = in.number(0, "the time");
+    const double north = in.number(1, "the north coordinate");
+    const double east = in.number(2, "the east coordinate");
+    expect_later(in, t, fixes.empty() ? 0.0 : fixes.back().t, fixes.empty());
+    fixes.push_back({t, Pose2(east, north, 0.0)});
+  }
+  return fixes;
+}
+
+std::vector<ScanEvent> read_laser(const std::string& path, const VictoriaParkOptions& options) {
+  const TreeDetector detector(options.detector);
+  GzipLineReader in(path);
+  std::vector<ScanEvent> scans;
+  std::vector<double> ranges(kBeams);
+  while (in.next()) {
+    in.expect_fields(kBeams + 1, "time_s and 361 ranges");
+    const double t = in.number(0, "the time");
+    expect_later(in, t, scans.empty() ? 0.0 : scans.back().t, scans.empty());
+    for (std::size_t k = 0; k < kBeams; ++k) {
+      ranges[k] = in.number(k + 1, "a range");
+      if (ranges[k] < 0.0)
+        in.fail(fmt::format("expected a range >= 0 m, found {} (beam {})", ranges[k], k + 1));
+    }
+    ScanEvent scan{t, {}};
+    for (const Tree& tree : detector.detect(ranges))
+      if (tree.range <= options.max_range)
+        scan.observations.push_back({Vector2(tree.range, tree.bearing), kUnknownId});
+    scans.push_back(std::move(scan));
+  }
+  return scans;
+}
+
+bool in_window(double t, const VictoriaParkOptions& o) { return t >= o.start_time && t <= o.end_time; }
+
+// Merges dead reckoning and scans in time order; see the header for how controls are cut at scans.
+std::vector<Event> merge(const std::vector<DrRow>& dr, std::vector<ScanEvent>& scans,
+                         const VictoriaParkOptions& o) {
+  std::vector<Event> events;
+  events.reserve(dr.size() + 2 * scans.size());
+  double previous = o.start_time;
+  std::size_t next_scan = 0;
+  const auto control = [&](double t, const DrRow& row) {
+    Control u(2);
+    u << row.speed, row.steer;
+    events.emplace_back(ControlEvent{t, t - previous, u});
+    previous = t;
+  };
+  const auto emit_scan = [&] {
+    ScanEvent& scan = scans[next_scan++];
+    if (in_window(scan.t, o)) events.emplace_back(std::move(scan));
+  };
+  for (const DrRow& row : dr) {
+    if (!in_window(row.t, o)) continue;
+    // A scan stamped with the same time as a row comes after the row's control.
+    while (next_scan < scans.size() && scans[next_scan].t < row.t) {
+      if (scans[next_scan].t > previous) control(scans[next_scan].t, row);
+      emit_scan();
+    }
+    control(row.t, row);
+  }
+  while (next_scan < scans.size()) emit_scan();
+  return events;
+}
+
+}  // namespace
+
+VictoriaParkOptions victoria_park_options_from_json(const nlohmann::json& json, const std::string& source) {
+  VictoriaParkOptions options;
+  read_object(json, kTopKeys, options, source, "the Victoria Park options", {kCarKey, kDetectorKey},
+              [&](const std::string& key, const nlohmann::json& value) {
+                if (key == kCarKey) {
+                  read_object(value, kCarKeys, options, source, fmt::format("'{}'", kCarKey), {},
+                              [](const std::string&, const nlohmann::json&) { return false; });
+                } else if (key == kDetectorKey) {
+                  read_object(
+                      value, kDetectorKeys, options, source, fmt::format("'{}'", kDetectorKey),
+                      {kClutterLookaheadKey}, [&](const std::string& k, const nlohmann::json& v) {
+                        if (k != kClutterLookaheadKey) return false;
+                        if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() > INT_MAX)
+                          throw InputError(
+                              source, 0, fmt::format("'{}' must be an integer >= 0, found {}", k, v.dump()));
+                        options.detector.clutter_lookahead = v.get<int>();
+                        return true;
+                      });
+                } else {
+                  return false;
+                }
+                return true;
+              });
+  validate(options, source);
+  return options;
+}
+
+Dataset read_victoria_park(const std::string& dir, const VictoriaParkOptions& options) {
+  validate(options, "Victoria Park options");
+  const fs::path folder = ascii_folder(dir);
+  const std::vector<DrRow> dr = read_dr(required_file(folder, kDrFile));
+  std::vector<StampedPose> gps = read_gps(required_file(folder, kGpsFile));
+  std::vector<ScanEvent> scans = read_laser(required_file(folder, kLaserFile), options);
+
+  Dataset data;
+  data.spec = "victoria-park:" + dir;
+  data.name = "Victoria Park";
+  data.events = merge(dr, scans, options);
+  data.motion = std::make_shared<const AcfrCarModel>(options.car);
+  RangeBearingModel::Params sensor;
+  sensor.sigma_range = options.sigma_range;
+  sensor.sigma_bearing = options.sigma_bearing;
+  data.observation = std::make_shared<const RangeBearingModel>(sensor);
+  data.sensor = SensorLimits{options.max_range, kPi};
+  data.initial_pose = Pose2(0.0, 0.0, wrap_angle(options.initial_heading));
+  std::erase_if(gps, [&](const StampedPose& p) { return !in_window(p.t, options); });
+  data.truth.poses = std::move(gps);
+  data.truth.poses_have_heading = false;
+  return data;
+}
+
+Dataset read_victoria_park(const std::string& dir) { return read_victoria_park(dir, VictoriaParkOptions{}); }
+
+}  // namespace slamkit

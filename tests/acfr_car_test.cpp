@@ -1,0 +1,129 @@
+// The ACFR car model: Jacobians against central differences, and the kinematics against the exact
+// circular motion of the rear axle that the model is derived from.
+#include "slamkit/models/acfr_car.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <functional>
+#include <stdexcept>
+
+#include "slamkit/angles.hpp"
+
+using namespace slamkit;
+
+namespace {
+
+/// Central-difference Jacobian of f at x; the heading row is differenced the short way round.
+Eigen::MatrixXd numeric_jacobian(const std::function<Pose2(const Eigen::VectorXd&)>& f,
+                                 const Eigen::VectorXd& x) {
+  const double h = 1e-6;
+  Eigen::MatrixXd j(3, x.size());
+  for (int i = 0; i < x.size(); ++i) {
+    Eigen::VectorXd a = x, b = x;
+    a[i] += h;
+    b[i] -= h;
+    Pose2 d = f(a) - f(b);
+    d[2] = wrap_angle(d[2]);
+    j.col(i) = d / (2 * h);
+  }
+  return j;
+}
+
+Control control(double speed, double steer) {
+  Control u(2);
+  u << speed, steer;
+  return u;
+}
+
+// The rear-axle centre of the car whose laser is at pose x.
+Eigen::Vector2d rear_axle(const AcfrCarModel::Params& p, const Pose2& x) {
+  return x.head<2>() - Eigen::Rotation2Dd(x[2]) * Eigen::Vector2d(p.laser_forward, p.laser_left);
+}
+
+}  // namespace
+
+TEST(AcfrCarModel, JacobiansMatchNumericDifferentiation) {
+  const AcfrCarModel model;
+  const std::vector<Pose2> poses = {Pose2(0, 0, 0), Pose2(1.5, -2.0, 0.7), Pose2(-3, 4, -2.9),
+                                    Pose2(10, 2, kPi - 1e-3)};
+  for (const Pose2& x : poses) {
+    for (const double steer : {-0.55, -0.1, 0.0, 0.3, 0.56}) {
+      for (const double speed : {0.0, 3.2, -0.05}) {
+        const Control u = control(speed, steer);
+        const double dt = 0.025;
+        const auto fx =
+            numeric_jacobian([&](const Eigen::VectorXd& s) { return model.predict(s, u, dt); }, x);
+        const auto fu =
+            numeric_jacobian([&](const Eigen::VectorXd& c) { return model.predict(x, Control(c), dt); }, u);
+        EXPECT_LT((Eigen::MatrixXd(model.jacobian_state(x, u, dt)) - fx).norm(), 1e-8)
+            << model.jacobian_state(x, u, dt) << "\n"
+            << fx;
+        EXPECT_LT((Eigen::MatrixXd(model.jacobian_control(x, u, dt)) - fu).norm(), 1e-7)
+            << model.jacobian_control(x, u, dt) << "\n"
+            << fu;
+      }
+    }
+  }
+}
+
+TEST(AcfrCarModel, StraightDrivingMovesTheLaserAlongTheHeading) {
+  const AcfrCarModel model;
+  const Pose2 next = model.predict(Pose2(1, 2, kPi / 2), control(4.0, 0.0), 0.5);
+  EXPECT_NEAR(next[0], 1.0, 1e-12);
+  EXPECT_NEAR(next[1], 4.0, 1e-12);
+  EXPECT_NEAR(next[2], kPi / 2, 1e-12);
+}
+
+TEST(AcfrCarModel, EncoderSpeedIsCorrectedToTheAxleCentre) {
+  const AcfrCarModel model;
+  const AcfrCarModel::Params& p = model.params();
+  // Turning towards the encoder's side puts its wheel on the inside, slower than the axle centre.
+  const double steer = 0.3;
+  const double radius = p.wheelbase / std::tan(steer);  // of the axle centre
+  EXPECT_NEAR(model.axle_speed(2.0, steer), 2.0 * radius / (radius - p.encoder_offset), 1e-12);
+  EXPECT_GT(model.axle_speed(2.0, steer), 2.0);
+  EXPECT_LT(model.axle_speed(2.0, -steer), 2.0);
+  EXPECT_DOUBLE_EQ(model.axle_speed(2.0, 0.0), 2.0);
+}
+
+TEST(AcfrCarModel, SmallStepsFollowTheRearAxlesCircle) {
+  const AcfrCarModel model;
+  const AcfrCarModel::Params& p = model.params();
+  const double speed = 3.0, steer = 0.25, dt = 1e-4;
+  const int steps = 100000;  // 10 s
+  Pose2 x(5.0, -1.0, 0.4);
+  const Eigen::Vector2d start = rear_axle(p, x);
+  for (int i = 0; i < steps; ++i) x = model.predict(x, control(speed, steer), dt);
+
+  // The axle centre turns about a fixed centre at radius L / tan(steer), at rate v_c tan(steer) / L.
+  const double radius = p.wheelbase / std::tan(steer);
+  const double turned = model.axle_speed(speed, steer) * std::tan(steer) / p.wheelbase * dt * steps;
+  const Eigen::Vector2d centre = start + radius * Eigen::Vector2d(-std::sin(0.4), std::cos(0.4));
+  const Eigen::Vector2d expected = centre + Eigen::Rotation2Dd(turned) * (start - centre);
+  EXPECT_NEAR(wrap_angle(x[2] - (0.4 + turned)), 0.0, 1e-9);
+  EXPECT_LT((rear_axle(p, x) - expected).norm(), 1e-3);
+}
+
+TEST(AcfrCarModel, ControlNoiseIsConstantAndDiagonal) {
+  AcfrCarModel::Params p;
+  p.sigma_speed = 0.5;
+  p.sigma_steer = deg2rad(2.0);
+  const AcfrCarModel model(p);
+  const ControlCovariance m = model.control_noise(control(3.0, 0.1), 0.025);
+  ASSERT_EQ(m.rows(), 2);
+  EXPECT_DOUBLE_EQ(m(0, 0), 0.25);
+  EXPECT_DOUBLE_EQ(m(1, 1), deg2rad(2.0) * deg2rad(2.0));
+  EXPECT_DOUBLE_EQ(m(0, 1), 0.0);
+  EXPECT_EQ(model.control_dim(), 2);
+  EXPECT_EQ(model.name(), "acfr-car");
+}
+
+TEST(AcfrCarModel, RejectsInvalidParameters) {
+  AcfrCarModel::Params p;
+  p.wheelbase = 0.0;
+  EXPECT_THROW(AcfrCarModel{p}, std::invalid_argument);
+  p = {};
+  p.sigma_steer = -1.0;
+  EXPECT_THROW(AcfrCarModel{p}, std::invalid_argument);
+}

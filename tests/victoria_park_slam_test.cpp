@@ -1,0 +1,57 @@
+// The full Victoria Park run, from the raw laser, without identities: EKF-SLAM and FastSLAM 2.0
+// against GPS. Skips where the shared datasets are absent.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "slamkit/eval/evaluation.hpp"
+#include "slamkit/filters/factory.hpp"
+#include "slamkit/io/victoria_park.hpp"
+#include "slamkit/pipeline/runner.hpp"
+#include "test_data.hpp"
+
+using namespace slamkit;
+
+namespace {
+
+Metrics run_victoria_park(const std::string& filter_name, AssociationMethod method, int particles = 100) {
+  const Dataset data = read_victoria_park(test_data::shared_dataset("victoria_park").string());
+  FilterConfig config;
+  config.name = filter_name;
+  config.association.method = method;
+  config.particles = particles;
+  auto filter = make_filter(config, data);
+  const RunResult run = run_filter(*filter, data);
+  for (const auto& p : run.trajectory) EXPECT_TRUE(p.pose.allFinite()) << "t " << p.t;
+  for (const auto& lm : run.map) EXPECT_TRUE(lm.position.allFinite() && lm.covariance.allFinite());
+  return evaluate_run(run, data.truth);
+}
+
+void expect_good_run(const Metrics& m) {
+  ASSERT_TRUE(m.ate_rmse_m && m.dead_reckoning_ate_rmse_m);
+  EXPECT_GT(m.matched_poses, 900u) << "every GPS fix is matched";
+  EXPECT_LE(*m.ate_rmse_m, 5.0);
+  EXPECT_LE(*m.ate_rmse_m, 0.2 * *m.dead_reckoning_ate_rmse_m)
+      << "SLAM " << *m.ate_rmse_m << " m, dead reckoning " << *m.dead_reckoning_ate_rmse_m << " m";
+  // The literature's maps of the park hold about 150 trees after association.
+  EXPECT_GE(m.landmarks, 100u);
+  EXPECT_LE(m.landmarks, 300u);
+  EXPECT_FALSE(m.nees_pose.has_value()) << "GPS has no heading: no pose NEES";
+}
+
+}  // namespace
+
+TEST(VictoriaParkSlam, EkfWithJcbbOnTheFullRun) {
+  SLAMKIT_REQUIRE_DATASET(test_data::shared_dataset("victoria_park"));
+  expect_good_run(run_victoria_park("ekf", AssociationMethod::kJcbb));
+}
+
+TEST(VictoriaParkSlam, EkfWithNearestNeighbourOnTheFullRun) {
+  SLAMKIT_REQUIRE_DATASET(test_data::shared_dataset("victoria_park"));
+  expect_good_run(run_victoria_park("ekf", AssociationMethod::kNearestNeighbour));
+}
+
+TEST(VictoriaParkSlam, FastSlam2WithHundredParticlesOnTheFullRun) {
+  SLAMKIT_REQUIRE_DATASET(test_data::shared_dataset("victoria_park"));
+  expect_good_run(run_victoria_park("fastslam2", AssociationMethod::kNearestNeighbour, 100));
+}
