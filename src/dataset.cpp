@@ -9,6 +9,8 @@
 #include <string_view>
 
 #include "slamkit/error.hpp"
+#include "slamkit/io/course_log.hpp"
+#include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/sim_log.hpp"
 #include "slamkit/io/victoria_park.hpp"
 
@@ -25,10 +27,25 @@ struct DatasetKind {
 
 Dataset read_victoria_park_defaults(const std::string& path) { return read_victoria_park(path); }
 
+/// "DIR:robotN" or "DIR/RobotN"; a bare DIR means robot 1.
+Dataset read_mrclam_robot(const std::string& path) {
+  std::string normalised = path;
+  if (const auto colon = path.rfind(":robot"); colon != std::string::npos)
+    normalised = path.substr(0, colon) + "/Robot" + path.substr(colon + 6);
+  else if (!std::filesystem::path(path).filename().string().starts_with("Robot"))
+    normalised = (std::filesystem::path(path) / "Robot1").string();
+  const MrclamRobot robot = parse_mrclam_robot_path(normalised);
+  return read_mrclam(robot.dataset_dir, robot.robot);
+}
+
+Dataset read_course_defaults(const std::string& path) { return read_course_log(path); }
+
 // Every reader slamkit has, by the kind that selects it in a "kind:PATH" spec.
 constexpr DatasetKind kKinds[] = {
     {"sim", &read_sim_log, ""},
     {"victoria-park", &read_victoria_park_defaults, "victoria_park"},
+    {"mrclam", &read_mrclam_robot, "mrclam/MRCLAM_Dataset6"},
+    {"course", &read_course_defaults, ""},
 };
 
 std::string kind_names() {

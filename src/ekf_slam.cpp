@@ -87,6 +87,8 @@ std::map<std::string, double> EkfSlam::statistics() const {
   std::map<std::string, double> s = {{"discarded_observations", static_cast<double>(discarded_)},
                                      {"landmarks_removed", static_cast<double>(removed_)},
                                      {"landmarks_in_state", static_cast<double>(ids_.size())}};
+  if (association_.method == AssociationMethod::kKnown && association_.gate_known)
+    s["outliers_rejected"] = static_cast<double>(outliers_);
   if (association_.method != AssociationMethod::kKnown)
     s["association_pairs_evaluated"] = static_cast<double>(association_stats_.candidate_pairs);
   if (association_.method == AssociationMethod::kJcbb) {
@@ -243,7 +245,19 @@ void EkfSlam::update(const ScanEvent& scan) {
 
 void EkfSlam::update_known(const ScanEvent& scan) {
   new_observations_.clear();
+  const double outlier_gate = association_.gate_known ? Gates::from(association_).new_landmark : 0.0;
   auto apply = [&](std::size_t k, std::size_t index) {
+    if (association_.gate_known) {
+      Vector2 zhat;
+      Matrix2 s;
+      innovation(index, zhat, s);
+      const Vector2 nu = observation_->residual(scan.observations[k].z, zhat);
+      if (nu.dot(s.ldlt().solve(nu)) > outlier_gate) {
+        ++outliers_;
+        ++discarded_;
+        return;
+      }
+    }
     if (update_landmark(index, scan.observations[k].z)) {
       last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
       ++tracks_[index].observations;

@@ -97,7 +97,16 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
   m.filter_statistics = run.statistics;
   const std::optional<OriginTable> origins = score_associations(run, truth);
   if (origins) m.association = origins->metrics;
-  if (truth.poses.empty()) return m;
+  if (truth.poses.empty()) {
+    // A truth of landmarks only (a surveyed map): the map frame is the truth frame, no alignment.
+    if (!truth.landmarks.empty()) {
+      const eval::MapError map_error =
+          eval::map_rmse(origins ? relabel_by_origin(run.map, *origins) : run.map, truth.landmarks, {});
+      m.map_rmse_m = map_error.rmse;
+      m.map_landmarks_paired = map_error.paired;
+    }
+    return m;
+  }
 
   const auto pairs = eval::match_by_time(run.trajectory, truth.poses, options.max_interpolation_gap_s);
   m.matched_poses = pairs.size();

@@ -97,6 +97,13 @@ double GzipLineReader::number(std::size_t i, std::string_view what) const {
   return v;
 }
 
+long GzipLineReader::integer(std::size_t i, std::string_view what) const {
+  long v = 0;
+  if (!parse_long(field(i), v))
+    fail("expected an integer for " + std::string(what) + ", found '" + std::string(field(i)) + "'");
+  return v;
+}
+
 void GzipLineReader::fail(const std::string& message) const {
   throw InputError(path_, line_number_, message);
 }

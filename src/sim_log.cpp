@@ -236,8 +236,11 @@ void read_events(const fs::path& file, std::vector<Event>& events, std::vector<O
             fmt::format("control over ({}, {}] spans the observations at {} above it; expected a scan to "
                         "follow the control that ends at its time",
                         t - dt, t, last_obs_t));
+      // Parsed before the comma initialiser: a throw inside it would trip Eigen's size assertion.
+      const double speed = in.number(3, "the speed");
+      const double steer = in.number(4, "the steering angle");
       Control u(2);
-      u << in.number(3, "the speed"), in.number(4, "the steering angle");
+      u << speed, steer;
       events.emplace_back(ControlEvent{t, dt, u});
       have_control = true;
       control_end = t;

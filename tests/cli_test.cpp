@@ -256,3 +256,16 @@ TEST_F(Cli, FastSlamRunWritesParticlesAndItsStatistics) {
   EXPECT_EQ(count_lines(bad.err), 1u) << bad.err;
   EXPECT_NE(bad.err.find("sometimes"), std::string::npos) << bad.err;
 }
+
+TEST_F(Cli, RunsTheShippedCourseExample) {
+  const fs::path out = *work_ / "course";
+  const Result r = slamkit("run --data course:" + (fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course").string() +
+                               " --out " + out.string(),
+                           *work_);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream in(out / "metrics.json");
+  const auto m = nlohmann::json::parse(in);
+  EXPECT_EQ(m["landmarks"], 8);
+  EXPECT_EQ(m["map_landmarks_paired"], 8);
+  EXPECT_LT(m["map_rmse_m"].get<double>(), 0.5);
+}

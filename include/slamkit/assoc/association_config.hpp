@@ -26,6 +26,9 @@ struct AssociationConfig {
   /// An unpaired observation starts a new landmark only if it lies outside this quantile for every
   /// candidate (0.9999 -> 18.4); between the two gates it is ambiguous and discarded.
   double new_landmark_probability = 0.9999;
+  /// With known identities, an observation whose innovation lies beyond the new-landmark gate is
+  /// rejected as an outlier: an identity does not make a wild measurement right.
+  bool gate_known = true;
   /// A new landmark is provisional until it has been observed this many times (the first included).
   int confirm_after = 3;
   /// A provisional landmark predicted in view but not seen this many scans in a row is removed.

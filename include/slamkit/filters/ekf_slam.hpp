@@ -130,7 +130,7 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   std::vector<std::size_t> candidates_;
   // Statistics.
   AssociationStats association_stats_;
-  std::size_t discarded_ = 0, removed_ = 0;
+  std::size_t discarded_ = 0, removed_ = 0, outliers_ = 0;
 };
 
 }  // namespace slamkit

@@ -41,6 +41,8 @@ class GzipLineReader {
 
   /// A finite number from field i (parsed as TextReader does, with parse_double).
   double number(std::size_t i, std::string_view what) const;
+  /// An integer from field i (parsed as TextReader does, with parse_long).
+  long integer(std::size_t i, std::string_view what) const;
 
   /// An InputError at the current line.
   [[noreturn]] void fail(const std::string& message) const;

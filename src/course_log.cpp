@@ -1,0 +1,192 @@
+#include "slamkit/io/course_log.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <iterator>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <unordered_map>
+#include <variant>
+
+#include "slamkit/error.hpp"
+#include "slamkit/io/text_reader.hpp"
+
+namespace slamkit {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kSensorFile = "sensor_data.dat";
+constexpr const char* kWorldFile = "world.dat";
+
+// ---- Options ----------------------------------------------------------------------------------------
+
+struct OptionKey {
+  const char* key;
+  double& (*field)(CourseOptions&);
+  bool degrees;          // the JSON holds degrees, the struct radians
+  bool (*ok)(double);    // tests the struct's value
+  const char* expected;  // the same range for the user, in the JSON's units
+};
+
+constexpr auto positive = [](double v) { return v > 0.0; };
+constexpr auto non_negative = [](double v) { return v >= 0.0; };
+
+const OptionKey kOptionKeys[] = {
+    {"alpha_rot_rot", [](CourseOptions& o) -> double& { return o.motion.alpha_rot_rot; }, false, non_negative,
+     ">= 0"},
+    {"alpha_rot_trans", [](CourseOptions& o) -> double& { return o.motion.alpha_rot_trans; }, false,
+     non_negative, ">= 0"},
+    {"alpha_trans_trans", [](CourseOptions& o) -> double& { return o.motion.alpha_trans_trans; }, false,
+     non_negative, ">= 0"},
+    {"alpha_trans_rot", [](CourseOptions& o) -> double& { return o.motion.alpha_trans_rot; }, false,
+     non_negative, ">= 0"},
+    // A floor of zero would leave a robot standing still with a singular control noise.
+    {"min_variance", [](CourseOptions& o) -> double& { return o.motion.min_variance; }, false, positive, "> 0"},
+    {"sigma_range_m", [](CourseOptions& o) -> double& { return o.measurement.sigma_range; }, false, positive,
+     "> 0"},
+    {"sigma_bearing_deg", [](CourseOptions& o) -> double& { return o.measurement.sigma_bearing; }, true,
+     positive, "> 0"},
+    {"max_range_m", [](CourseOptions& o) -> double& { return o.sensor.max_range; }, false, positive, "> 0"},
+    // Degrees-to-radians rounding may put 360 deg an ulp above 2 pi.
+    {"fov_deg", [](CourseOptions& o) -> double& { return o.sensor.fov; }, true,
+     [](double v) { return v > 0.0 && v <= 2.0 * kPi * (1.0 + 1e-12); }, "> 0 and <= 360"},
+    {"step_period_s", [](CourseOptions& o) -> double& { return o.step_period; }, false, positive, "> 0"},
+};
+
+void validate(CourseOptions options, const std::string& source) {
+  for (const OptionKey& k : kOptionKeys) {
+    const double v = k.field(options);
+    if (!std::isfinite(v) || !k.ok(v))
+      throw InputError(source, 0,
+                       fmt::format("'{}' must be {}, found {}", k.key, k.expected, k.degrees ? rad2deg(v) : v));
+  }
+}
+
+// ---- Files ------------------------------------------------------------------------------------------
+
+int landmark_id(const TextReader& in, std::size_t field) {
+  const long id = in.integer(field, "the landmark id");
+  if (id < 1 || id > INT_MAX) in.fail(fmt::format("expected a landmark id from 1 to {}, found {}", INT_MAX, id));
+  return static_cast<int>(id);
+}
+
+std::vector<Event> read_sensor_data(const fs::path& file, double step_period) {
+  if (!fs::is_regular_file(file)) throw InputError(file.string(), 0, "missing file");
+  TextReader in(file.string());
+  std::vector<Event> events;
+  long steps = 0;
+  double t = 0.0;          // the end of the current step
+  bool scan_open = false;  // whether the current step's scan has been started
+  while (in.next()) {
+    const std::string_view keyword = in.field(0);
+    if (keyword == "ODOMETRY") {
+      in.expect_fields(4, "ODOMETRY <rot1> <trans> <rot2>");
+      // Parsed before the comma initialiser: a throw from inside it trips Eigen's assertion.
+      const double rot1 = in.number(1, "rot1"), trans = in.number(2, "trans"), rot2 = in.number(3, "rot2");
+      Control u(3);
+      u << rot1, trans, rot2;
+      ++steps;
+      // Multiplied, not summed step by step, so that the times do not accumulate rounding errors.
+      t = static_cast<double>(steps) * step_period;
+      events.emplace_back(ControlEvent{t, step_period, u});
+      scan_open = false;
+    } else if (keyword == "SENSOR") {
+      in.expect_fields(4, "SENSOR <id> <range> <bearing>");
+      if (steps == 0) in.fail("SENSOR line before any ODOMETRY line; expected each step to start with ODOMETRY");
+      const int id = landmark_id(in, 1);
+      const double range = in.number(2, "the range");
+      if (range <= 0.0) in.fail(fmt::format("expected a range > 0, found {}", range));
+      const Observation o{Vector2(range, wrap_angle(in.number(3, "the bearing"))), id};
+      if (!scan_open) events.emplace_back(ScanEvent{t, {}});
+      scan_open = true;
+      std::get<ScanEvent>(events.back()).observations.push_back(o);
+    } else {
+      in.fail(fmt::format("unknown keyword '{}'; expected ODOMETRY or SENSOR", keyword));
+    }
+  }
+  if (steps == 0) throw InputError(file.string(), 0, "no ODOMETRY lines; expected at least one step");
+  return events;
+}
+
+std::vector<Landmark> read_world(const fs::path& file) {
+  TextReader in(file.string());
+  std::vector<Landmark> landmarks;
+  std::unordered_map<int, std::size_t> line_of_id;
+  while (in.next()) {
+    in.expect_fields(3, "<id> <x> <y>");
+    const int id = landmark_id(in, 0);
+    if (const auto [it, fresh] = line_of_id.emplace(id, in.line_number()); !fresh)
+      in.fail(fmt::format("duplicate landmark id {} (first on line {})", id, it->second));
+    landmarks.push_back(Landmark{id, Vector2(in.number(1, "x"), in.number(2, "y")), Matrix2::Zero()});
+  }
+  return landmarks;
+}
+
+std::string label(const fs::path& path) {
+  const fs::path name = path.filename().empty() ? path.parent_path().filename() : path.filename();
+  return name.empty() ? path.string() : name.string();
+}
+
+}  // namespace
+
+CourseOptions course_options_from_json(const nlohmann::json& json, const std::string& source) {
+  if (!json.is_object())
+    throw InputError(source, 0,
+                     fmt::format("expected the course log options as a JSON object, found {}", json.type_name()));
+  CourseOptions options;
+  for (const auto& [key, value] : json.items()) {
+    const auto k = std::find_if(std::begin(kOptionKeys), std::end(kOptionKeys),
+                                [&](const OptionKey& o) { return key == o.key; });
+    if (k == std::end(kOptionKeys)) {
+      std::string known;
+      for (const OptionKey& o : kOptionKeys) known += fmt::format("{}{}", known.empty() ? "" : ", ", o.key);
+      throw InputError(source, 0,
+                       fmt::format("unknown key '{}' in the course log options; expected one of: {}", key, known));
+    }
+    if (!value.is_number())
+      throw InputError(source, 0, fmt::format("'{}' must be a number, found {}", key, value.dump()));
+    const double v = value.get<double>();
+    k->field(options) = k->degrees ? deg2rad(v) : v;
+  }
+  validate(options, source);
+  return options;
+}
+
+nlohmann::json to_json(const CourseOptions& options) {
+  CourseOptions copy = options;  // the key table's accessors are shared with the reader, so non-const
+  nlohmann::json j = nlohmann::json::object();
+  for (const OptionKey& k : kOptionKeys) {
+    const double v = k.field(copy);
+    // Rounded to 12 significant digits so that whole degrees print as such after the trip through
+    // radians, and read back as the same radians.
+    j[k.key] = k.degrees ? std::strtod(fmt::format("{:.12g}", rad2deg(v)).c_str(), nullptr) : v;
+  }
+  return j;
+}
+
+Dataset read_course_log(const std::string& path, const CourseOptions& options) {
+  validate(options, "course log options");
+  const fs::path given(path);
+  const bool is_dir = fs::is_directory(given);
+  const fs::path sensor_file = is_dir ? given / kSensorFile : given;
+  const fs::path world_file = sensor_file.parent_path() / kWorldFile;
+
+  Dataset dataset;
+  dataset.spec = "course:" + path;
+  dataset.name = "course:" + label(is_dir ? given : sensor_file);
+  dataset.motion = std::make_shared<const OdometryModel>(options.motion);
+  dataset.observation = std::make_shared<const RangeBearingModel>(options.measurement);
+  dataset.sensor = options.sensor;
+  dataset.initial_pose = Pose2::Zero();
+  dataset.events = read_sensor_data(sensor_file, options.step_period);
+  if (fs::exists(world_file)) dataset.truth.landmarks = read_world(world_file);
+  return dataset;
+}
+
+}  // namespace slamkit
