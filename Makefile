@@ -6,12 +6,13 @@ JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 SLAMKIT := $(BUILD_DIR)/slamkit
 
-# Everything the build and the tests need, all from Debian 12.
+# Everything the build, the tests and the benchmarks need, all from Debian 12 (`time` is GNU time,
+# for the peak memory of end-to-end runs).
 DEB_PACKAGES := cmake make g++ libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev \
-                nlohmann-json3-dev libcli11-dev libfmt-dev zlib1g-dev
+                nlohmann-json3-dev libcli11-dev libfmt-dev zlib1g-dev time
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps build demo test bench clean
+.PHONY: all deps build demo test bench bench-e2e clean
 
 all: build
 
@@ -39,8 +40,13 @@ demo: build
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
 
+# Micro-benchmarks (Google Benchmark; about 4 minutes), and whole runs of the command line. Neither is
+# part of `make test`. docs/performance.md explains the figures.
 bench: build
 	$(BUILD_DIR)/slamkit_bench
+
+bench-e2e: build
+	SLAMKIT=$(SLAMKIT) scripts/bench_end_to_end.sh
 
 clean:
 	rm -rf $(BUILD_DIR) out

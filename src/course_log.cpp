@@ -14,6 +14,7 @@
 #include <variant>
 
 #include "slamkit/error.hpp"
+#include "slamkit/io/json_options.hpp"
 #include "slamkit/io/text_reader.hpp"
 
 namespace slamkit {
@@ -26,18 +27,10 @@ constexpr const char* kWorldFile = "world.dat";
 
 // ---- Options ----------------------------------------------------------------------------------------
 
-struct OptionKey {
-  const char* key;
-  double& (*field)(CourseOptions&);
-  bool degrees;          // the JSON holds degrees, the struct radians
-  bool (*ok)(double);    // tests the struct's value
-  const char* expected;  // the same range for the user, in the JSON's units
-};
 
-constexpr auto positive = [](double v) { return v > 0.0; };
-constexpr auto non_negative = [](double v) { return v >= 0.0; };
+using namespace option_checks;
 
-const OptionKey kOptionKeys[] = {
+const OptionKey<CourseOptions> kOptionKeys[] = {
     {"alpha_rot_rot", [](CourseOptions& o) -> double& { return o.motion.alpha_rot_rot; }, false, non_negative,
      ">= 0"},
     {"alpha_rot_trans", [](CourseOptions& o) -> double& { return o.motion.alpha_rot_trans; }, false,
@@ -53,19 +46,12 @@ const OptionKey kOptionKeys[] = {
     {"sigma_bearing_deg", [](CourseOptions& o) -> double& { return o.measurement.sigma_bearing; }, true,
      positive, "> 0"},
     {"max_range_m", [](CourseOptions& o) -> double& { return o.sensor.max_range; }, false, positive, "> 0"},
-    // Degrees-to-radians rounding may put 360 deg an ulp above 2 pi.
-    {"fov_deg", [](CourseOptions& o) -> double& { return o.sensor.fov; }, true,
-     [](double v) { return v > 0.0 && v <= 2.0 * kPi * (1.0 + 1e-12); }, "> 0 and <= 360"},
+    {"fov_deg", [](CourseOptions& o) -> double& { return o.sensor.fov; }, true, field_of_view, "> 0 and <= 360"},
     {"step_period_s", [](CourseOptions& o) -> double& { return o.step_period; }, false, positive, "> 0"},
 };
 
-void validate(CourseOptions options, const std::string& source) {
-  for (const OptionKey& k : kOptionKeys) {
-    const double v = k.field(options);
-    if (!std::isfinite(v) || !k.ok(v))
-      throw InputError(source, 0,
-                       fmt::format("'{}' must be {}, found {}", k.key, k.expected, k.degrees ? rad2deg(v) : v));
-  }
+void validate(const CourseOptions& options, const std::string& source) {
+  validate_options<CourseOptions>(options, source, kOptionKeys);
 }
 
 // ---- Files ------------------------------------------------------------------------------------------
@@ -136,39 +122,10 @@ std::string label(const fs::path& path) {
 }  // namespace
 
 CourseOptions course_options_from_json(const nlohmann::json& json, const std::string& source) {
-  if (!json.is_object())
-    throw InputError(source, 0,
-                     fmt::format("expected the course log options as a JSON object, found {}", json.type_name()));
-  CourseOptions options;
-  for (const auto& [key, value] : json.items()) {
-    const auto k = std::find_if(std::begin(kOptionKeys), std::end(kOptionKeys),
-                                [&](const OptionKey& o) { return key == o.key; });
-    if (k == std::end(kOptionKeys)) {
-      std::string known;
-      for (const OptionKey& o : kOptionKeys) known += fmt::format("{}{}", known.empty() ? "" : ", ", o.key);
-      throw InputError(source, 0,
-                       fmt::format("unknown key '{}' in the course log options; expected one of: {}", key, known));
-    }
-    if (!value.is_number())
-      throw InputError(source, 0, fmt::format("'{}' must be a number, found {}", key, value.dump()));
-    const double v = value.get<double>();
-    k->field(options) = k->degrees ? deg2rad(v) : v;
-  }
-  validate(options, source);
-  return options;
+  return options_from_json<CourseOptions>(json, source, "course log options", CourseOptions{}, kOptionKeys);
 }
 
-nlohmann::json to_json(const CourseOptions& options) {
-  CourseOptions copy = options;  // the key table's accessors are shared with the reader, so non-const
-  nlohmann::json j = nlohmann::json::object();
-  for (const OptionKey& k : kOptionKeys) {
-    const double v = k.field(copy);
-    // Rounded to 12 significant digits so that whole degrees print as such after the trip through
-    // radians, and read back as the same radians.
-    j[k.key] = k.degrees ? std::strtod(fmt::format("{:.12g}", rad2deg(v)).c_str(), nullptr) : v;
-  }
-  return j;
-}
+nlohmann::json to_json(const CourseOptions& options) { return options_to_json<CourseOptions>(options, kOptionKeys); }
 
 Dataset read_course_log(const std::string& path, const CourseOptions& options) {
   validate(options, "course log options");

@@ -19,6 +19,7 @@ EkfSlam::EkfSlam(std::shared_ptr<const MotionModel> motion,
     : motion_(std::move(motion)),
       observation_(std::move(observation)),
       association_(options.association),
+      gates_(Gates::from(options.association)),
       sensor_(options.sensor),
       // Cells of a third of the sensor range: a query touches a few dozen cells at most.
       grid_(std::max(5.0, options.sensor.max_range / 3.0)) {
@@ -245,14 +246,13 @@ void EkfSlam::update(const ScanEvent& scan) {
 
 void EkfSlam::update_known(const ScanEvent& scan) {
   new_observations_.clear();
-  const double outlier_gate = association_.gate_known ? Gates::from(association_).new_landmark : 0.0;
   auto apply = [&](std::size_t k, std::size_t index) {
     if (association_.gate_known) {
       Vector2 zhat;
       Matrix2 s;
       innovation(index, zhat, s);
       const Vector2 nu = observation_->residual(scan.observations[k].z, zhat);
-      if (nu.dot(s.ldlt().solve(nu)) > outlier_gate) {
+      if (nu.dot(s.ldlt().solve(nu)) > gates_.new_landmark) {
         ++outliers_;
         ++discarded_;
         return;

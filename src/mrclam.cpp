@@ -21,6 +21,7 @@
 
 #include "slamkit/angles.hpp"
 #include "slamkit/error.hpp"
+#include "slamkit/io/json_options.hpp"
 #include "slamkit/io/text_reader.hpp"
 
 namespace slamkit {
@@ -33,19 +34,10 @@ constexpr int kRobots = 5;
 
 // ---- Options ----------------------------------------------------------------------------------------
 
-struct OptionKey {
-  const char* key;
-  double& (*field)(MrclamOptions&);
-  bool degrees;          // the JSON holds degrees, the struct radians
-  bool (*ok)(double);    // tests the struct's value
-  const char* expected;  // the same range for the user, in the JSON's units
-};
 
-constexpr auto positive = [](double v) { return v > 0.0; };
-constexpr auto non_negative = [](double v) { return v >= 0.0; };
-constexpr auto any_finite = [](double) { return true; };
+using namespace option_checks;
 
-const OptionKey kOptionKeys[] = {
+const OptionKey<MrclamOptions> kOptionKeys[] = {
     {"q_v_m2_per_s", [](MrclamOptions& o) -> double& { return o.motion.q_v; }, false, non_negative, ">= 0"},
     {"q_omega_rad2_per_s", [](MrclamOptions& o) -> double& { return o.motion.q_omega; }, false,
      non_negative, ">= 0"},
@@ -54,23 +46,16 @@ const OptionKey kOptionKeys[] = {
     {"sigma_bearing_deg", [](MrclamOptions& o) -> double& { return o.measurement.sigma_bearing; }, true,
      positive, "> 0"},
     {"sensor_offset_x_m", [](MrclamOptions& o) -> double& { return o.measurement.offset_x; }, false,
-     any_finite, "finite"},
+     any, "finite"},
     {"sensor_offset_y_m", [](MrclamOptions& o) -> double& { return o.measurement.offset_y; }, false,
-     any_finite, "finite"},
+     any, "finite"},
     {"max_range_m", [](MrclamOptions& o) -> double& { return o.sensor.max_range; }, false, positive, "> 0"},
-    // Degrees-to-radians rounding may put 360 deg an ulp above 2 pi.
-    {"fov_deg", [](MrclamOptions& o) -> double& { return o.sensor.fov; }, true,
-     [](double v) { return v > 0.0 && v <= 2.0 * kPi * (1.0 + 1e-12); }, "> 0 and <= 360"},
+    {"fov_deg", [](MrclamOptions& o) -> double& { return o.sensor.fov; }, true, field_of_view, "> 0 and <= 360"},
     {"scan_window_s", [](MrclamOptions& o) -> double& { return o.scan_window; }, false, non_negative, ">= 0"},
 };
 
-void validate(MrclamOptions options, const std::string& source) {
-  for (const OptionKey& k : kOptionKeys) {
-    const double v = k.field(options);
-    if (!std::isfinite(v) || !k.ok(v))
-      throw InputError(source, 0,
-                       fmt::format("'{}' must be {}, found {}", k.key, k.expected, k.degrees ? rad2deg(v) : v));
-  }
+void validate(const MrclamOptions& options, const std::string& source) {
+  validate_options<MrclamOptions>(options, source, kOptionKeys);
 }
 
 // ---- Times ------------------------------------------------------------------------------------------
@@ -313,39 +298,10 @@ std::string last_component(std::string dir) {
 }  // namespace
 
 MrclamOptions mrclam_options_from_json(const nlohmann::json& json, const std::string& source) {
-  if (!json.is_object())
-    throw InputError(source, 0,
-                     fmt::format("expected the MRCLAM options as a JSON object, found {}", json.type_name()));
-  MrclamOptions options;
-  for (const auto& [key, value] : json.items()) {
-    const auto k = std::find_if(std::begin(kOptionKeys), std::end(kOptionKeys),
-                                [&](const OptionKey& o) { return key == o.key; });
-    if (k == std::end(kOptionKeys)) {
-      std::string known;
-      for (const OptionKey& o : kOptionKeys) known += fmt::format("{}{}", known.empty() ? "" : ", ", o.key);
-      throw InputError(source, 0,
-                       fmt::format("unknown key '{}' in the MRCLAM options; expected one of: {}", key, known));
-    }
-    if (!value.is_number())
-      throw InputError(source, 0, fmt::format("'{}' must be a number, found {}", key, value.dump()));
-    const double v = value.get<double>();
-    k->field(options) = k->degrees ? deg2rad(v) : v;
-  }
-  validate(options, source);
-  return options;
+  return options_from_json<MrclamOptions>(json, source, "MRCLAM options", MrclamOptions{}, kOptionKeys);
 }
 
-nlohmann::json to_json(const MrclamOptions& options) {
-  MrclamOptions copy = options;  // the key table's accessors are shared with the reader, so non-const
-  nlohmann::json j = nlohmann::json::object();
-  for (const OptionKey& k : kOptionKeys) {
-    const double v = k.field(copy);
-    // Rounded to 12 significant digits so that whole degrees print as such after the trip through
-    // radians, and read back as the same radians.
-    j[k.key] = k.degrees ? std::strtod(fmt::format("{:.12g}", rad2deg(v)).c_str(), nullptr) : v;
-  }
-  return j;
-}
+nlohmann::json to_json(const MrclamOptions& options) { return options_to_json<MrclamOptions>(options, kOptionKeys); }
 
 Dataset read_mrclam(const std::string& dataset_dir, int robot, const MrclamOptions& options) {
   MrclamStats stats;

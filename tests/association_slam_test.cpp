@@ -110,7 +110,9 @@ TEST_P(UnknownAssociation, ClutterIsRemovedAndTheFilterStaysConsistent) {
     inside += bounds.contains(sum / kRuns);
   }
   ASSERT_GT(steps, 150u);
-  EXPECT_GE(static_cast<double>(inside) / static_cast<double>(steps), 0.8) << inside << " of " << steps;
+  const double fraction = static_cast<double>(inside) / static_cast<double>(steps);
+  RecordProperty("nees_in_bounds_fraction", std::to_string(fraction));
+  EXPECT_GE(fraction, 0.8) << inside << " of " << steps;
 
   // A full cluttered run: the clutter-born landmarks are all gone from the map.
   const Metrics m = run_and_evaluate(simulate_scenario("cluttered", 1), GetParam());

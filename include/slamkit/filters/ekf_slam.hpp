@@ -121,6 +121,7 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   std::vector<Track> tracks_;
   int next_id_ = 0;  // ids of landmarks started without a known identity
   AssociationConfig association_;
+  Gates gates_;  // from association_, computed once
   SensorLimits sensor_;
   LandmarkGrid grid_;
   double drift_since_rebuild_ = 0.0;  // vehicle corrections since the grid was last rebuilt [m]
