@@ -40,7 +40,7 @@ demo: build
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
 
-# Micro-benchmarks (Google Benchmark; about 4 minutes), and whole runs of the command line. Neither is
+# Micro-benchmarks (Google Benchmark; about 2 minutes), and whole runs of the command line. Neither is
 # part of `make test`. docs/performance.md explains the figures.
 bench: build
 	$(BUILD_DIR)/slamkit_bench

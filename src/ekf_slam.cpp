@@ -69,11 +69,26 @@ Matrix2 EkfSlam::landmark_cross_covariance(std::size_t i, std::size_t j) const {
 
 Eigen::MatrixXd EkfSlam::covariance() const {
   const auto n = static_cast<Eigen::Index>(dim_);
-  return p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>();
+  Eigen::MatrixXd full = p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>();
+  full.block(3, 0, n - 3, 3) = full.block(3, 0, n - 3, 3) * pending_motion_.transpose();
+  full.block(0, 3, 3, n - 3) = full.block(3, 0, n - 3, 3).transpose();
+  return full;
 }
 
 Matrix23 EkfSlam::landmark_pose_covariance(std::size_t index) const {
-  return p_.block<2, 3>(static_cast<Eigen::Index>(landmark_offset(index)), 0);
+  return p_.block<2, 3>(static_cast<Eigen::Index>(landmark_offset(index)), 0) * pending_motion_.transpose();
+}
+
+void EkfSlam::apply_pending_motion() {
+  const auto m = static_cast<Eigen::Index>(dim_) - 3;
+  if (pending_motion_.isIdentity(0.0) || m == 0) {
+    pending_motion_.setIdentity();
+    return;
+  }
+  auto pmv = p_.block(3, 0, m, 3);
+  scratch3_.topRows(m).noalias() = pmv * pending_motion_.transpose();
+  pmv = scratch3_.topRows(m);
+  pending_motion_.setIdentity();
 }
 
 std::vector<Landmark> EkfSlam::landmarks() const {
@@ -112,13 +127,10 @@ void EkfSlam::predict(const Control& u, double dt) {
   const Matrix3 q = motion_->process_noise(xv, u, dt);
   x_.head<3>() = motion_->predict(xv, u, dt);
   p_.topLeftCorner<3, 3>() = f * diagonal_block<3>(0) * f.transpose() + q;
-  // Landmarks are static: only the map-vehicle cross-covariance P_mv changes, to P_mv F^T.
-  const auto m = static_cast<Eigen::Index>(dim_) - 3;
-  if (m > 0) {
-    auto pmv = p_.block(3, 0, m, 3);
-    scratch3_.topRows(m).noalias() = pmv * f.transpose();
-    pmv = scratch3_.topRows(m);
-  }
+  // Landmarks are static: only the map-vehicle cross-covariance P_mv changes, to P_mv F^T. The Fs of
+  // the controls between two scans are multiplied together and applied to P_mv once, when it is
+  // next needed: the same product, O(1) per control instead of O(n).
+  pending_motion_ = f * pending_motion_;
 }
 
 void EkfSlam::covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm) {
@@ -143,13 +155,14 @@ void EkfSlam::innovation(std::size_t index, Vector2& zhat, Matrix2& s) const {
   observation_->jacobians(xv, m, hx, hm);
   zhat = observation_->predict(xv, m);
   // S = hx Pvv hx^T + hx Pvm hm^T + hm Pmv hx^T + hm Pmm hm^T + R: only the 5x5 block is needed.
-  const Matrix23 pvm_t = p_.block<2, 3>(static_cast<Eigen::Index>(l), 0);  // P(m, v)
+  const Matrix23 pvm_t = landmark_pose_covariance(index);  // P(m, v)
   const Matrix2 cross = hm * pvm_t * hx.transpose();
   s = hx * diagonal_block<3>(0) * hx.transpose() + cross + cross.transpose() +
       hm * diagonal_block<2>(l) * hm.transpose() + observation_->noise();
 }
 
 bool EkfSlam::update_landmark(std::size_t index, const Vector2& z) {
+  apply_pending_motion();
   const std::size_t l = landmark_offset(index);
   const auto li = static_cast<Eigen::Index>(l);
   const auto n = static_cast<Eigen::Index>(dim_);
@@ -185,6 +198,7 @@ bool EkfSlam::update_landmark(std::size_t index, const Vector2& z) {
 
 std::size_t EkfSlam::add_landmark(const Vector2& z, int id) {
   reserve(dim_ + 2);
+  apply_pending_motion();
   const auto l = static_cast<Eigen::Index>(dim_);
   const Pose2 xv = x_.head<3>();
   Matrix23 gx;
@@ -209,6 +223,7 @@ std::size_t EkfSlam::add_landmark(const Vector2& z, int id) {
 }
 
 void EkfSlam::remove_landmark(std::size_t index) {
+  apply_pending_motion();
   const std::size_t n = dim_, l = landmark_offset(index);
   std::copy(x_.data() + l + 2, x_.data() + n, x_.data() + l);
   // Close the gap in the lower triangle column by column. Columns left of the landmark shift their

@@ -89,6 +89,8 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
  private:
   static std::size_t landmark_offset(std::size_t index) { return 3 + 2 * index; }
   void reserve(std::size_t dim);
+  /// Brings the stored map-vehicle cross-covariance up to date with the controls since (see predict).
+  void apply_pending_motion();
   /// Symmetric 2x2 or 3x3 diagonal block from the lower triangle.
   template <int N>
   Eigen::Matrix<double, N, N> diagonal_block(std::size_t offset) const;
@@ -115,6 +117,8 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   Eigen::VectorXd x_;
   Eigen::MatrixXd p_;  // capacity x capacity; lower triangle of the leading dim_ x dim_ block is P
   Eigen::Matrix<double, Eigen::Dynamic, 3> scratch3_;  // capacity x 3, reused by the time update
+  /// Product of the motion Jacobians not yet applied to the stored P_mv: P_mv = stored * pending^T.
+  Matrix3 pending_motion_ = Matrix3::Identity();
   Eigen::Matrix<double, Eigen::Dynamic, 2> pht_;       // capacity x 2, P H^T of the current update
   std::vector<int> ids_;
   std::unordered_map<int, std::size_t> index_of_id_;
