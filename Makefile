@@ -12,7 +12,7 @@ DEB_PACKAGES := cmake make g++ libeigen3-dev libgtest-dev libgmock-dev libbenchm
                 nlohmann-json3-dev libcli11-dev libfmt-dev zlib1g-dev time
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps build demo test bench bench-e2e clean
+.PHONY: all deps build demo test bench bench-e2e bench-compare clean
 
 all: build
 
@@ -47,6 +47,19 @@ bench: build
 
 bench-e2e: build
 	SLAMKIT=$(SLAMKIT) scripts/bench_end_to_end.sh
+
+# slamkit's EKF next to MRPT's EKF-SLAM (CRangeBearingKFSLAM2D) on the same simulated logs. Optional:
+# MRPT (Debian libmrpt-slam-dev) is installed here only, and neither the library nor `make test` uses
+# it. The tool is a separate CMake project, tools/mrpt_compare, linking the built libslamkit.a.
+bench-compare: build
+	@dpkg-query -W -f='$${Status}' libmrpt-slam-dev 2>/dev/null | grep -q "install ok installed" || { \
+	  echo "Installing libmrpt-slam-dev (for bench-compare only)"; \
+	  $(SUDO) apt-get update && \
+	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends libmrpt-slam-dev; }
+	cmake -S tools/mrpt_compare -B $(BUILD_DIR)/mrpt_compare -DCMAKE_BUILD_TYPE=Release \
+	  -DSLAMKIT_BUILD_DIR=$(abspath $(BUILD_DIR))
+	cmake --build $(BUILD_DIR)/mrpt_compare -j $(JOBS)
+	SLAMKIT=$(SLAMKIT) MRPT_TOOL=$(BUILD_DIR)/mrpt_compare/mrpt_ekf_slam scripts/bench_compare.sh
 
 clean:
 	rm -rf $(BUILD_DIR) out
