@@ -22,7 +22,10 @@ EkfSlam::EkfSlam(std::shared_ptr<const MotionModel> motion,
       gates_(Gates::from(options.association)),
       sensor_(options.sensor),
       // Cells of a third of the sensor range: a query touches a few dozen cells at most.
-      grid_(std::max(5.0, options.sensor.max_range / 3.0)) {
+      grid_(std::max(5.0, options.sensor.max_range / 3.0)),
+      variant_(options.variant),
+      area_half_side_(0.5 * (options.local_area_side > 0.0 ? options.local_area_side
+                                                           : 2.0 * options.sensor.max_range)) {
   if (!motion_ || !observation_) throw std::invalid_argument("EkfSlam needs a motion and an observation model");
   reserve(3 + 2 * kInitialLandmarkCapacity);
   x_.head<3>() = options.initial_pose;
@@ -53,10 +56,24 @@ Eigen::Matrix<double, N, N> EkfSlam::diagonal_block(std::size_t offset) const {
   return p_.block<N, N>(o, o).template selfadjointView<Eigen::Lower>();
 }
 
-Matrix3 EkfSlam::pose_covariance() const { return diagonal_block<3>(0); }
+// In an open local area (compressed variant) the accessors answer from the local state for active
+// landmarks and apply the accumulated update on the fly for the others: O(dim(A0)^2) at most.
+
+Matrix3 EkfSlam::pose_covariance() const {
+  return in_area() ? Matrix3(pa_.topLeftCorner<3, 3>()) : diagonal_block<3>(0);
+}
+
+Vector2 EkfSlam::landmark_position(std::size_t index) const {
+  const auto l = static_cast<Eigen::Index>(landmark_offset(index));
+  if (!in_area() || local_offset(index) >= 0) return x_.segment<2>(l);
+  return x_.segment<2>(l) + landmark_start_cross(index) * theta_;
+}
 
 Matrix2 EkfSlam::landmark_covariance(std::size_t index) const {
-  return diagonal_block<2>(landmark_offset(index));
+  if (!in_area()) return diagonal_block<2>(landmark_offset(index));
+  if (const long a = local_offset(index); a >= 0) return pa_.block<2, 2>(a, a);
+  const Eigen::MatrixXd u = landmark_start_cross(index);
+  return diagonal_block<2>(landmark_offset(index)) - u * psi_ * u.transpose();
 }
 
 Matrix2 EkfSlam::landmark_cross_covariance(std::size_t i, std::size_t j) const {
@@ -64,19 +81,44 @@ Matrix2 EkfSlam::landmark_cross_covariance(std::size_t i, std::size_t j) const {
   const auto a = static_cast<Eigen::Index>(landmark_offset(i));
   const auto b = static_cast<Eigen::Index>(landmark_offset(j));
   // Only the lower triangle is stored: the block with the larger row offset holds the pair.
-  return a > b ? Matrix2(p_.block<2, 2>(a, b)) : Matrix2(p_.block<2, 2>(b, a).transpose());
+  const Matrix2 stored = a > b ? Matrix2(p_.block<2, 2>(a, b)) : Matrix2(p_.block<2, 2>(b, a).transpose());
+  if (!in_area()) return stored;
+  const long li = local_offset(i), lj = local_offset(j);
+  if (li >= 0 && lj >= 0) return pa_.block<2, 2>(li, lj);
+  if (li >= 0) return phi_.middleRows<2>(li) * landmark_start_cross(j).transpose();  // P(A,B) = phi P_AB(0)
+  if (lj >= 0) return landmark_start_cross(i) * phi_.middleRows<2>(lj).transpose();
+  return stored - landmark_start_cross(i) * psi_ * landmark_start_cross(j).transpose();
+}
+
+Eigen::VectorXd EkfSlam::state() const {
+  Eigen::VectorXd x = x_.head(static_cast<Eigen::Index>(dim_));
+  if (in_area()) {
+    const std::vector<std::size_t> outside = outside_area();
+    const Eigen::VectorXd shift = area_start_cross(outside) * theta_;
+    for (std::size_t r = 0; r < outside.size(); ++r)
+      x[static_cast<Eigen::Index>(outside[r])] += shift[static_cast<Eigen::Index>(r)];
+  }
+  return x;
 }
 
 Eigen::MatrixXd EkfSlam::covariance() const {
   const auto n = static_cast<Eigen::Index>(dim_);
-  Eigen::MatrixXd full = p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>();
+  Eigen::MatrixXd lower = p_.topLeftCorner(n, n);
+  if (in_area()) {
+    Eigen::VectorXd x = x_.head(n);
+    merge_area(x, lower);
+  }
+  Eigen::MatrixXd full = lower.selfadjointView<Eigen::Lower>();
   full.block(3, 0, n - 3, 3) = full.block(3, 0, n - 3, 3) * pending_motion_.transpose();
   full.block(0, 3, 3, n - 3) = full.block(3, 0, n - 3, 3).transpose();
   return full;
 }
 
 Matrix23 EkfSlam::landmark_pose_covariance(std::size_t index) const {
-  return p_.block<2, 3>(static_cast<Eigen::Index>(landmark_offset(index)), 0) * pending_motion_.transpose();
+  if (!in_area())
+    return p_.block<2, 3>(static_cast<Eigen::Index>(landmark_offset(index)), 0) * pending_motion_.transpose();
+  if (const long a = local_offset(index); a >= 0) return pa_.block<2, 3>(a, 0);
+  return landmark_start_cross(index) * phi_.topRows<3>().transpose();
 }
 
 void EkfSlam::apply_pending_motion() {
@@ -103,6 +145,7 @@ std::map<std::string, double> EkfSlam::statistics() const {
   std::map<std::string, double> s = {{"discarded_observations", static_cast<double>(discarded_)},
                                      {"landmarks_removed", static_cast<double>(removed_)},
                                      {"landmarks_in_state", static_cast<double>(ids_.size())}};
+  if (compressed()) s["local_area_flushes"] = static_cast<double>(flushes_);
   if (association_.method == AssociationMethod::kKnown && association_.gate_known)
     s["outliers_rejected"] = static_cast<double>(outliers_);
   if (association_.method != AssociationMethod::kKnown)
@@ -126,6 +169,11 @@ void EkfSlam::predict(const Control& u, double dt) {
   const Matrix3 f = motion_->jacobian_state(xv, u, dt);
   const Matrix3 q = motion_->process_noise(xv, u, dt);
   x_.head<3>() = motion_->predict(xv, u, dt);
+  if (compressed()) {
+    if (!in_area()) begin_area();
+    predict_local(f, q);
+    return;
+  }
   p_.topLeftCorner<3, 3>() = f * diagonal_block<3>(0) * f.transpose() + q;
   // Landmarks are static: only the map-vehicle cross-covariance P_mv changes, to P_mv F^T. The Fs of
   // the controls between two scans are multiplied together and applied to P_mv once, when it is
@@ -157,11 +205,15 @@ void EkfSlam::innovation(std::size_t index, Vector2& zhat, Matrix2& s) const {
   // S = hx Pvv hx^T + hx Pvm hm^T + hm Pmv hx^T + hm Pmm hm^T + R: only the 5x5 block is needed.
   const Matrix23 pvm_t = landmark_pose_covariance(index);  // P(m, v)
   const Matrix2 cross = hm * pvm_t * hx.transpose();
-  s = hx * diagonal_block<3>(0) * hx.transpose() + cross + cross.transpose() +
-      hm * diagonal_block<2>(l) * hm.transpose() + observation_->noise();
+  s = hx * pose_covariance() * hx.transpose() + cross + cross.transpose() +
+      hm * landmark_covariance(index) * hm.transpose() + observation_->noise();
 }
 
 bool EkfSlam::update_landmark(std::size_t index, const Vector2& z) {
+  if (compressed()) {
+    activate(index);
+    return update_local(index, z);
+  }
   apply_pending_motion();
   const std::size_t l = landmark_offset(index);
   const auto li = static_cast<Eigen::Index>(l);
@@ -198,6 +250,7 @@ bool EkfSlam::update_landmark(std::size_t index, const Vector2& z) {
 
 std::size_t EkfSlam::add_landmark(const Vector2& z, int id) {
   reserve(dim_ + 2);
+  if (compressed() && !in_area()) begin_area();
   apply_pending_motion();
   const auto l = static_cast<Eigen::Index>(dim_);
   const Pose2 xv = x_.head<3>();
@@ -205,13 +258,22 @@ std::size_t EkfSlam::add_landmark(const Vector2& z, int id) {
   Matrix2 gz;
   observation_->inverse_jacobians(xv, z, gx, gz);
   x_.segment<2>(l) = observation_->inverse(xv, z);
-  // The new landmark inherits the vehicle's uncertainty, so it is correlated with everything the
-  // vehicle is correlated with: P(m_new, :) = Gx P(v, :).
-  const Matrix3 pvv = diagonal_block<3>(0);
-  p_.block<2, 3>(l, 0).noalias() = gx * pvv;
-  if (l > 3) p_.block(l, 3, 2, l - 3).noalias() = gx * p_.block(3, 0, l - 3, 3).transpose();
-  p_.block<2, 2>(l, l).noalias() = gx * pvv * gx.transpose() + gz * observation_->noise() * gz.transpose();
+  const Matrix2 added = gz * observation_->noise() * gz.transpose();
+  if (compressed()) {
+    add_local(gx, added);
+  } else {
+    // The new landmark inherits the vehicle's uncertainty, so it is correlated with everything the
+    // vehicle is correlated with: P(m_new, :) = Gx P(v, :).
+    const Matrix3 pvv = diagonal_block<3>(0);
+    p_.block<2, 3>(l, 0).noalias() = gx * pvv;
+    if (l > 3) p_.block(l, 3, 2, l - 3).noalias() = gx * p_.block(3, 0, l - 3, 3).transpose();
+    p_.block<2, 2>(l, l).noalias() = gx * pvv * gx.transpose() + added;
+  }
   dim_ += 2;
+  return register_landmark(id);
+}
+
+std::size_t EkfSlam::register_landmark(int id) {
   const std::size_t index = ids_.size();
   ids_.push_back(id);
   if (id != kUnknownId) index_of_id_[id] = index;
@@ -223,6 +285,8 @@ std::size_t EkfSlam::add_landmark(const Vector2& z, int id) {
 }
 
 void EkfSlam::remove_landmark(std::size_t index) {
+  // Removal renumbers the state; the area's bookkeeping is by stored offset, so it is closed first.
+  flush_local_area();
   apply_pending_motion();
   const std::size_t n = dim_, l = landmark_offset(index);
   std::copy(x_.data() + l + 2, x_.data() + n, x_.data() + l);
@@ -253,6 +317,7 @@ void EkfSlam::remove_landmark(std::size_t index) {
 
 void EkfSlam::update(const ScanEvent& scan) {
   last_associations_.assign(scan.observations.size(), AssociationRecord{});
+  if (in_area() && (x_.head<2>() - area_centre_).lpNorm<Eigen::Infinity>() > area_half_side_) flush_local_area();
   if (association_.method == AssociationMethod::kKnown)
     update_known(scan);
   else
@@ -386,6 +451,180 @@ void EkfSlam::manage_map(const std::vector<bool>& seen) {
   for (auto it = doomed.rbegin(); it != doomed.rend(); ++it) {
     remove_landmark(*it);
     ++removed_;
+  }
+}
+
+// ---- Compressed variant (Guivant and Nebot 2001) ----
+//
+// Partition the state into A (vehicle + active landmarks) and B (the rest). While every operation
+// involves A only, B's blocks follow from their values when the area began (index 0):
+//
+//   time update, F_A = diag(F, I):   P_AA <- F_A P_AA F_A^T + Q_A,  P_BA <- P_BA F_A^T
+//   observation, H = [H_A 0]:        S = H_A P_AA H_A^T + R,  W_A = P_AA H_A^T S^-1
+//                                    P_BA <- P_BA (I - W_A H_A)^T
+//                                    P_BB <- P_BB - P_BA H_A^T S^-1 H_A P_AB
+//                                    x_B  <- x_B + P_BA H_A^T S^-1 nu
+//   new landmark m = g(x_v, z):      P_{B,m} = P_Bv Gx^T
+//
+// Every step multiplies P_BA on the right, so P_BA = P_BA(0) phi^T with phi <- F_A phi,
+// phi <- (I - W_A H_A) phi, and for a new landmark phi gains the rows Gx phi_v. Substituting into the
+// other two: P_BB = P_BB(0) - P_BA(0) psi P_AB(0) with psi += (H_A phi)^T S^-1 (H_A phi), and
+// x_B = x_B(0) + P_BA(0) theta with theta += (H_A phi)^T S^-1 nu. phi is dim(A) x dim(A0), psi and
+// theta dim(A0): a step costs O(dim(A)^2) whatever the map's size. Applying them to B (a flush) is
+// O(n_B^2 dim(A0)), once per area. A and A0 differ only by the landmarks added in the area, which
+// come last in the local order.
+
+long EkfSlam::local_offset(std::size_t index) const { return in_area() ? local_of_[index] : -1; }
+
+void EkfSlam::begin_area(long must_include) {
+  area_centre_ = x_.head<2>();
+  // Every landmark the vehicle can see from inside the square is active, so observations made
+  // before it leaves the square involve A only.
+  const double reach = area_half_side_ + sensor_.max_range;
+  area_offsets_ = {0, 1, 2};
+  local_of_.assign(ids_.size(), -1);
+  for (std::size_t i = 0; i < ids_.size(); ++i) {
+    const std::size_t l = landmark_offset(i);
+    const Vector2 offset = x_.segment<2>(static_cast<Eigen::Index>(l)) - area_centre_;
+    const bool near = offset.lpNorm<Eigen::Infinity>() <= reach;
+    if (!near && static_cast<long>(i) != must_include) continue;
+    local_of_[i] = static_cast<long>(area_offsets_.size());
+    area_offsets_.push_back(l);
+    area_offsets_.push_back(l + 1);
+  }
+  a0_ = static_cast<Eigen::Index>(area_offsets_.size());
+  pa_.resize(a0_, a0_);
+  for (Eigen::Index c = 0; c < a0_; ++c)
+    for (Eigen::Index r = c; r < a0_; ++r) {
+      const auto i = static_cast<Eigen::Index>(area_offsets_[r]), j = static_cast<Eigen::Index>(area_offsets_[c]);
+      pa_(r, c) = pa_(c, r) = i > j ? p_(i, j) : p_(j, i);
+    }
+  phi_.setIdentity(a0_, a0_);
+  psi_.setZero(a0_, a0_);
+  theta_.setZero(a0_);
+}
+
+void EkfSlam::activate(std::size_t index) {
+  if (local_offset(index) >= 0) return;
+  flush_local_area();
+  begin_area(static_cast<long>(index));
+}
+
+void EkfSlam::flush_local_area() {
+  if (!in_area()) return;
+  const auto n = static_cast<Eigen::Index>(dim_);
+  merge_area(x_.head(n), p_.topLeftCorner(n, n));
+  area_offsets_.clear();
+  local_of_.clear();
+  ++flushes_;
+}
+
+void EkfSlam::predict_local(const Matrix3& f, const Matrix3& q) {
+  const Eigen::Index rest = pa_.rows() - 3;
+  const Matrix3 pvv = f * pa_.topLeftCorner<3, 3>() * f.transpose() + q;
+  pa_.topRightCorner(3, rest) = f * pa_.topRightCorner(3, rest);
+  pa_.bottomLeftCorner(rest, 3) = pa_.topRightCorner(3, rest).transpose();
+  pa_.topLeftCorner<3, 3>() = pvv;
+  phi_.topRows<3>() = f * phi_.topRows<3>();
+}
+
+bool EkfSlam::update_local(std::size_t index, const Vector2& z) {
+  const auto l = static_cast<Eigen::Index>(local_of_[index]);
+  const Eigen::Index d = pa_.rows();
+  const Pose2 xv = x_.head<3>();
+  const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
+  Matrix23 hx;
+  Matrix2 hm;
+  observation_->jacobians(xv, m, hx, hm);
+  const Vector2 nu = observation_->residual(z, observation_->predict(xv, m));
+
+  auto pht = pht_.topRows(d);
+  pht.noalias() = pa_.leftCols<3>() * hx.transpose();
+  pht.noalias() += pa_.middleCols<2>(l) * hm.transpose();
+  Matrix2 s = hx * pht.topRows<3>() + hm * pht.middleRows<2>(l) + observation_->noise();
+  s(0, 1) = s(1, 0) = 0.5 * (s(0, 1) + s(1, 0));
+  const Eigen::LLT<Matrix2> llt(s);
+  if (llt.info() != Eigen::Success) return false;
+
+  const Vector2 s_inv_nu = llt.solve(nu);
+  for (Eigen::Index r = 0; r < d; ++r) x_[static_cast<Eigen::Index>(area_offsets_[r])] += pht.row(r).dot(s_inv_nu);
+  x_[2] = wrap_angle(x_[2]);
+
+  const Eigen::Matrix<double, 2, Eigen::Dynamic> h_phi = hx * phi_.topRows<3>() + hm * phi_.middleRows<2>(l);
+  theta_.noalias() += h_phi.transpose() * s_inv_nu;
+  const Eigen::Matrix<double, 2, Eigen::Dynamic> g = llt.matrixL().solve(h_phi);  // S^-1 = L^-T L^-1
+  psi_.noalias() += g.transpose() * g;
+  phi_.noalias() -= pht * llt.solve(h_phi);  // W_A H_A phi
+
+  const Eigen::Matrix<double, Eigen::Dynamic, 2> c = llt.matrixL().solve(pht.transpose()).transpose();
+  pa_.noalias() -= c * c.transpose();  // W_A S W_A^T
+  return true;
+}
+
+void EkfSlam::add_local(const Matrix23& gx, const Matrix2& pnew) {
+  const Eigen::Index d = pa_.rows();
+  const std::size_t l = dim_;
+  pa_.conservativeResize(d + 2, d + 2);
+  pa_.bottomLeftCorner(2, d).noalias() = gx * pa_.topLeftCorner(3, d);
+  pa_.topRightCorner(d, 2) = pa_.bottomLeftCorner(2, d).transpose();
+  pa_.bottomRightCorner<2, 2>().noalias() = gx * pa_.block<3, 2>(0, d) + pnew;
+  phi_.conservativeResize(d + 2, Eigen::NoChange);
+  phi_.bottomRows<2>().noalias() = gx * phi_.topRows<3>();
+  local_of_.push_back(static_cast<long>(d));
+  area_offsets_.push_back(l);
+  area_offsets_.push_back(l + 1);
+}
+
+Eigen::MatrixXd EkfSlam::landmark_start_cross(std::size_t index) const {
+  return area_start_cross({landmark_offset(index), landmark_offset(index) + 1});
+}
+
+std::vector<std::size_t> EkfSlam::outside_area() const {
+  std::vector<bool> active(dim_, false);
+  for (const std::size_t a : area_offsets_) active[a] = true;
+  std::vector<std::size_t> outside;
+  outside.reserve(dim_ - area_offsets_.size());
+  for (std::size_t i = 0; i < dim_; ++i)
+    if (!active[i]) outside.push_back(i);
+  return outside;
+}
+
+Eigen::MatrixXd EkfSlam::area_start_cross(const std::vector<std::size_t>& rows) const {
+  // B's rows and A0's columns are not written while the area is open: the stored values are P_BA(0).
+  Eigen::MatrixXd u(static_cast<Eigen::Index>(rows.size()), a0_);
+  for (Eigen::Index c = 0; c < a0_; ++c) {
+    const auto a = static_cast<Eigen::Index>(area_offsets_[c]);
+    for (Eigen::Index r = 0; r < u.rows(); ++r) {
+      const auto b = static_cast<Eigen::Index>(rows[r]);
+      u(r, c) = b > a ? p_(b, a) : p_(a, b);
+    }
+  }
+  return u;
+}
+
+void EkfSlam::merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::MatrixXd> p) const {
+  const Eigen::Index n = x.size(), d = pa_.rows();
+  const std::vector<std::size_t> outside = outside_area();
+  const Eigen::MatrixXd u_b = area_start_cross(outside);
+  // P_BA(0) spread over all n rows, zero in A's: the P_BB downdate is then one triangular product
+  // on the stored layout, leaving A's rows untouched.
+  Eigen::MatrixXd u = Eigen::MatrixXd::Zero(n, a0_);
+  for (std::size_t r = 0; r < outside.size(); ++r)
+    u.row(static_cast<Eigen::Index>(outside[r])) = u_b.row(static_cast<Eigen::Index>(r));
+
+  x.noalias() += u * theta_;
+  p.triangularView<Eigen::Lower>() -= u * (psi_ * u.transpose());
+  const Eigen::MatrixXd p_ba = u_b * phi_.transpose();
+  for (Eigen::Index c = 0; c < d; ++c) {
+    const auto a = static_cast<Eigen::Index>(area_offsets_[c]);
+    for (std::size_t r = 0; r < outside.size(); ++r) {
+      const auto b = static_cast<Eigen::Index>(outside[r]);
+      (b > a ? p(b, a) : p(a, b)) = p_ba(static_cast<Eigen::Index>(r), c);
+    }
+    for (Eigen::Index r = 0; r < d; ++r) {
+      const auto b = static_cast<Eigen::Index>(area_offsets_[r]);
+      if (b >= a) p(b, a) = pa_(r, c);
+    }
   }
 }
 

@@ -8,12 +8,23 @@ namespace slamkit {
 
 std::vector<std::string> filter_names() { return {"ekf", "fastslam1", "fastslam2"}; }
 
+namespace {
+
+EkfVariant parse_ekf_variant(const std::string& name) {
+  if (name == "full") return EkfVariant::kFull;
+  if (name == "compressed") return EkfVariant::kCompressed;
+  throw std::invalid_argument("unknown EKF variant '" + name + "'; expected one of: full, compressed");
+}
+
+}  // namespace
+
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset) {
   if (config.name == "ekf") {
     EkfSlamOptions options;
     options.initial_pose = dataset.initial_pose;
     options.association = config.association;
     options.sensor = dataset.sensor;
+    options.variant = parse_ekf_variant(config.ekf_variant);
     return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
   }
   if (config.name == "fastslam1" || config.name == "fastslam2") {

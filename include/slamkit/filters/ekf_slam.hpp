@@ -9,6 +9,12 @@
 // Cost: a time update is O(n) (vehicle block and vehicle-map cross-covariance only); an observation
 // update is O(n^2) with the constant of one symmetric rank-2 downdate, because the observation
 // Jacobian has non-zeros only in the vehicle's 3 and the landmark's 2 columns.
+//
+// The compressed variant (Guivant and Nebot 2001) makes both independent of the map's size while
+// the vehicle stays in a local area: only the active part A (vehicle + landmarks near the area) is
+// updated, and the effect on the rest B is accumulated in matrices of A's size, applied to the whole
+// map once, when the vehicle leaves the area. The result is the full EKF's: an exact reorganisation
+// of the same products (see src/ekf_slam.cpp for the derivation).
 #include <Eigen/Core>
 #include <memory>
 #include <unordered_map>
@@ -23,6 +29,11 @@
 
 namespace slamkit {
 
+enum class EkfVariant {
+  kFull,        ///< every update touches the whole joint covariance
+  kCompressed,  ///< updates confined to a local area; the rest of the map is updated on leaving it
+};
+
 struct EkfSlamOptions {
   Pose2 initial_pose = Pose2::Zero();
   /// The map frame is defined by the start pose, so by default it is known exactly.
@@ -30,6 +41,12 @@ struct EkfSlamOptions {
   AssociationConfig association;
   /// Decides which landmarks are association candidates and which count as missed when unseen.
   SensorLimits sensor;
+  EkfVariant variant = EkfVariant::kFull;
+  /// Compressed variant: side of the square the vehicle may roam before the accumulated update is
+  /// applied to the whole map and a new area is centred on it [m]; 0 means 2 x sensor.max_range.
+  /// The active landmarks are those within sensor.max_range of the square, i.e. every landmark the
+  /// vehicle can see from inside it. Leaving the square is checked at each scan.
+  double local_area_side = 0.0;
 };
 
 class EkfSlam final : public SlamFilter, public GaussianMapView {
@@ -45,7 +62,7 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   /// after repeated observations, and landmarks predicted in view but repeatedly unseen are removed.
   void update(const ScanEvent& scan) override;
 
-  Pose2 pose() const override { return x_.head<3>(); }
+  Pose2 pose() const override { return x_.head<3>(); }  // the vehicle is always active
   Matrix3 pose_covariance() const override;
   /// Every landmark in the state, provisional ones included.
   std::size_t num_landmarks() const override { return ids_.size(); }
@@ -66,10 +83,10 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   void innovation(std::size_t index, Vector2& zhat, Matrix2& s) const;
 
   std::size_t state_dim() const { return dim_; }
-  Eigen::VectorXd state() const { return x_.head(dim_); }
+  Eigen::VectorXd state() const;
   /// The full symmetric covariance (a copy: O(n^2); for tests and exports, not for the hot path).
   Eigen::MatrixXd covariance() const;
-  Vector2 landmark_position(std::size_t index) const override { return x_.segment<2>(landmark_offset(index)); }
+  Vector2 landmark_position(std::size_t index) const override;
   Matrix2 landmark_covariance(std::size_t index) const;
   /// Cross-covariance block cov(m_i, m_j).
   Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override;
@@ -80,6 +97,10 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   /// observations with the landmarks that can be in view. Changes no estimate.
   std::vector<Pairing> associate_scan(const ScanEvent& scan);
   int landmark_id(std::size_t index) const { return ids_[index]; }
+  /// Compressed variant: applies the update accumulated in the current local area to the whole map,
+  /// O(n_B^2 n_A); the next operation starts a new area around the vehicle. Every accessor already
+  /// answers as if this had been done, so this only decides when the cost is paid.
+  void flush_local_area();
   /// Map index of the landmark with this id, or -1.
   long find_landmark(int id) const;
 
@@ -102,6 +123,29 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   void find_candidates(double range_margin, double angle_margin, std::vector<std::size_t>& out) const;
   /// Counts misses of landmarks predicted well inside the view and removes those past their limit.
   void manage_map(const std::vector<bool>& seen);
+  /// The bookkeeping of a new landmark, shared by both variants.
+  std::size_t register_landmark(int id);
+
+  // ---- Compressed variant ----
+  bool compressed() const { return variant_ == EkfVariant::kCompressed; }
+  bool in_area() const { return !area_offsets_.empty(); }
+  /// Offset of landmark `index` in the local state; -1 when it is in B or no area is open.
+  long local_offset(std::size_t index) const;
+  /// Starts an area centred on the vehicle with `must_include` (if a landmark index) active.
+  void begin_area(long must_include = -1);
+  /// Makes landmark `index` active, flushing and starting a new area if it is not.
+  void activate(std::size_t index);
+  void predict_local(const Matrix3& f, const Matrix3& q);
+  bool update_local(std::size_t index, const Vector2& z);
+  void add_local(const Matrix23& gx, const Matrix2& pnew);
+  /// Stored offsets of B, ascending.
+  std::vector<std::size_t> outside_area() const;
+  /// P_BA(0): rows of B landmarks (stored offsets `rows`), columns of the area's initial A.
+  Eigen::MatrixXd area_start_cross(const std::vector<std::size_t>& rows) const;
+  /// The two rows of area_start_cross for landmark `index` (in B).
+  Eigen::MatrixXd landmark_start_cross(std::size_t index) const;
+  /// Writes the accumulated update into x and the lower triangle of p (the stored state's layout).
+  void merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::MatrixXd> p) const;
 
   /// Bookkeeping of map management, one per landmark, parallel to ids_.
   struct Track {
@@ -130,6 +174,20 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   LandmarkGrid grid_;
   double drift_since_rebuild_ = 0.0;  // vehicle corrections since the grid was last rebuilt [m]
   std::vector<AssociationRecord> last_associations_;
+  EkfVariant variant_;
+  double area_half_side_;
+  // The local area (compressed variant), empty when none is open. The local state is
+  // [vehicle | A0's landmarks | landmarks added since], in which order area_offsets_ lists the
+  // stored offsets; pa_ is its full symmetric covariance. x_ holds the local state in place.
+  Vector2 area_centre_ = Vector2::Zero();
+  std::vector<std::size_t> area_offsets_;
+  std::vector<long> local_of_;  // per landmark: local offset, or -1
+  Eigen::MatrixXd pa_;
+  Eigen::Index a0_ = 0;    // dim(A0), the active part when the area began
+  Eigen::MatrixXd phi_;    // dim(A) x dim(A0): P_BA = P_BA(0) phi^T
+  Eigen::MatrixXd psi_;    // dim(A0) square:   P_BB = P_BB(0) - P_BA(0) psi P_AB(0)
+  Eigen::VectorXd theta_;  // dim(A0):          x_B  = x_B(0) + P_BA(0) theta
+  std::size_t flushes_ = 0;
   // Reused per scan.
   std::vector<std::size_t> new_observations_;
   std::vector<std::size_t> candidates_;

@@ -15,6 +15,8 @@ struct FilterConfig {
   std::string name = "ekf";
   std::uint64_t seed = 1;
   AssociationConfig association;
+  // EKF only.
+  std::string ekf_variant = "full";  // full | compressed (same estimate, local-area updates)
   // Particle filters only.
   int particles = 100;
   std::string resample = "systematic";  // multinomial | stratified | systematic | residual
@@ -25,7 +27,8 @@ struct FilterConfig {
 /// The filter names make_filter accepts.
 std::vector<std::string> filter_names();
 
-/// Throws std::invalid_argument naming the accepted filters for an unknown name.
+/// Throws std::invalid_argument naming the accepted values for an unknown filter name or EKF
+/// variant.
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset);
 
 }  // namespace slamkit

@@ -1,0 +1,202 @@
+// The compressed EKF is an exact reorganisation of the full one: the same data must give the same
+// state, covariance and association decisions, whichever local areas it went through.
+#include <gtest/gtest.h>
+
+#include <iomanip>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+#include "slamkit/filters/ekf_slam.hpp"
+#include "slamkit/filters/factory.hpp"
+#include "slamkit/sim/simulator.hpp"
+#include "slamkit/sim/world.hpp"
+
+using namespace slamkit;
+
+namespace {
+
+constexpr double kTolerance = 1e-6;
+
+struct Differences {
+  double state = 0.0;
+  double covariance = 0.0;
+  std::size_t checks = 0;
+  std::size_t decisions_differing = 0;
+  double flushes = 0.0;
+  std::size_t landmarks = 0;
+};
+
+/// Runs the full and the compressed EKF side by side over `data`, comparing the whole state and
+/// covariance every `check_every` scans and at the end, and every scan's association decisions.
+Differences compare_variants(const Dataset& data, AssociationMethod method, std::size_t check_every) {
+  FilterConfig config;
+  config.association.method = method;
+  const std::unique_ptr<SlamFilter> full_filter = make_filter(config, data);
+  config.ekf_variant = "compressed";
+  const std::unique_ptr<SlamFilter> compressed_filter = make_filter(config, data);
+  auto& full = dynamic_cast<EkfSlam&>(*full_filter);
+  auto& compressed = dynamic_cast<EkfSlam&>(*compressed_filter);
+
+  Differences diff;
+  auto compare = [&] {
+    EXPECT_EQ(full.state_dim(), compressed.state_dim());
+    if (full.state_dim() != compressed.state_dim()) return;
+    diff.state = std::max(diff.state, (full.state() - compressed.state()).cwiseAbs().maxCoeff());
+    diff.covariance = std::max(diff.covariance, (full.covariance() - compressed.covariance()).cwiseAbs().maxCoeff());
+    ++diff.checks;
+  };
+  std::size_t scans = 0;
+  for (const Event& e : data.events) {
+    if (const auto* c = std::get_if<ControlEvent>(&e)) {
+      full.predict(*c);
+      compressed.predict(*c);
+      continue;
+    }
+    const auto& scan = std::get<ScanEvent>(e);
+    full.update(scan);
+    compressed.update(scan);
+    const auto& a = full.last_associations();
+    const auto& b = compressed.last_associations();
+    for (std::size_t k = 0; k < a.size(); ++k)
+      if (a[k].decision != b[k].decision || a[k].landmark_id != b[k].landmark_id) ++diff.decisions_differing;
+    if (++scans % check_every == 0) compare();
+  }
+  compare();
+  diff.flushes = compressed.statistics().at("local_area_flushes");
+  diff.landmarks = compressed.num_landmarks();
+  return diff;
+}
+
+std::string scientific(double v) {
+  std::ostringstream out;
+  out << std::scientific << std::setprecision(2) << v;
+  return out.str();
+}
+
+void expect_equivalent(const Differences& diff) {
+  EXPECT_LT(diff.state, kTolerance);
+  EXPECT_LT(diff.covariance, kTolerance);
+  EXPECT_EQ(diff.decisions_differing, 0u);
+  ::testing::Test::RecordProperty("max_state_difference", scientific(diff.state));
+  ::testing::Test::RecordProperty("max_covariance_difference", scientific(diff.covariance));
+  ::testing::Test::RecordProperty("local_area_flushes", scientific(diff.flushes));
+  ::testing::Test::RecordProperty("landmarks", static_cast<int>(diff.landmarks));
+}
+
+}  // namespace
+
+TEST(EkfCompressed, EqualsFullEkfOnDefaultWorld) {
+  const Differences diff =
+      compare_variants(simulate(default_world(), SimulatorConfig{}), AssociationMethod::kKnown, 200);
+  expect_equivalent(diff);
+  EXPECT_GT(diff.checks, 3u);
+  EXPECT_GT(diff.flushes, 2.0);  // the default world's laps cross several areas
+}
+
+TEST(EkfCompressed, EqualsFullEkfOnLargeWorldAcrossManyAreas) {
+  // A 15 m sensor keeps the full EKF's share of the run short (it sees fewer landmarks at a time)
+  // while the map grows to most of the 1000 and the vehicle crosses dozens of areas.
+  WorldGenOptions options;
+  options.landmarks = 1000;
+  options.width = 500.0;
+  options.height = 250.0;
+  SimulatorConfig sim;
+  sim.loops = 1;
+  sim.max_range = 15.0;
+  const Differences diff = compare_variants(simulate(generate_world(options), sim), AssociationMethod::kKnown, 200);
+  expect_equivalent(diff);
+  EXPECT_GT(diff.landmarks, 500u);
+  EXPECT_GT(diff.flushes, 50.0);
+}
+
+TEST(EkfCompressed, SameDecisionsAndEstimateWithNearestNeighbourAssociation) {
+  SimulatorConfig sim;
+  sim.provide_ids = false;
+  const Differences diff =
+      compare_variants(simulate(default_world(), sim), AssociationMethod::kNearestNeighbour, 200);
+  expect_equivalent(diff);
+  EXPECT_GT(diff.flushes, 2.0);
+}
+
+TEST(EkfCompressed, AccessorsAnswerForTheWholeMapInsideAnArea) {
+  // Landmark 0 is left behind the area when the vehicle drives off and a new area opens: reading it
+  // then must include the updates accumulated since, without a flush.
+  const Dataset data = simulate(default_world(), SimulatorConfig{});
+  FilterConfig config;
+  const auto full_filter = make_filter(config, data);
+  config.ekf_variant = "compressed";
+  const auto compressed_filter = make_filter(config, data);
+  auto& full = dynamic_cast<EkfSlam&>(*full_filter);
+  auto& compressed = dynamic_cast<EkfSlam&>(*compressed_filter);
+  std::size_t scans = 0;
+  for (const Event& e : data.events) {
+    if (const auto* c = std::get_if<ControlEvent>(&e)) {
+      full.predict(*c);
+      compressed.predict(*c);
+    } else {
+      full.update(std::get<ScanEvent>(e));
+      compressed.update(std::get<ScanEvent>(e));
+      if (++scans == 400) break;
+    }
+  }
+  const double flushes = compressed.statistics().at("local_area_flushes");
+  ASSERT_GT(flushes, 0.0);
+  const std::size_t n = full.num_landmarks();
+  ASSERT_EQ(compressed.num_landmarks(), n);
+  EXPECT_LT((full.pose_covariance() - compressed.pose_covariance()).cwiseAbs().maxCoeff(), kTolerance);
+  for (std::size_t i = 0; i < n; ++i) {
+    EXPECT_LT((full.landmark_position(i) - compressed.landmark_position(i)).cwiseAbs().maxCoeff(), kTolerance);
+    EXPECT_LT((full.landmark_covariance(i) - compressed.landmark_covariance(i)).cwiseAbs().maxCoeff(), kTolerance);
+    EXPECT_LT((full.landmark_pose_covariance(i) - compressed.landmark_pose_covariance(i)).cwiseAbs().maxCoeff(),
+              kTolerance);
+    for (std::size_t j = 0; j < n; j += 7) {
+      const Matrix2 difference = full.landmark_cross_covariance(i, j) - compressed.landmark_cross_covariance(i, j);
+      EXPECT_LT(difference.cwiseAbs().maxCoeff(), kTolerance);
+    }
+  }
+  // Reading changed nothing: the area is still open.
+  EXPECT_EQ(compressed.statistics().at("local_area_flushes"), flushes);
+}
+
+TEST(EkfCompressed, RemovalFlushesAndStaysExact) {
+  const Dataset data = simulate(default_world(), SimulatorConfig{});
+  FilterConfig config;
+  const auto full_filter = make_filter(config, data);
+  config.ekf_variant = "compressed";
+  const auto compressed_filter = make_filter(config, data);
+  auto& full = dynamic_cast<EkfSlam&>(*full_filter);
+  auto& compressed = dynamic_cast<EkfSlam&>(*compressed_filter);
+  std::size_t scans = 0;
+  for (const Event& e : data.events) {
+    if (const auto* c = std::get_if<ControlEvent>(&e)) {
+      full.predict(*c);
+      compressed.predict(*c);
+      continue;
+    }
+    full.update(std::get<ScanEvent>(e));
+    compressed.update(std::get<ScanEvent>(e));
+    // Remove an active landmark (the one added last) and one far behind, then go on.
+    if (++scans == 300 || scans == 600) {
+      full.remove_landmark(full.num_landmarks() - 1);
+      compressed.remove_landmark(compressed.num_landmarks() - 1);
+      full.remove_landmark(0);
+      compressed.remove_landmark(0);
+    }
+    if (scans == 800) break;
+  }
+  EXPECT_LT((full.state() - compressed.state()).cwiseAbs().maxCoeff(), kTolerance);
+  EXPECT_LT((full.covariance() - compressed.covariance()).cwiseAbs().maxCoeff(), kTolerance);
+}
+
+TEST(EkfCompressed, FactoryRejectsAnUnknownVariant) {
+  const Dataset data = simulate(default_world(), SimulatorConfig{});
+  FilterConfig config;
+  config.ekf_variant = "sparse";
+  try {
+    make_filter(config, data);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("full, compressed"), std::string::npos) << e.what();
+  }
+}
