@@ -24,13 +24,32 @@ std::string filter_title(const std::string& filter) {
   return filter;
 }
 
+/// The headline's " | "-separated parts, wrapped into lines short enough for the figure's width.
+std::string wrap_headline(const std::string& headline) {
+  constexpr std::size_t kMaxLine = 100;
+  std::string out, line;
+  std::size_t start = 0;
+  while (start <= headline.size()) {
+    const std::size_t bar = headline.find(" | ", start);
+    const std::string part = headline.substr(start, bar == std::string::npos ? std::string::npos : bar - start);
+    if (!line.empty() && line.size() + 3 + part.size() > kMaxLine) {
+      out += line + "\n";
+      line.clear();
+    }
+    line += (line.empty() ? "" : " | ") + part;
+    if (bar == std::string::npos) break;
+    start = bar + 3;
+  }
+  return out + line;
+}
+
 }  // namespace
 
 void write_run_plots(const std::string& dir, const RunResult& run, const GroundTruth& truth,
                      const Metrics& metrics) {
   namespace fs = std::filesystem;
   const std::string title = filter_title(run.filter) + " on " + run.dataset;
-  const std::string subtitle = headline(metrics);
+  const std::string subtitle = wrap_headline(headline(metrics));
 
   plot::MapPlotData map;
   map.title = title;
