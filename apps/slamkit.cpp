@@ -117,6 +117,9 @@ int main(int argc, char** argv) {
                       "FastSLAM: always, every:K (scans) or ess:F (effective sample size below F*N)")
       ->capture_default_str();
   run_cmd->add_option("--threads", filter.threads, "FastSLAM: worker threads (0: all cores)")->capture_default_str();
+  run_cmd->add_option("--ekf-update", filter.ekf_update,
+                      "EKF: sequential (one observation after another) or joint (a scan at once)")
+      ->capture_default_str();
   run_cmd->add_option("--ekf-variant", filter.ekf_variant,
                       "EKF: full, or compressed (local-area updates, the same result)")
       ->capture_default_str();

@@ -24,6 +24,7 @@ EkfSlam::EkfSlam(std::shared_ptr<const MotionModel> motion,
       // Cells of a third of the sensor range: a query touches a few dozen cells at most.
       grid_(std::max(5.0, options.sensor.max_range / 3.0)),
       variant_(options.variant),
+      joint_scan_update_(options.joint_scan_update),
       area_half_side_(0.5 * (options.local_area_side > 0.0 ? options.local_area_side
                                                            : 2.0 * options.sensor.max_range)) {
   if (!motion_ || !observation_) throw std::invalid_argument("EkfSlam needs a motion and an observation model");
@@ -248,6 +249,51 @@ bool EkfSlam::update_landmark(std::size_t index, const Vector2& z) {
   return true;
 }
 
+bool EkfSlam::update_landmarks(std::span<const LandmarkObservation> batch) {
+  if (batch.size() == 1) return update_landmark(batch[0].index, batch[0].z);
+  if (compressed()) {
+    bool all = true;
+    for (const LandmarkObservation& o : batch) all = update_landmark(o.index, o.z) && all;
+    return all;
+  }
+  if (batch.empty()) return true;
+  apply_pending_motion();
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const auto k = static_cast<Eigen::Index>(2 * batch.size());
+  const Pose2 xv = x_.head<3>();
+  // W = P H^T, two columns per observation, each pair from the two column blocks its row of H touches.
+  Eigen::MatrixXd pht(n, k);
+  Eigen::VectorXd nu(k);
+  std::vector<Matrix23> hx(batch.size());
+  std::vector<Matrix2> hm(batch.size());
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const auto l = landmark_offset(batch[i].index);
+    const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(l));
+    observation_->jacobians(xv, m, hx[i], hm[i]);
+    nu.segment<2>(2 * static_cast<Eigen::Index>(i)) = observation_->residual(batch[i].z, observation_->predict(xv, m));
+    covariance_times_jacobian(l, hx[i], hm[i]);
+    pht.middleCols<2>(2 * static_cast<Eigen::Index>(i)) = pht_.topRows(n);
+  }
+  // S = H P H^T + R, block (i, j) = H_i (P H_j^T).
+  Eigen::MatrixXd s(k, k);
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const auto l = static_cast<Eigen::Index>(landmark_offset(batch[i].index));
+    const auto r = 2 * static_cast<Eigen::Index>(i);
+    s.middleRows<2>(r).noalias() = hx[i] * pht.topRows<3>() + hm[i] * pht.middleRows<2>(l);
+    s.block<2, 2>(r, r) += observation_->noise();
+  }
+  s = (0.5 * (s + s.transpose())).eval();
+  const Eigen::LLT<Eigen::MatrixXd> llt(s);
+  if (llt.info() != Eigen::Success) return false;
+  x_.head(n).noalias() += pht * llt.solve(nu);
+  x_[2] = wrap_angle(x_[2]);
+  // P -= W S^-1 W^T = C C^T with C^T = L^-1 W^T: one pass over the lower triangle for the scan.
+  Eigen::MatrixXd ct = pht.transpose();
+  llt.matrixL().solveInPlace(ct);
+  p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>().rankUpdate(ct.transpose(), -1.0);
+  return true;
+}
+
 std::size_t EkfSlam::add_landmark(const Vector2& z, int id) {
   reserve(dim_ + 2);
   if (compressed() && !in_area()) begin_area();
@@ -338,13 +384,18 @@ void EkfSlam::update_known(const ScanEvent& scan) {
         return;
       }
     }
-    if (update_landmark(index, scan.observations[k].z)) {
+    if (joint_scan_update_) {
+      batch_.push_back({index, scan.observations[k].z});
+      last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
+      ++tracks_[index].observations;
+    } else if (update_landmark(index, scan.observations[k].z)) {
       last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
       ++tracks_[index].observations;
     } else {
       ++discarded_;
     }
   };
+  batch_.clear();
   for (std::size_t k = 0; k < scan.observations.size(); ++k) {
     const Observation& obs = scan.observations[k];
     if (obs.id == kUnknownId) {
@@ -357,6 +408,7 @@ void EkfSlam::update_known(const ScanEvent& scan) {
     else
       new_observations_.push_back(k);
   }
+  apply_joint_batch();
   // New landmarks are added after the scan's updates, so they start from the best pose estimate.
   for (const std::size_t k : new_observations_) {
     const Observation& obs = scan.observations[k];
@@ -368,6 +420,15 @@ void EkfSlam::update_known(const ScanEvent& scan) {
       last_associations_[k] = {AssociationDecision::kNew, obs.id};
     }
   }
+  apply_joint_batch();
+}
+
+void EkfSlam::apply_joint_batch() {
+  if (batch_.empty()) return;
+  // A joint innovation covariance that is not positive definite: fall back to one at a time.
+  if (!update_landmarks(batch_))
+    for (const LandmarkObservation& o : batch_) update_landmark(o.index, o.z);
+  batch_.clear();
 }
 
 void EkfSlam::find_candidates(double range_margin, double angle_margin, std::vector<std::size_t>& out) const {
@@ -399,10 +460,14 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
 
   const Vector2 position_before = x_.head<2>();
   std::vector<bool> seen(ids_.size(), false);
+  batch_.clear();
   for (std::size_t k = 0; k < pairings.size(); ++k) {
     if (pairings[k].decision != AssociationDecision::kUpdate) continue;
     const std::size_t index = pairings[k].landmark;
-    if (!update_landmark(index, scan.observations[k].z)) continue;
+    if (joint_scan_update_)
+      batch_.push_back({index, scan.observations[k].z});
+    else if (!update_landmark(index, scan.observations[k].z))
+      continue;
     last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
     seen[index] = true;
     Track& track = tracks_[index];
@@ -410,6 +475,7 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
     track.misses = 0;
     if (track.observations >= association_.confirm_after) track.confirmed = true;
   }
+  apply_joint_batch();
   for (std::size_t k = 0; k < pairings.size(); ++k) {
     if (pairings[k].decision == AssociationDecision::kNew) {
       const int id = next_id_++;

@@ -25,6 +25,11 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
     options.association = config.association;
     options.sensor = dataset.sensor;
     options.variant = parse_ekf_variant(config.ekf_variant);
+    if (config.ekf_update != "sequential" && config.ekf_update != "joint")
+      throw std::invalid_argument("unknown EKF update '" + config.ekf_update + "'; expected one of: sequential, joint");
+    // The compressed variant works on a local state one observation at a time; it equals the full
+    // EKF with sequential updates.
+    options.joint_scan_update = config.ekf_update == "joint" && options.variant == EkfVariant::kFull;
     return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
   }
   if (config.name == "fastslam1" || config.name == "fastslam2") {

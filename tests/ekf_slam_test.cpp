@@ -88,12 +88,17 @@ struct DenseKalman {
 
 }  // namespace
 
-TEST(EkfSlam, LinearGaussianCaseEqualsPlainKalmanFilter) {
+class LinearGaussian : public ::testing::TestWithParam<bool> {};
+
+// Both ways of applying a scan (joint, and one observation after another) equal the textbook filter
+// when the models are linear.
+TEST_P(LinearGaussian, EkfSlamEqualsPlainKalmanFilter) {
   auto motion = std::make_shared<LinearMotion>();
   auto obs = std::make_shared<LinearOffset>();
   EkfSlamOptions options;
   options.initial_pose = Pose2(1.0, -2.0, 0.1);
   options.initial_covariance = Eigen::Vector3d(0.1, 0.2, 0.01).asDiagonal();
+  options.joint_scan_update = GetParam();
   EkfSlam ekf(motion, obs, options);
   DenseKalman kf;
   kf.x = options.initial_pose;
@@ -128,6 +133,9 @@ TEST(EkfSlam, LinearGaussianCaseEqualsPlainKalmanFilter) {
   }
   EXPECT_EQ(ekf.num_landmarks(), world.size());
 }
+
+INSTANTIATE_TEST_SUITE_P(ScanUpdate, LinearGaussian, ::testing::Bool(),
+                         [](const auto& info) { return info.param ? "Joint" : "Sequential"; });
 
 TEST(EkfSlam, NewLandmarkCarriesFullCrossCovariance) {
   auto motion = std::make_shared<AckermannModel>();

@@ -17,6 +17,7 @@
 // of the same products (see src/ekf_slam.cpp for the derivation).
 #include <Eigen/Core>
 #include <memory>
+#include <span>
 #include <unordered_map>
 #include <vector>
 
@@ -47,6 +48,19 @@ struct EkfSlamOptions {
   /// The active landmarks are those within sensor.max_range of the square, i.e. every landmark the
   /// vehicle can see from inside it. Leaving the square is checked at each scan.
   double local_area_side = 0.0;
+  /// Full variant: update with all of a scan's paired observations at once (one joint innovation
+  /// and one symmetric rank-2k downdate, a single pass over the covariance) instead of one after
+  /// another. Equal to the sequential update for linear models; for nonlinear ones every
+  /// observation is linearised at the prior of the scan, as in eqs. (10)-(11) with z_k the scan.
+  /// On the default world it is both faster and more accurate (ATE 0.199 m against 0.209 m).
+  /// The compressed variant always applies observations one at a time.
+  bool joint_scan_update = true;
+};
+
+/// One observation of the landmark at a map index.
+struct LandmarkObservation {
+  std::size_t index = 0;
+  Vector2 z = Vector2::Zero();
 };
 
 class EkfSlam final : public SlamFilter, public GaussianMapView {
@@ -77,6 +91,10 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   /// Eqs. (10)-(11) for one observation z of the landmark at map index `index`.
   /// Returns false (and changes nothing) if the innovation covariance is not positive definite.
   bool update_landmark(std::size_t index, const Vector2& z);
+  /// Eqs. (10)-(11) for several observations of distinct landmarks at once (full variant; the
+  /// compressed variant applies them one by one). Returns false (and changes nothing) if the joint
+  /// innovation covariance is not positive definite.
+  bool update_landmarks(std::span<const LandmarkObservation> batch);
   /// Appends the landmark seen as z, with its full cross-covariances; returns its map index.
   std::size_t add_landmark(const Vector2& z, int id);
   /// Predicted measurement and innovation covariance S of landmark `index` (for gating).
@@ -118,6 +136,8 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   /// Fills pht_ with P H^T for an observation Jacobian with blocks hx (vehicle) and hm (landmark).
   void covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm);
   void update_known(const ScanEvent& scan);
+  /// Applies the scan's collected updates jointly (joint_scan_update).
+  void apply_joint_batch();
   void update_unknown(const ScanEvent& scan);
   /// Landmarks that can be in view from the current pose (range and field of view plus margins).
   void find_candidates(double range_margin, double angle_margin, std::vector<std::size_t>& out) const;
@@ -175,6 +195,8 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   double drift_since_rebuild_ = 0.0;  // vehicle corrections since the grid was last rebuilt [m]
   std::vector<AssociationRecord> last_associations_;
   EkfVariant variant_;
+  bool joint_scan_update_;
+  std::vector<LandmarkObservation> batch_;  // a scan's updates, when applied jointly
   double area_half_side_;
   // The local area (compressed variant), empty when none is open. The local state is
   // [vehicle | A0's landmarks | landmarks added since], in which order area_offsets_ lists the

@@ -16,6 +16,7 @@ struct FilterConfig {
   std::uint64_t seed = 1;
   AssociationConfig association;
   // EKF only.
+  std::string ekf_update = "joint";  // joint (a scan's observations at once) | sequential
   std::string ekf_variant = "full";  // full | compressed (same estimate, local-area updates)
   // Particle filters only.
   int particles = 100;
