@@ -1,7 +1,5 @@
 #include "slamkit/io/mrclam.hpp"
 
-#include "slamkit/io/gzip_lines.hpp"
-
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -84,7 +82,7 @@ bool parse_time(std::string_view s, UnixTime& out) {
   return true;
 }
 
-UnixTime read_time(const GzipLineReader& in, std::size_t i) {
+UnixTime read_time(const TextReader& in, std::size_t i) {
   UnixTime t;
   if (!parse_time(in.field(i), t))
     in.fail(fmt::format("expected a finite number for the time, found '{}'", in.field(i)));
@@ -110,7 +108,7 @@ fs::path require_file(const fs::path& dir, const std::string& name) {
 // Times must not go backwards: scans are grouped and controls are cut in file order.
 class TimeOrder {
  public:
-  double check(const GzipLineReader& in, double t) {
+  double check(const TextReader& in, double t) {
     if (t < last_)
       in.fail(fmt::format("time {:.3f} s is earlier than the {:.3f} s of the line before (relative to t0); "
                           "expected times never to decrease",
@@ -124,7 +122,7 @@ class TimeOrder {
 };
 
 std::unordered_map<long, int> read_barcodes(const fs::path& file) {
-  GzipLineReader in(file.string());
+  TextReader in(file.string());
   std::unordered_map<long, int> subject_of;
   std::unordered_map<long, std::size_t> line_of_subject;
   while (in.next()) {
@@ -143,7 +141,7 @@ std::unordered_map<long, int> read_barcodes(const fs::path& file) {
 }
 
 std::vector<Landmark> read_landmarks(const fs::path& file) {
-  GzipLineReader in(file.string());
+  TextReader in(file.string());
   std::vector<Landmark> landmarks;
   std::unordered_map<long, std::size_t> line_of_subject;
   while (in.next()) {
@@ -171,7 +169,7 @@ struct Command {
 
 // The odometry rows, the first of which sets the time origin.
 std::vector<Command> read_odometry(const fs::path& file, UnixTime& origin, MrclamStats& stats) {
-  GzipLineReader in(file.string());
+  TextReader in(file.string());
   std::vector<Command> rows;
   TimeOrder order;
   while (in.next()) {
@@ -195,7 +193,7 @@ std::vector<Command> read_odometry(const fs::path& file, UnixTime& origin, Mrcla
 // The landmark measurements within the run [0, end], grouped into scans.
 std::vector<ScanEvent> read_scans(const fs::path& file, const std::unordered_map<long, int>& subject_of,
                                   const UnixTime& origin, double end, double window, MrclamStats& stats) {
-  GzipLineReader in(file.string());
+  TextReader in(file.string());
   std::vector<ScanEvent> scans;
   TimeOrder order;
   while (in.next()) {
@@ -229,7 +227,7 @@ std::vector<ScanEvent> read_scans(const fs::path& file, const std::unordered_map
 }
 
 std::vector<StampedPose> read_truth_poses(const fs::path& file, const UnixTime& origin) {
-  GzipLineReader in(file.string());
+  TextReader in(file.string());
   std::vector<StampedPose> poses;
   TimeOrder order;
   while (in.next()) {

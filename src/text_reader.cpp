@@ -1,16 +1,62 @@
 #include "slamkit/io/text_reader.hpp"
 
+#include <zlib.h>
+
+#include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 
 namespace slamkit {
 
-TextReader::TextReader(std::string path) : path_(std::move(path)), in_(path_) {
-  if (!in_) throw InputError(path_, 0, "cannot open file for reading");
+namespace {
+// A large zlib buffer: lines of the laser logs run to a few kilobytes, and fewer, larger reads keep
+// decompression the dominant cost.
+constexpr unsigned kZlibBuffer = 1U << 17;
+}  // namespace
+
+TextReader::TextReader(std::string path) : path_(std::move(path)) {
+  errno = 0;
+  file_ = gzopen(path_.c_str(), "rb");
+  if (file_ == nullptr) {
+    const std::string reason = errno != 0 ? std::strerror(errno) : "out of memory";
+    throw InputError(path_, 0, "cannot open file for reading (" + reason + ")");
+  }
+  gzbuffer(file_, kZlibBuffer);
+}
+
+TextReader::~TextReader() { gzclose(file_); }
+
+void TextReader::check_stream() const {
+  int code = Z_OK;
+  const char* message = gzerror(file_, &code);
+  if (code == Z_OK) return;
+  // The partial line is where the data stop, so that is the line the error names.
+  if (code == Z_BUF_ERROR)
+    throw InputError(path_, line_number_ + 1,
+                     "the compressed data end abruptly; expected a complete gzip stream (truncated file?)");
+  const std::string reason = code == Z_ERRNO ? std::strerror(errno) : message;
+  throw InputError(path_, line_number_ + 1, "cannot decompress: " + reason);
+}
+
+bool TextReader::read_line() {
+  line_.clear();
+  char chunk[8192];
+  while (gzgets(file_, chunk, sizeof chunk) != nullptr) {
+    const std::size_t n = std::strlen(chunk);
+    if (n > 0 && chunk[n - 1] == '\n') {
+      line_.append(chunk, n - 1);
+      return true;
+    }
+    // No newline: the line is longer than the chunk, or the data end here (or were cut off).
+    line_.append(chunk, n);
+  }
+  check_stream();
+  return !line_.empty();
 }
 
 bool TextReader::next() {
-  while (std::getline(in_, line_)) {
+  while (read_line()) {
     ++line_number_;
     fields_.clear();
     std::string_view rest(line_);
@@ -26,7 +72,6 @@ bool TextReader::next() {
     }
     if (!fields_.empty()) return true;
   }
-  if (in_.bad()) throw InputError(path_, line_number_, "read error");
   return false;
 }
 

@@ -15,7 +15,6 @@
 #include <vector>
 
 #include "slamkit/error.hpp"
-#include "slamkit/io/gzip_lines.hpp"
 #include "slamkit/io/text_reader.hpp"
 
 namespace slamkit {
@@ -219,7 +218,7 @@ std::vector<StampedPose> read_gps(const std::string& path) {
 
 std::vector<ScanEvent> read_laser(const std::string& path, const VictoriaParkOptions& options) {
   const TreeDetector detector(options.detector);
-  GzipLineReader in(path);
+  TextReader in(path);
   std::vector<ScanEvent> scans;
   std::vector<double> ranges(kBeams);
   while (in.next()) {

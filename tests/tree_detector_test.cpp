@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "slamkit/angles.hpp"
-#include "slamkit/io/gzip_lines.hpp"
+#include "slamkit/io/text_reader.hpp"
 #include "slamkit/io/text_reader.hpp"
 
 using namespace slamkit;
@@ -165,7 +165,7 @@ TEST(TreeDetector, MatchesDetectTreesI16OnTheVictoriaParkLaser) {
   }
 
   const TreeDetector detector;
-  GzipLineReader in(laser.string());
+  TextReader in(laser.string());
   std::vector<double> ranges(361);
   long scan = 0, reference_count = 0, matched = 0, ours = 0, extra = 0;
   const auto start = std::chrono::steady_clock::now();

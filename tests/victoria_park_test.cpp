@@ -27,7 +27,7 @@
 
 #include "slamkit/angles.hpp"
 #include "slamkit/error.hpp"
-#include "slamkit/io/gzip_lines.hpp"
+#include "slamkit/io/text_reader.hpp"
 #include "slamkit/io/text_reader.hpp"
 
 using namespace slamkit;
@@ -443,9 +443,9 @@ TEST(VictoriaParkReader, TruncatedLaserFileIsAnError) {
             std::string::npos);
 }
 
-// ---- GzipLineReader -------------------------------------------------------------------------------
+// ---- TextReader -------------------------------------------------------------------------------
 
-TEST(GzipLineReader, SplitsFieldsLikeTextReaderAndReadsLongLines) {
+TEST(TextReader, ReadsGzipAndPlainFilesAndLongLines) {
   ScratchDir dir;
   std::string long_line;
   for (int i = 0; i < 5000; ++i) long_line += std::to_string(i) + "\t";
@@ -453,7 +453,7 @@ TEST(GzipLineReader, SplitsFieldsLikeTextReaderAndReadsLongLines) {
   write_gzip(dir.file("a.gz"), text);
   write_text(dir.file("a.txt"), text);
   for (const char* name : {"a.gz", "a.txt"}) {  // plain text is read as it is
-    GzipLineReader in(dir.file(name));
+    TextReader in(dir.file(name));
     ASSERT_TRUE(in.next());
     EXPECT_EQ(in.line_number(), 3U);
     ASSERT_EQ(in.size(), 3U);
@@ -469,12 +469,12 @@ TEST(GzipLineReader, SplitsFieldsLikeTextReaderAndReadsLongLines) {
   }
 }
 
-TEST(GzipLineReader, ErrorsNameFileAndLine) {
+TEST(TextReader, GzipErrorsNameFileAndLine) {
   ScratchDir dir;
-  EXPECT_NE(input_error([&] { GzipLineReader in(dir.file("missing.gz")); }).find("missing.gz: cannot open"),
+  EXPECT_NE(input_error([&] { TextReader in(dir.file("missing.gz")); }).find("missing.gz: cannot open"),
             std::string::npos);
   write_gzip(dir.file("b.gz"), "1 2\n3 x\n");
-  GzipLineReader in(dir.file("b.gz"));
+  TextReader in(dir.file("b.gz"));
   ASSERT_TRUE(in.next());
   ASSERT_TRUE(in.next());
   const std::string message = input_error([&] { in.number(1, "the speed"); });

@@ -1,14 +1,16 @@
 #pragma once
-// Line-oriented reading of the whitespace-separated text files slamkit reads and writes. Every parse
-// failure becomes an InputError naming the file, the line and what was expected; numbers must be
-// finite (a NaN or inf in a log is an error, not a value).
+// Line-oriented reading of the whitespace-separated text files slamkit reads and writes, plain or
+// gzip-compressed (zlib reads a file without a gzip header as it is). Every parse failure becomes an
+// InputError naming the file, the line and what was expected; numbers must be finite (a NaN or inf
+// in a log is an error, not a value); a truncated .gz is an error at the line where the data stop.
 #include <cstddef>
-#include <fstream>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "slamkit/error.hpp"
+
+struct gzFile_s;  // zlib's file handle, kept out of the header
 
 namespace slamkit {
 
@@ -16,6 +18,9 @@ class TextReader {
  public:
   /// Opens `path`; throws InputError if it cannot be read.
   explicit TextReader(std::string path);
+  ~TextReader();
+  TextReader(const TextReader&) = delete;
+  TextReader& operator=(const TextReader&) = delete;
 
   /// Advances to the next line that is neither blank nor a '#' comment. False at end of file.
   bool next();
@@ -37,8 +42,13 @@ class TextReader {
   [[noreturn]] void fail(const std::string& message) const;
 
  private:
+  /// Reads one physical line into line_ (without its '\n'); false at the end of the data.
+  bool read_line();
+  /// Turns a zlib error (e.g. a truncated stream) into an InputError at the current line.
+  void check_stream() const;
+
   std::string path_;
-  std::ifstream in_;
+  ::gzFile_s* file_ = nullptr;
   std::string line_;
   std::vector<std::string_view> fields_;
   std::size_t line_number_ = 0;
