@@ -102,11 +102,16 @@ int main(int argc, char** argv) {
   // ---- run ----
   auto* run_cmd = app.add_subcommand("run", "Run a SLAM filter on a dataset and evaluate it");
   FilterConfig filter;
-  std::string data_spec, run_out, assoc_name = "known";
+  std::string data_spec, run_out, assoc_name = "known", data_config;
   run_cmd->add_option("--filter", filter.name, "Filter: ekf, fastslam1, fastslam2")->capture_default_str();
   run_cmd->add_option("--assoc", assoc_name, "Data association: known (ids from the log), nn, jcbb")
       ->capture_default_str();
-  run_cmd->add_option("--data", data_spec, "Dataset, as KIND:PATH (sim:DIR)")->required();
+  run_cmd->add_option("--data", data_spec,
+                      "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN, course:DIR")
+      ->required();
+  run_cmd->add_option("--data-config", data_config,
+                      "Dataset settings (JSON: noise, sensor limits); the defaults are config/*.json")
+      ->check(CLI::ExistingFile);
   run_cmd->add_option("--seed", filter.seed, "Random seed for stochastic filters")->capture_default_str();
   run_cmd->add_option("--particles", filter.particles, "FastSLAM: number of particles")
       ->capture_default_str()
@@ -165,17 +170,18 @@ int main(int argc, char** argv) {
       fmt::print("wrote {} ({} landmarks)\n", world_out, gen.landmarks);
     } else if (*run_cmd) {
       filter.association.method = parse_association_method(assoc_name);
-      const Dataset dataset = load_dataset(data_spec);
+      const Dataset dataset = load_dataset(data_spec, data_config);
       if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
         throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
       auto slam = make_filter(filter, dataset);
       RunResult run = run_filter(*slam, dataset);
       run.association = assoc_name;
+      run.dataset_settings = data_config;
       write_run(run_out, run);
       print_outputs(run_out, evaluate_and_report(run_out, run, dataset));
     } else if (*eval_cmd) {
       const RunResult run = read_run(eval_dir);
-      const Dataset dataset = load_dataset(run.dataset);
+      const Dataset dataset = load_dataset(run.dataset, run.dataset_settings);
       print_outputs(eval_dir, evaluate_and_report(eval_dir, run, dataset));
     }
   } catch (const InputError& e) {

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <iterator>
 #include <string_view>
 
@@ -17,35 +19,50 @@
 namespace slamkit {
 namespace {
 
+/// A reader; `settings` (nullptr for the shipped defaults) is the JSON of the dataset's settings,
+/// `source` names where it came from for error messages.
+using Reader = Dataset (*)(const std::string& path, const nlohmann::json* settings, const std::string& source);
+
 struct DatasetKind {
   std::string_view name;
-  Dataset (*read)(const std::string& path);
+  Reader read;
   /// Where the dataset lives inside a datasets folder ($SLAMKIT_DATA), for specs without a path;
   /// empty if the kind has no standard place.
   std::string_view default_folder;
 };
 
-Dataset read_victoria_park_defaults(const std::string& path) { return read_victoria_park(path); }
+Dataset read_sim(const std::string& path, const nlohmann::json* settings, const std::string& source) {
+  if (settings != nullptr)
+    throw InputError(source, 0, "a simulator log carries its settings in its params.json; expected no dataset settings");
+  return read_sim_log(path);
+}
+
+Dataset read_victoria_park_with(const std::string& path, const nlohmann::json* settings, const std::string& source) {
+  return settings ? read_victoria_park(path, victoria_park_options_from_json(*settings, source)) : read_victoria_park(path);
+}
 
 /// "DIR:robotN" or "DIR/RobotN"; a bare DIR means robot 1.
-Dataset read_mrclam_robot(const std::string& path) {
+Dataset read_mrclam_robot(const std::string& path, const nlohmann::json* settings, const std::string& source) {
   std::string normalised = path;
   if (const auto colon = path.rfind(":robot"); colon != std::string::npos)
     normalised = path.substr(0, colon) + "/Robot" + path.substr(colon + 6);
   else if (!std::filesystem::path(path).filename().string().starts_with("Robot"))
     normalised = (std::filesystem::path(path) / "Robot1").string();
   const MrclamRobot robot = parse_mrclam_robot_path(normalised);
-  return read_mrclam(robot.dataset_dir, robot.robot);
+  return read_mrclam(robot.dataset_dir, robot.robot,
+                     settings ? mrclam_options_from_json(*settings, source) : MrclamOptions{});
 }
 
-Dataset read_course_defaults(const std::string& path) { return read_course_log(path); }
+Dataset read_course(const std::string& path, const nlohmann::json* settings, const std::string& source) {
+  return read_course_log(path, settings ? course_options_from_json(*settings, source) : CourseOptions{});
+}
 
 // Every reader slamkit has, by the kind that selects it in a "kind:PATH" spec.
 constexpr DatasetKind kKinds[] = {
-    {"sim", &read_sim_log, ""},
-    {"victoria-park", &read_victoria_park_defaults, "victoria_park"},
+    {"sim", &read_sim, ""},
+    {"victoria-park", &read_victoria_park_with, "victoria_park"},
     {"mrclam", &read_mrclam_robot, "mrclam/MRCLAM_Dataset6"},
-    {"course", &read_course_defaults, ""},
+    {"course", &read_course, ""},
 };
 
 std::string kind_names() {
@@ -61,7 +78,7 @@ std::string datasets_folder() {
   return "../shared/datasets";
 }
 
-Dataset load_dataset(const std::string& spec) {
+Dataset load_dataset(const std::string& spec, const std::string& settings_path) {
   const std::size_t colon = spec.find(':');
   const std::string_view kind = std::string_view(spec).substr(0, colon);
   const auto match = std::find_if(std::begin(kKinds), std::end(kKinds),
@@ -82,7 +99,17 @@ Dataset load_dataset(const std::string& spec) {
                                    "{}/ or give {}:PATH",
                                    path, match->default_folder, kind));
   }
-  Dataset dataset = match->read(path);
+  nlohmann::json settings;
+  if (!settings_path.empty()) {
+    std::ifstream in(settings_path);
+    if (!in) throw InputError(settings_path, 0, "cannot open file for reading");
+    try {
+      settings = nlohmann::json::parse(in);
+    } catch (const nlohmann::json::parse_error& e) {
+      throw InputError(settings_path, 0, std::string("expected JSON dataset settings: ") + e.what());
+    }
+  }
+  Dataset dataset = match->read(path, settings_path.empty() ? nullptr : &settings, settings_path);
   dataset.spec = spec;
   return dataset;
 }

@@ -156,6 +156,7 @@ void write_run(const std::string& dir, const RunResult& run) {
 
   const nlohmann::json info = {{"filter", run.filter},
                                {"dataset", run.dataset},
+                               {"dataset_settings", run.dataset_settings},
                                {"association", run.association},
                                {"steps", run.steps},
                                {"scans", run.scans},
@@ -183,6 +184,7 @@ RunResult read_run(const std::string& dir) {
     run.observations = info.at("observations").get<std::size_t>();
     run.wall_time_s = info.at("wall_time_s").get<double>();
     run.association = info.value("association", "known");
+    run.dataset_settings = info.value("dataset_settings", "");
     run.statistics = info.value("statistics", std::map<std::string, double>{});
   } catch (const nlohmann::json::exception& e) {
     throw InputError(info_path, 0, std::string("expected a run description: ") + e.what());

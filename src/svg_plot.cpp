@@ -786,8 +786,8 @@ Frame Figure::frame() const {
     f.height = f.top + f.plot_height + bottom;
 
     double widest = 0;
-    for (const std::string& label : compute_ticks(f).y_labels)
-      widest = std::max(widest, text_width(label, kTickSize));
+    const auto ticks = compute_ticks(f);
+    for (const std::string& label : ticks.y_labels) widest = std::max(widest, text_width(label, kTickSize));
     const double needed =
         kPad + (y_label_.empty() ? 0 : 1.3 * kLabelSize + 6) + widest + kTickLength + kTickGap;
     if (std::abs(needed - left) < 1) break;

@@ -269,3 +269,24 @@ TEST_F(Cli, RunsTheShippedCourseExample) {
   EXPECT_EQ(m["map_landmarks_paired"], 8);
   EXPECT_LT(m["map_rmse_m"].get<double>(), 0.5);
 }
+
+TEST_F(Cli, DatasetSettingsFileIsUsedAndChecked) {
+  const fs::path course = fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course";
+  const fs::path shipped = fs::path(SLAMKIT_SOURCE_DIR) / "config" / "course.json";
+  const fs::path out = *work_ / "course-settings";
+  const Result r = slamkit("run --data course:" + course.string() + " --data-config " + shipped.string() + " --out " +
+                               out.string(),
+                           *work_);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream in(out / "run.json");
+  EXPECT_EQ(nlohmann::json::parse(in)["dataset_settings"], shipped.string());
+
+  const fs::path bad = *work_ / "bad-settings.json";
+  std::ofstream(bad) << "{\"sigma_range_m\": 0.2, \"bogus\": 1}\n";
+  const Result b = slamkit("run --data course:" + course.string() + " --data-config " + bad.string() + " --out " +
+                               out.string(),
+                           *work_);
+  EXPECT_NE(b.exit_code, 0);
+  EXPECT_EQ(count_lines(b.err), 1u) << b.err;
+  EXPECT_NE(b.err.find("unknown key 'bogus'"), std::string::npos) << b.err;
+}

@@ -35,7 +35,10 @@ struct Dataset {
   GroundTruth truth;
 };
 
-/// Opens a dataset from a "kind:PATH" spec ("sim:DIR"). Throws InputError on a bad spec or file.
-Dataset load_dataset(const std::string& spec);
+/// Opens a dataset from a "kind:PATH" spec ("sim:DIR", "victoria-park:DIR", "mrclam:DIR:robotN",
+/// "course:DIR"). `settings_path` names a JSON file of the dataset's settings (noise, sensor limits,
+/// ...; the shipped ones are config/*.json); empty for the defaults, which equal the shipped files.
+/// Throws InputError on a bad spec, file or setting.
+Dataset load_dataset(const std::string& spec, const std::string& settings_path = "");
 
 }  // namespace slamkit

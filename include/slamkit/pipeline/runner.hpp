@@ -28,6 +28,7 @@ struct LandmarkStdSample {
 struct RunResult {
   std::string filter;
   std::string dataset;
+  std::string dataset_settings;  // the JSON settings file the dataset was read with; empty: defaults
   std::string association;  // "known", "nn" or "jcbb"
   /// The estimated trajectory: the filter's smoothed trajectory where it has one (FastSLAM's best
   /// particle), else the per-step estimates.
