@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "test_data.hpp"
+
 #include <Eigen/Geometry>
 #include <functional>
 #include <stdexcept>
@@ -14,21 +16,7 @@ using namespace slamkit;
 
 namespace {
 
-/// Central-difference Jacobian of f at x; the heading row is differenced the short way round.
-Eigen::MatrixXd numeric_jacobian(const std::function<Pose2(const Eigen::VectorXd&)>& f,
-                                 const Eigen::VectorXd& x) {
-  const double h = 1e-6;
-  Eigen::MatrixXd j(3, x.size());
-  for (int i = 0; i < x.size(); ++i) {
-    Eigen::VectorXd a = x, b = x;
-    a[i] += h;
-    b[i] -= h;
-    Pose2 d = f(a) - f(b);
-    d[2] = wrap_angle(d[2]);
-    j.col(i) = d / (2 * h);
-  }
-  return j;
-}
+using test_data::numeric_jacobian;
 
 Control control(double speed, double steer) {
   Control u(2);
@@ -53,9 +41,9 @@ TEST(AcfrCarModel, JacobiansMatchNumericDifferentiation) {
         const Control u = control(speed, steer);
         const double dt = 0.025;
         const auto fx =
-            numeric_jacobian([&](const Eigen::VectorXd& s) { return model.predict(s, u, dt); }, x);
+            numeric_jacobian<3>([&](const Eigen::VectorXd& s) { return model.predict(s, u, dt); }, x, {2});
         const auto fu =
-            numeric_jacobian([&](const Eigen::VectorXd& c) { return model.predict(x, Control(c), dt); }, u);
+            numeric_jacobian<3>([&](const Eigen::VectorXd& c) { return model.predict(x, Control(c), dt); }, u, {2});
         EXPECT_LT((Eigen::MatrixXd(model.jacobian_state(x, u, dt)) - fx).norm(), 1e-8)
             << model.jacobian_state(x, u, dt) << "\n"
             << fx;

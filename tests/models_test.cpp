@@ -2,6 +2,8 @@
 // behaviour of each model.
 #include <gtest/gtest.h>
 
+#include "test_data.hpp"
+
 #include <functional>
 #include <random>
 
@@ -13,23 +15,7 @@ using namespace slamkit;
 
 namespace {
 
-/// Central-difference Jacobian of f at x; angular outputs are differenced the short way round.
-template <int Rows>
-Eigen::MatrixXd numeric_jacobian(const std::function<Eigen::Matrix<double, Rows, 1>(const Eigen::VectorXd&)>& f,
-                                 const Eigen::VectorXd& x, const std::vector<int>& angular_rows) {
-  const double h = 1e-6;
-  const auto y0 = f(x);
-  Eigen::MatrixXd j(y0.size(), x.size());
-  for (int i = 0; i < x.size(); ++i) {
-    Eigen::VectorXd a = x, b = x;
-    a[i] += h;
-    b[i] -= h;
-    Eigen::VectorXd d = f(a) - f(b);
-    for (const int r : angular_rows) d[r] = wrap_angle(d[r]);
-    j.col(i) = d / (2 * h);
-  }
-  return j;
-}
+using test_data::numeric_jacobian;
 
 std::vector<Pose2> sample_poses() {
   return {Pose2(0, 0, 0), Pose2(1.5, -2.0, 0.7), Pose2(-3, 4, -2.9), Pose2(10, 2, kPi - 1e-3)};

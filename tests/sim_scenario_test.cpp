@@ -1,6 +1,8 @@
 // The simulator's data-association conditions (clutter, missed detections, withheld ids), open
 // routes, and the named scenarios, the loop closure above all.
 #include <gtest/gtest.h>
+
+#include "test_data.hpp"
 #include <unistd.h>
 
 #include <algorithm>
@@ -28,29 +30,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A directory of this test's own, removed afterwards.
-class ScratchDir {
- public:
-  ScratchDir() {
-    const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::path(::testing::TempDir()) / (std::string("slamkit_") + test->test_suite_name() + "_" +
-                                              test->name() + "_" + std::to_string(getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~ScratchDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  std::string path() const { return path_.string(); }
-
- private:
-  fs::path path_;
-};
+using test_data::ScratchDir;
 
 std::vector<ScanEvent> scans_of(const Dataset& d) {
   std::vector<ScanEvent> out;
@@ -356,7 +336,7 @@ TEST(Identities, WithheldFromTheEventsButKeptInTheTruthAndOnDisk) {
   }
 
   const ScratchDir scratch;
-  write_sim_log(scratch.path(), d, c, w);
+  write_sim_log(scratch.path().string(), d, c, w);
   std::ifstream events(scratch.file("events.txt"));
   std::size_t obs_lines = 0;
   for (std::string line; std::getline(events, line);) {
@@ -365,7 +345,7 @@ TEST(Identities, WithheldFromTheEventsButKeptInTheTruthAndOnDisk) {
     ASSERT_NE(line.find(" -1 "), std::string::npos) << line;
   }
   EXPECT_GT(obs_lines, 10000u);
-  const Dataset r = read_sim_log(scratch.path());
+  const Dataset r = read_sim_log(scratch.path().string());
   EXPECT_EQ(r.truth.observation_ids, d.truth.observation_ids);
   for (const ScanEvent& s : scans_of(r))
     for (const Observation& o : s.observations) ASSERT_EQ(o.id, kUnknownId);
@@ -387,7 +367,7 @@ TEST(DetectionConfig, KeysRoundTripThroughJsonAndParams) {
   const ScratchDir scratch;
   const World w = default_world();
   c.loops = 1;
-  write_sim_log(scratch.path(), simulate(w, c), c, w);
+  write_sim_log(scratch.path().string(), simulate(w, c), c, w);
   std::ifstream in(scratch.file("params.json"));
   const SimulatorConfig r =
       simulator_config_from_json(nlohmann::json::parse(in).at("simulator"), "params.json");

@@ -1,9 +1,17 @@
 #pragma once
-// Where the tests find the shared real datasets: $SLAMKIT_DATA if set, else ../shared/datasets beside
+// Test helpers. Where the tests find the shared real datasets: $SLAMKIT_DATA if set, else ../shared/datasets beside
 // the source tree (where CI has them). Tests that need one skip, naming the path, when it is absent.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <Eigen/Core>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <string>
+#include <vector>
+
+#include "slamkit/angles.hpp"
 
 namespace slamkit::test_data {
 
@@ -14,6 +22,48 @@ inline std::filesystem::path shared_dataset(const std::string& folder) {
                                          : std::filesystem::path(SLAMKIT_SOURCE_DIR) / ".." / "shared" / "datasets";
   return root / folder;
 }
+
+/// Central-difference Jacobian of f at x; the `angular_rows` of f are differenced the short way
+/// round. What every model's analytic Jacobians are tested against.
+template <int Rows>
+Eigen::MatrixXd numeric_jacobian(const std::function<Eigen::Matrix<double, Rows, 1>(const Eigen::VectorXd&)>& f,
+                                 const Eigen::VectorXd& x, const std::vector<int>& angular_rows) {
+  const double h = 1e-6;
+  Eigen::MatrixXd j(Rows, x.size());
+  for (int i = 0; i < x.size(); ++i) {
+    Eigen::VectorXd a = x, b = x;
+    a[i] += h;
+    b[i] -= h;
+    Eigen::VectorXd d = f(a) - f(b);
+    for (const int r : angular_rows) d[r] = wrap_angle(d[r]);
+    j.col(i) = d / (2 * h);
+  }
+  return j;
+}
+
+/// A directory of the current test's own, removed afterwards.
+class ScratchDir {
+ public:
+  ScratchDir() {
+    const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = std::filesystem::path(::testing::TempDir()) /
+            (std::string("slamkit_") + test->test_suite_name() + "_" + test->name() + "_" + std::to_string(getpid()));
+    std::filesystem::remove_all(path_);
+    std::filesystem::create_directories(path_);
+  }
+  ~ScratchDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
 
 }  // namespace slamkit::test_data
 

@@ -2,6 +2,8 @@
 // noise scaling that makes the pose uncertainty independent of the control rate.
 #include <gtest/gtest.h>
 
+#include "test_data.hpp"
+
 #include <cmath>
 #include <functional>
 #include <vector>
@@ -19,20 +21,7 @@ Control control(double v, double omega) {
   return u;
 }
 
-/// Central-difference Jacobian of a pose-valued f at x; the heading is differenced the short way round.
-Eigen::MatrixXd numeric_jacobian(const std::function<Pose2(const Eigen::VectorXd&)>& f, const Eigen::VectorXd& x) {
-  const double h = 1e-6;
-  Eigen::MatrixXd j(3, x.size());
-  for (int i = 0; i < x.size(); ++i) {
-    Eigen::VectorXd a = x, b = x;
-    a[i] += h;
-    b[i] -= h;
-    Eigen::Vector3d d = f(a) - f(b);
-    d[2] = wrap_angle(d[2]);
-    j.col(i) = d / (2 * h);
-  }
-  return j;
-}
+using test_data::numeric_jacobian;
 
 }  // namespace
 
@@ -43,9 +32,9 @@ TEST(VelocityModel, JacobiansMatchNumericDifferentiation) {
   for (const Pose2& x : poses) {
     for (const Control& u : {control(0.086, -0.4), control(0.05, 0.0), control(-0.3, 0.57), control(2.0, 3.0)}) {
       for (const double dt : {0.015, 0.5}) {
-        const Eigen::MatrixXd fx = numeric_jacobian([&](const Eigen::VectorXd& s) { return model.predict(s, u, dt); }, x);
+        const Eigen::MatrixXd fx = numeric_jacobian<3>([&](const Eigen::VectorXd& s) { return model.predict(s, u, dt); }, x, {2});
         const Eigen::MatrixXd fu =
-            numeric_jacobian([&](const Eigen::VectorXd& c) { return model.predict(x, Control(c), dt); }, u);
+            numeric_jacobian<3>([&](const Eigen::VectorXd& c) { return model.predict(x, Control(c), dt); }, u, {2});
         EXPECT_LT((Eigen::MatrixXd(model.jacobian_state(x, u, dt)) - fx).norm(), 1e-8)
             << model.jacobian_state(x, u, dt) << "\n" << fx;
         EXPECT_LT((Eigen::MatrixXd(model.jacobian_control(x, u, dt)) - fu).norm(), 1e-8)
