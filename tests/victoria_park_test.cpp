@@ -10,6 +10,8 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include <bit>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -17,6 +19,7 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <random>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -27,7 +30,6 @@
 
 #include "slamkit/angles.hpp"
 #include "slamkit/error.hpp"
-#include "slamkit/io/text_reader.hpp"
 #include "slamkit/io/text_reader.hpp"
 
 using namespace slamkit;
@@ -460,6 +462,64 @@ TEST(TextReader, GzipErrorsNameFileAndLine) {
       << message;
   EXPECT_NE(input_error([&] { in.expect_fields(3, "three things"); }).find("b.gz:2: expected 3 fields"),
             std::string::npos);
+}
+
+// The reader fills a fixed-size block buffer: lines that straddle two blocks, and a line longer than
+// the buffer itself, must come out whole and numbered right.
+TEST(TextReader, LinesAcrossAndBeyondTheReadBuffer) {
+  ScratchDir dir;
+  std::string text;
+  std::vector<std::string> lines;
+  for (int i = 0; i < 20000; ++i) lines.push_back(std::to_string(i) + " " + std::to_string(i * 7) + ".25");
+  lines.insert(lines.begin() + 12345, std::string(300000, '9'));
+  for (const std::string& line : lines) text += line + "\n";
+  write_gzip(dir.file("c.gz"), text);
+  TextReader in(dir.file("c.gz"));
+  for (std::size_t k = 0; k < lines.size(); ++k) {
+    ASSERT_TRUE(in.next()) << "line " << k + 1;
+    ASSERT_EQ(in.line_number(), k + 1);
+    if (k == 12345) {
+      ASSERT_EQ(in.size(), 1U);
+      EXPECT_EQ(in.field(0).size(), 300000U);
+      continue;
+    }
+    const int i = static_cast<int>(k < 12345 ? k : k - 1);
+    ASSERT_EQ(in.size(), 2U) << "line " << k + 1;
+    EXPECT_EQ(in.integer(0, "i"), i);
+    EXPECT_EQ(in.number(1, "x"), i * 7 + 0.25);
+  }
+  EXPECT_FALSE(in.next());
+}
+
+// parse_double's fast path for plain decimals must give exactly the double std::from_chars gives,
+// and leave every other form (exponents, long mantissas, odd shapes) to it.
+TEST(ParseDouble, EqualsFromCharsBitForBit) {
+  const auto reference = [](std::string_view s, double& out) {
+    if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+    const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), out);
+    return ec == std::errc() && ptr == s.data() + s.size() && std::isfinite(out);
+  };
+  std::vector<std::string> inputs = {"0",   "-0",   "0.0",  "-0.000", "1.",   ".5",    "-.5",  "1e3",  "1.5E-7",
+                                     "+2.5", "nan",  "inf",  "-inf",   "",     "-",     ".",    "1.2.3", "12a",
+                                     "1 ",  "0x10", "--1",  "81.91",  "0.83", "999999999999999.", "1e400",
+                                     "123456789012345", "1234567890123456", "0.1234567890123456789"};
+  std::mt19937_64 rng(7);
+  for (int n = 0; n < 200000; ++n) {
+    const int digits = 1 + static_cast<int>(rng() % 18);
+    std::string s = rng() % 2 ? "-" : "";
+    const int point = static_cast<int>(rng() % (digits + 1));
+    for (int d = 0; d < digits; ++d) {
+      if (d == point && d > 0) s += '.';
+      s += static_cast<char>('0' + rng() % 10);
+    }
+    inputs.push_back(s);
+  }
+  for (const std::string& s : inputs) {
+    double expected = 0.0, got = 0.0;
+    const bool expected_ok = reference(s, expected);
+    ASSERT_EQ(parse_double(s, got), expected_ok) << "'" << s << "'";
+    if (expected_ok) ASSERT_EQ(std::bit_cast<std::uint64_t>(got), std::bit_cast<std::uint64_t>(expected)) << s;
+  }
 }
 
 // ---- Options --------------------------------------------------------------------------------------

@@ -41,4 +41,8 @@ struct Dataset {
 /// Throws InputError on a bad spec, file or setting.
 Dataset load_dataset(const std::string& spec, const std::string& settings_path = "");
 
+/// Where datasets named without a path are looked up: $SLAMKIT_DATA if set, else ../shared/datasets
+/// (relative to the working directory).
+std::string datasets_folder();
+
 }  // namespace slamkit

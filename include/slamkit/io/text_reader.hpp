@@ -42,14 +42,22 @@ class TextReader {
   [[noreturn]] void fail(const std::string& message) const;
 
  private:
-  /// Reads one physical line into line_ (without its '\n'); false at the end of the data.
+  /// Points line_ at the next physical line (without its '\n'); false at the end of the data.
   bool read_line();
+  /// Moves the unread tail to the front of buffer_ and appends decompressed data; false at the end.
+  bool refill();
   /// Turns a zlib error (e.g. a truncated stream) into an InputError at the current line.
   void check_stream() const;
 
   std::string path_;
   ::gzFile_s* file_ = nullptr;
-  std::string line_;
+  // Decompressed data are read in large blocks and lines are found with memchr; line_ and fields_
+  // point into buffer_ and stay valid until the next call to next().
+  std::vector<char> buffer_;
+  std::size_t begin_ = 0;  // first unread byte in buffer_
+  std::size_t end_ = 0;    // one past the last valid byte in buffer_
+  bool at_end_ = false;
+  std::string_view line_;
   std::vector<std::string_view> fields_;
   std::size_t line_number_ = 0;
 };
