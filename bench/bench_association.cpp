@@ -48,7 +48,7 @@ void run(benchmark::State& state, AssociationMethod method) {
   Scene scene = make_scene(static_cast<int>(state.range(0)), method);
   std::size_t paired = 0;
   for (auto _ : state) {
-    const auto pairings = scene.ekf->associate_scan(scene.scan);
+    const auto& pairings = scene.ekf->associate_scan(scene.scan);
     paired = 0;
     for (const auto& p : pairings) paired += p.decision == AssociationDecision::kUpdate;
     benchmark::DoNotOptimize(paired);

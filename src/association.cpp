@@ -33,161 +33,221 @@ struct PairTerms {
   Matrix23 a = Matrix23::Zero();  // hx Pvv + hm P(m, v): the vehicle part of this pair's row of H P
 };
 
-/// Individual compatibility of every observation with every candidate.
-class CompatibilityTable {
- public:
-  CompatibilityTable(std::span<const Observation> observations, std::span<const std::size_t> candidates,
-                     const GaussianMapView& belief, const ObservationModel& model)
-      : min_d2_(observations.size(), kInfinity) {
-    const Pose2 x = belief.pose();
-    const Matrix3 pvv = belief.pose_covariance();
-    const Matrix2 r = model.noise();
-    for (const std::size_t j : candidates) {
-      const Vector2 m = belief.landmark_position(j);
-      const Vector2 zhat = model.predict(x, m);
-      PairTerms t;
-      t.landmark = j;
-      model.jacobians(x, m, t.hx, t.hm);
-      const Matrix23 pmv = belief.landmark_pose_covariance(j);
-      t.a = t.hx * pvv + t.hm * pmv;
-      // S = H P H^T + R over the vehicle and landmark blocks.
-      const Matrix2 hm_pmm = t.hm * belief.landmark_cross_covariance(j, j);
-      const Matrix2 s = t.a * t.hx.transpose() + (t.hx * pmv.transpose() + hm_pmm) * t.hm.transpose() + r;
-      const Matrix2 s_sym = 0.5 * (s + s.transpose());
-      const Eigen::LLT<Matrix2> llt(s_sym);
-      if (llt.info() != Eigen::Success) continue;
-      for (std::size_t i = 0; i < observations.size(); ++i) {
-        t.observation = i;
-        t.innovation = model.residual(observations[i].z, zhat);
-        t.s = s_sym;
-        t.d2 = t.innovation.dot(llt.solve(t.innovation));
-        min_d2_[i] = std::min(min_d2_[i], t.d2);
-        pairs_.push_back(t);
-      }
+}  // namespace
+
+struct AssociationWorkspace::Impl {
+  // The compatibility table.
+  std::vector<PairTerms> pairs;
+  std::vector<double> min_d2;  // per observation, the smallest distance to any candidate
+  // Pairs inside the acceptance gate: by distance (NN), or by observation then distance (JCBB).
+  std::vector<const PairTerms*> accepted;
+  std::vector<std::size_t> used_landmarks;
+  // JCBB: observation i's options are accepted[option_begin[i], option_begin[i + 1]).
+  std::vector<std::size_t> option_begin, order;
+  std::vector<const PairTerms*> current, best;  // the search's hypothesis stacks
+  Eigen::MatrixXd l;                             // Cholesky factor of the current hypothesis
+  Eigen::VectorXd y;
+  Eigen::Matrix<double, Eigen::Dynamic, 2> w;  // the new pair's rows of the factor, transposed
+  // Gates, recomputed only when the configured probabilities change.
+  double accept_probability = std::numeric_limits<double>::quiet_NaN();
+  double new_landmark_probability = std::numeric_limits<double>::quiet_NaN();
+  Gates gates;
+  std::vector<double> joint_gate;  // for k pairings, k >= 1 (index 0 unused)
+
+  const Gates& gates_for(const AssociationConfig& config) {
+    if (config.accept_probability != accept_probability ||
+        config.new_landmark_probability != new_landmark_probability) {
+      gates = Gates::from(config);
+      accept_probability = config.accept_probability;
+      new_landmark_probability = config.new_landmark_probability;
+      joint_gate.assign(1, 0.0);
     }
+    return gates;
   }
 
-  const std::vector<PairTerms>& pairs() const { return pairs_; }
-  /// The smallest distance of observation i to any candidate.
-  double min_d2(std::size_t i) const { return min_d2_[i]; }
-
- private:
-  std::vector<PairTerms> pairs_;
-  std::vector<double> min_d2_;
+  /// The joint gates up to k_max pairings (after gates_for).
+  void extend_joint_gates(std::size_t k_max) {
+    for (std::size_t k = joint_gate.size(); k <= k_max; ++k)
+      joint_gate.push_back(eval::chi_square_quantile(accept_probability, 2.0 * double(k)));
+  }
 };
 
+AssociationWorkspace::AssociationWorkspace() : impl_(std::make_unique<Impl>()) {}
+AssociationWorkspace::AssociationWorkspace(const AssociationWorkspace&) : AssociationWorkspace() {}
+AssociationWorkspace& AssociationWorkspace::operator=(const AssociationWorkspace&) { return *this; }
+AssociationWorkspace::AssociationWorkspace(AssociationWorkspace&&) noexcept = default;
+AssociationWorkspace& AssociationWorkspace::operator=(AssociationWorkspace&&) noexcept = default;
+AssociationWorkspace::~AssociationWorkspace() = default;
+
+namespace {
+
+using Workspace = AssociationWorkspace::Impl;
+
+/// Individual compatibility of every observation with every candidate, into ws.pairs and ws.min_d2.
+void build_compatibility(std::span<const Observation> observations, std::span<const std::size_t> candidates,
+                         const GaussianMapView& belief, const ObservationModel& model, Workspace& ws) {
+  ws.pairs.clear();
+  ws.min_d2.assign(observations.size(), kInfinity);
+  const Pose2 x = belief.pose();
+  const Matrix3 pvv = belief.pose_covariance();
+  const Matrix2 r = model.noise();
+  for (const std::size_t j : candidates) {
+    const Vector2 m = belief.landmark_position(j);
+    const Vector2 zhat = model.predict(x, m);
+    PairTerms t;
+    t.landmark = j;
+    model.jacobians(x, m, t.hx, t.hm);
+    const Matrix23 pmv = belief.landmark_pose_covariance(j);
+    t.a = t.hx * pvv + t.hm * pmv;
+    // S = H P H^T + R over the vehicle and landmark blocks.
+    const Matrix2 hm_pmm = t.hm * belief.landmark_cross_covariance(j, j);
+    const Matrix2 s = t.a * t.hx.transpose() + (t.hx * pmv.transpose() + hm_pmm) * t.hm.transpose() + r;
+    const Matrix2 s_sym = 0.5 * (s + s.transpose());
+    const Eigen::LLT<Matrix2> llt(s_sym);
+    if (llt.info() != Eigen::Success) continue;
+    for (std::size_t i = 0; i < observations.size(); ++i) {
+      t.observation = i;
+      t.innovation = model.residual(observations[i].z, zhat);
+      t.s = s_sym;
+      t.d2 = t.innovation.dot(llt.solve(t.innovation));
+      ws.min_d2[i] = std::min(ws.min_d2[i], t.d2);
+      ws.pairs.push_back(t);
+    }
+  }
+}
+
+/// The pairs inside the acceptance gate, into ws.accepted, in table order.
+void collect_accepted(Workspace& ws, const Gates& gates) {
+  ws.accepted.clear();
+  for (const PairTerms& p : ws.pairs)
+    if (p.d2 < gates.accept) ws.accepted.push_back(&p);
+}
+
 /// Observations left unpaired are new if far from every candidate, else ambiguous.
-void decide_unpaired(std::vector<Pairing>& out, const CompatibilityTable& table, const Gates& gates) {
+void decide_unpaired(std::vector<Pairing>& out, const Workspace& ws, const Gates& gates) {
   for (std::size_t i = 0; i < out.size(); ++i)
     if (out[i].decision != AssociationDecision::kUpdate)
       out[i].decision =
-          table.min_d2(i) > gates.new_landmark ? AssociationDecision::kNew : AssociationDecision::kDiscard;
+          ws.min_d2[i] > gates.new_landmark ? AssociationDecision::kNew : AssociationDecision::kDiscard;
 }
 
-std::vector<Pairing> nearest_neighbour(std::size_t n_obs, const CompatibilityTable& table, const Gates& gates) {
-  std::vector<const PairTerms*> order;
-  for (const PairTerms& p : table.pairs())
-    if (p.d2 < gates.accept) order.push_back(&p);
-  std::sort(order.begin(), order.end(), [](const PairTerms* a, const PairTerms* b) { return a->d2 < b->d2; });
-  std::vector<Pairing> out(n_obs);
-  std::vector<std::size_t> used_landmarks;
-  for (const PairTerms* p : order) {
+void nearest_neighbour(Workspace& ws, const Gates& gates, std::vector<Pairing>& out) {
+  collect_accepted(ws, gates);
+  std::sort(ws.accepted.begin(), ws.accepted.end(),
+            [](const PairTerms* a, const PairTerms* b) { return a->d2 < b->d2; });
+  ws.used_landmarks.clear();
+  for (const PairTerms* p : ws.accepted) {
     if (out[p->observation].decision == AssociationDecision::kUpdate) continue;
-    if (std::find(used_landmarks.begin(), used_landmarks.end(), p->landmark) != used_landmarks.end()) continue;
+    if (std::find(ws.used_landmarks.begin(), ws.used_landmarks.end(), p->landmark) != ws.used_landmarks.end()) continue;
     out[p->observation] = {AssociationDecision::kUpdate, p->landmark};
-    used_landmarks.push_back(p->landmark);
+    ws.used_landmarks.push_back(p->landmark);
   }
-  decide_unpaired(out, table, gates);
-  return out;
+  decide_unpaired(out, ws, gates);
 }
 
-/// Depth-first joint compatibility search with an incrementally extended Cholesky factor.
+/// Depth-first joint compatibility search with an incrementally extended Cholesky factor. Its stacks
+/// and factor live in the workspace, sized for the largest scan so far.
 class Jcbb {
  public:
-  Jcbb(std::size_t n_obs, const CompatibilityTable& table, const GaussianMapView& belief, const Gates& gates,
-       double confidence, std::size_t max_nodes)
-      : belief_(belief), max_nodes_(max_nodes), options_(n_obs) {
-    for (const PairTerms& p : table.pairs())
-      if (p.d2 < gates.accept) options_[p.observation].push_back(&p);
-    for (auto& o : options_)
-      std::sort(o.begin(), o.end(), [](const PairTerms* a, const PairTerms* b) { return a->d2 < b->d2; });
+  Jcbb(std::size_t n_obs, Workspace& ws, const GaussianMapView& belief, std::size_t max_nodes)
+      : ws_(ws), belief_(belief), max_nodes_(max_nodes) {
+    collect_accepted(ws, ws.gates);
+    // Grouped by observation, each group by distance: the nearest options are tried first.
+    std::sort(ws.accepted.begin(), ws.accepted.end(), [](const PairTerms* a, const PairTerms* b) {
+      return a->observation != b->observation ? a->observation < b->observation : a->d2 < b->d2;
+    });
+    ws.option_begin.assign(n_obs + 1, 0);
+    for (const PairTerms* p : ws.accepted) ++ws.option_begin[p->observation + 1];
+    for (std::size_t i = 0; i < n_obs; ++i) ws.option_begin[i + 1] += ws.option_begin[i];
     // Observations with fewer options first: their branches are decided early and prune the most.
+    // Ties keep the observations' order (what a stable sort by option count would give).
+    ws.order.clear();
     for (std::size_t i = 0; i < n_obs; ++i)
-      if (!options_[i].empty()) order_.push_back(i);
-    std::stable_sort(order_.begin(), order_.end(),
-                     [&](std::size_t a, std::size_t b) { return options_[a].size() < options_[b].size(); });
-    const std::size_t k_max = order_.size();
-    gate_.resize(k_max + 1, 0.0);
-    for (std::size_t k = 1; k <= k_max; ++k) gate_[k] = eval::chi_square_quantile(confidence, 2.0 * double(k));
-    l_ = Eigen::MatrixXd::Zero(2 * static_cast<Eigen::Index>(k_max), 2 * static_cast<Eigen::Index>(k_max));
-    y_ = Eigen::VectorXd::Zero(2 * static_cast<Eigen::Index>(k_max));
+      if (options(i).size() > 0) ws.order.push_back(i);
+    std::sort(ws.order.begin(), ws.order.end(), [&](std::size_t a, std::size_t b) {
+      return options(a).size() != options(b).size() ? options(a).size() < options(b).size() : a < b;
+    });
+    const std::size_t k_max = ws.order.size();
+    ws.extend_joint_gates(k_max);
+    const auto rows = 2 * static_cast<Eigen::Index>(k_max);
+    if (ws.l.rows() < rows) {
+      ws.l.resize(rows, rows);
+      ws.y.resize(rows);
+      ws.w.resize(rows, 2);
+    }
+    ws.current.clear();
+    ws.best.clear();
   }
 
-  std::vector<Pairing> solve(std::size_t n_obs, AssociationStats* stats) {
+  void solve(AssociationStats* stats, std::vector<Pairing>& out) {
     search(0, 0.0);
     if (stats) {
       stats->jcbb_nodes += nodes_;
       stats->jcbb_budget_exhausted = stats->jcbb_budget_exhausted || nodes_ >= max_nodes_;
     }
-    std::vector<Pairing> out(n_obs);
-    for (const PairTerms* p : best_) out[p->observation] = {AssociationDecision::kUpdate, p->landmark};
-    return out;
+    for (const PairTerms* p : ws_.best) out[p->observation] = {AssociationDecision::kUpdate, p->landmark};
   }
 
  private:
+  std::span<const PairTerms* const> options(std::size_t observation) const {
+    return std::span(ws_.accepted).subspan(ws_.option_begin[observation],
+                                           ws_.option_begin[observation + 1] - ws_.option_begin[observation]);
+  }
+
   void search(std::size_t depth, double d2) {
     if (nodes_ >= max_nodes_) return;
     ++nodes_;
-    const std::size_t k = current_.size();
-    if (depth == order_.size()) {
-      if (k > best_.size() || (k == best_.size() && k > 0 && d2 < best_d2_)) {
-        best_ = current_;
+    std::vector<const PairTerms*>& current = ws_.current;
+    const std::size_t k = current.size();
+    if (depth == ws_.order.size()) {
+      if (k > ws_.best.size() || (k == ws_.best.size() && k > 0 && d2 < best_d2_)) {
+        ws_.best = current;
         best_d2_ = d2;
       }
       return;
     }
-    const std::size_t remaining = order_.size() - depth - 1;
-    for (const PairTerms* p : options_[order_[depth]]) {
+    const std::size_t remaining = ws_.order.size() - depth - 1;
+    for (const PairTerms* p : options(ws_.order[depth])) {
       if (!can_improve(k + 1 + remaining, d2)) break;
       if (uses(p->landmark)) continue;
       double extended = 0.0;
-      if (!extend(*p, extended) || d2 + extended > gate_[k + 1]) continue;
-      current_.push_back(p);
+      if (!extend(*p, extended) || d2 + extended > ws_.joint_gate[k + 1]) continue;
+      current.push_back(p);
       search(depth + 1, d2 + extended);
-      current_.pop_back();
+      current.pop_back();
     }
     if (can_improve(k + remaining, d2)) search(depth + 1, d2);  // this observation left unpaired
   }
 
   /// Whether a branch that can reach `potential` pairings at distance >= d2 may beat the best.
   bool can_improve(std::size_t potential, double d2) const {
-    return potential > best_.size() || (potential == best_.size() && potential > 0 && d2 < best_d2_);
+    return potential > ws_.best.size() || (potential == ws_.best.size() && potential > 0 && d2 < best_d2_);
   }
 
   bool uses(std::size_t landmark) const {
-    return std::any_of(current_.begin(), current_.end(), [&](const PairTerms* q) { return q->landmark == landmark; });
+    return std::any_of(ws_.current.begin(), ws_.current.end(),
+                       [&](const PairTerms* q) { return q->landmark == landmark; });
   }
 
   /// Appends pair p to the factor of the current hypothesis' joint innovation covariance and
   /// returns the increase of the joint Mahalanobis distance.
   bool extend(const PairTerms& p, double& increase) {
-    const auto k = static_cast<Eigen::Index>(current_.size());
-    Eigen::Matrix<double, Eigen::Dynamic, 2, 0, Eigen::Dynamic, 2> b(2 * k, 2);
-    for (Eigen::Index a = 0; a < k; ++a) b.middleRows<2>(2 * a) = cross(*current_[a], p);
+    const auto k = static_cast<Eigen::Index>(ws_.current.size());
     Matrix2 c = p.s;
     Vector2 v = p.innovation;
     if (k > 0) {
-      const auto lk = l_.topLeftCorner(2 * k, 2 * k).triangularView<Eigen::Lower>();
-      const Eigen::Matrix<double, Eigen::Dynamic, 2> wt = lk.solve(b);  // W^T = L^-1 B
+      auto wt = ws_.w.topRows(2 * k);
+      for (Eigen::Index a = 0; a < k; ++a) wt.middleRows<2>(2 * a) = cross(*ws_.current[a], p);
+      ws_.l.topLeftCorner(2 * k, 2 * k).triangularView<Eigen::Lower>().solveInPlace(wt);  // W^T = L^-1 B
       c -= wt.transpose() * wt;
-      v -= wt.transpose() * y_.head(2 * k);
-      l_.block(2 * k, 0, 2, 2 * k) = wt.transpose();
+      v -= wt.transpose() * ws_.y.head(2 * k);
+      ws_.l.block(2 * k, 0, 2, 2 * k) = wt.transpose();
     }
     const Eigen::LLT<Matrix2> llt(0.5 * (c + c.transpose()));
     if (llt.info() != Eigen::Success) return false;
-    l_.block<2, 2>(2 * k, 2 * k) = llt.matrixL();
+    ws_.l.block<2, 2>(2 * k, 2 * k) = llt.matrixL();
     const Vector2 y_new = llt.matrixL().solve(v);
-    y_.segment<2>(2 * k) = y_new;
+    ws_.y.segment<2>(2 * k) = y_new;
     increase = y_new.squaredNorm();
     return true;
   }
@@ -199,39 +259,40 @@ class Jcbb {
     return a.a * b.hx.transpose() + (a.hx * pbv.transpose() + a.hm * pab) * b.hm.transpose();
   }
 
+  Workspace& ws_;
   const GaussianMapView& belief_;
   std::size_t max_nodes_;
   std::size_t nodes_ = 0;
-  std::vector<std::vector<const PairTerms*>> options_;
-  std::vector<std::size_t> order_;
-  std::vector<double> gate_;  // joint gate for k pairings
-  std::vector<const PairTerms*> current_, best_;
   double best_d2_ = kInfinity;
-  Eigen::MatrixXd l_;
-  Eigen::VectorXd y_;
 };
 
 }  // namespace
 
+void associate(std::span<const Observation> observations, std::span<const std::size_t> candidates,
+               const GaussianMapView& belief, const ObservationModel& model, const AssociationConfig& config,
+               AssociationWorkspace& workspace, std::vector<Pairing>& out, AssociationStats* stats) {
+  if (config.method != AssociationMethod::kNearestNeighbour && config.method != AssociationMethod::kJcbb)
+    throw std::invalid_argument("associate() needs the nn or jcbb method; known identities need no search");
+  Workspace& ws = workspace.impl();
+  const Gates& gates = ws.gates_for(config);
+  build_compatibility(observations, candidates, belief, model, ws);
+  if (stats) stats->candidate_pairs += ws.pairs.size();
+  out.assign(observations.size(), Pairing{});
+  if (config.method == AssociationMethod::kNearestNeighbour) {
+    nearest_neighbour(ws, gates, out);
+    return;
+  }
+  Jcbb(observations.size(), ws, belief, config.jcbb_max_nodes).solve(stats, out);
+  decide_unpaired(out, ws, gates);
+}
+
 std::vector<Pairing> associate(std::span<const Observation> observations, std::span<const std::size_t> candidates,
                                const GaussianMapView& belief, const ObservationModel& model,
                                const AssociationConfig& config, AssociationStats* stats) {
-  const Gates gates = Gates::from(config);
-  const CompatibilityTable table(observations, candidates, belief, model);
-  if (stats) stats->candidate_pairs += table.pairs().size();
-  switch (config.method) {
-    case AssociationMethod::kNearestNeighbour:
-      return nearest_neighbour(observations.size(), table, gates);
-    case AssociationMethod::kJcbb: {
-      Jcbb jcbb(observations.size(), table, belief, gates, config.accept_probability, config.jcbb_max_nodes);
-      std::vector<Pairing> out = jcbb.solve(observations.size(), stats);
-      decide_unpaired(out, table, gates);
-      return out;
-    }
-    case AssociationMethod::kKnown:
-      break;
-  }
-  throw std::invalid_argument("associate() needs the nn or jcbb method; known identities need no search");
+  AssociationWorkspace workspace;
+  std::vector<Pairing> out;
+  associate(observations, candidates, belief, model, config, workspace, out, stats);
+  return out;
 }
 
 }  // namespace slamkit

@@ -48,7 +48,7 @@ void EkfSlam::reserve(std::size_t dim) {
   x_.swap(x);
   p_.swap(p);
   scratch3_.resize(grown, 3);
-  pht_.resize(grown, 2);
+  pht_.resize(grown, std::max<Eigen::Index>(2, pht_.cols()));
 }
 
 template <int N>
@@ -60,6 +60,21 @@ Eigen::Matrix<double, N, N> EkfSlam::diagonal_block(std::size_t offset) const {
 // In an open local area (compressed variant) the accessors answer from the local state for active
 // landmarks and apply the accumulated update on the fly for the others: O(dim(A0)^2) at most.
 
+template <typename Derived>
+Eigen::Matrix<double, Derived::RowsAtCompileTime, 2> EkfSlam::times_start_cross_t(const Eigen::MatrixBase<Derived>& m,
+                                                                                  std::size_t index) const {
+  using Result = Eigen::Matrix<double, Derived::RowsAtCompileTime, 2>;
+  Result out = Result::Zero();
+  for (Eigen::Index c = 0; c < a0_; ++c) out.noalias() += m.col(c) * start_cross(index, c).transpose();
+  return out;
+}
+
+Matrix2 EkfSlam::start_cross_quadratic(std::size_t i, std::size_t j) const {
+  Matrix2 out = Matrix2::Zero();
+  for (Eigen::Index c = 0; c < a0_; ++c) out.noalias() += start_cross(i, c) * times_start_cross_t(psi().row(c), j);
+  return out;
+}
+
 Matrix3 EkfSlam::pose_covariance() const {
   return in_area() ? Matrix3(pa_.topLeftCorner<3, 3>()) : diagonal_block<3>(0);
 }
@@ -67,14 +82,13 @@ Matrix3 EkfSlam::pose_covariance() const {
 Vector2 EkfSlam::landmark_position(std::size_t index) const {
   const auto l = static_cast<Eigen::Index>(landmark_offset(index));
   if (!in_area() || local_offset(index) >= 0) return x_.segment<2>(l);
-  return x_.segment<2>(l) + landmark_start_cross(index) * theta_;
+  return x_.segment<2>(l) + times_start_cross_t(theta().transpose(), index).transpose();
 }
 
 Matrix2 EkfSlam::landmark_covariance(std::size_t index) const {
   if (!in_area()) return diagonal_block<2>(landmark_offset(index));
   if (const long a = local_offset(index); a >= 0) return pa_.block<2, 2>(a, a);
-  const Eigen::MatrixXd u = landmark_start_cross(index);
-  return diagonal_block<2>(landmark_offset(index)) - u * psi_ * u.transpose();
+  return diagonal_block<2>(landmark_offset(index)) - start_cross_quadratic(index, index);
 }
 
 Matrix2 EkfSlam::landmark_cross_covariance(std::size_t i, std::size_t j) const {
@@ -86,19 +100,16 @@ Matrix2 EkfSlam::landmark_cross_covariance(std::size_t i, std::size_t j) const {
   if (!in_area()) return stored;
   const long li = local_offset(i), lj = local_offset(j);
   if (li >= 0 && lj >= 0) return pa_.block<2, 2>(li, lj);
-  if (li >= 0) return phi_.middleRows<2>(li) * landmark_start_cross(j).transpose();  // P(A,B) = phi P_AB(0)
-  if (lj >= 0) return landmark_start_cross(i) * phi_.middleRows<2>(lj).transpose();
-  return stored - landmark_start_cross(i) * psi_ * landmark_start_cross(j).transpose();
+  if (li >= 0) return times_start_cross_t(phi().middleRows<2>(li), j);  // P(A,B) = phi P_AB(0)
+  if (lj >= 0) return times_start_cross_t(phi().middleRows<2>(lj), i).transpose();
+  return stored - start_cross_quadratic(i, j);
 }
 
 Eigen::VectorXd EkfSlam::state() const {
   Eigen::VectorXd x = x_.head(static_cast<Eigen::Index>(dim_));
-  if (in_area()) {
-    const std::vector<std::size_t> outside = outside_area();
-    const Eigen::VectorXd shift = area_start_cross(outside) * theta_;
-    for (std::size_t r = 0; r < outside.size(); ++r)
-      x[static_cast<Eigen::Index>(outside[r])] += shift[static_cast<Eigen::Index>(r)];
-  }
+  if (in_area())
+    for (std::size_t i = 0; i < ids_.size(); ++i)
+      if (local_offset(i) < 0) x.segment<2>(static_cast<Eigen::Index>(landmark_offset(i))) = landmark_position(i);
   return x;
 }
 
@@ -107,7 +118,8 @@ Eigen::MatrixXd EkfSlam::covariance() const {
   Eigen::MatrixXd lower = p_.topLeftCorner(n, n);
   if (in_area()) {
     Eigen::VectorXd x = x_.head(n);
-    merge_area(x, lower);
+    MergeWorkspace ws;
+    merge_area(x, lower, ws);
   }
   Eigen::MatrixXd full = lower.selfadjointView<Eigen::Lower>();
   full.block(3, 0, n - 3, 3) = full.block(3, 0, n - 3, 3) * pending_motion_.transpose();
@@ -119,7 +131,7 @@ Matrix23 EkfSlam::landmark_pose_covariance(std::size_t index) const {
   if (!in_area())
     return p_.block<2, 3>(static_cast<Eigen::Index>(landmark_offset(index)), 0) * pending_motion_.transpose();
   if (const long a = local_offset(index); a >= 0) return pa_.block<2, 3>(a, 0);
-  return landmark_start_cross(index) * phi_.topRows<3>().transpose();
+  return times_start_cross_t(phi().topRows<3>(), index).transpose();
 }
 
 void EkfSlam::apply_pending_motion() {
@@ -182,10 +194,10 @@ void EkfSlam::predict(const Control& u, double dt) {
   pending_motion_ = f * pending_motion_;
 }
 
-void EkfSlam::covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm) {
+void EkfSlam::covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm,
+                                        Eigen::Ref<Eigen::MatrixX2d> out) const {
   const auto n = static_cast<Eigen::Index>(dim_);
   const auto l = static_cast<Eigen::Index>(lm_offset);
-  auto out = pht_.topRows(n);
   // H = [hx 0 .. 0 hm 0 .. 0], so P H^T = P(:, vehicle) hx^T + P(:, landmark) hm^T, each column block
   // read from the lower triangle: rows above a block come from the transposed row block.
   out.topRows<3>().noalias() = diagonal_block<3>(0) * hx.transpose();
@@ -226,14 +238,15 @@ bool EkfSlam::update_landmark(std::size_t index, const Vector2& z) {
   observation_->jacobians(xv, m, hx, hm);
   const Vector2 nu = observation_->residual(z, observation_->predict(xv, m));
 
-  covariance_times_jacobian(l, hx, hm);
-  Matrix2 s = hx * pht_.topRows<3>() + hm * pht_.middleRows<2>(li) + observation_->noise();
+  auto pht = pht_.leftCols<2>().topRows(n);  // two columns known at compile time: 2x2 products stay fixed-size
+  covariance_times_jacobian(l, hx, hm, pht);
+  Matrix2 s = hx * pht.topRows<3>() + hm * pht.middleRows<2>(li) + observation_->noise();
   s(0, 1) = s(1, 0) = 0.5 * (s(0, 1) + s(1, 0));
   const Eigen::LLT<Matrix2> llt(s);
   if (llt.info() != Eigen::Success) return false;
 
   // Eq. (10): x += W nu with W = P H^T S^-1.
-  x_.head(n).noalias() += pht_.topRows(n) * llt.solve(nu);
+  x_.head(n).noalias() += pht * llt.solve(nu);
   x_[2] = wrap_angle(x_[2]);
 
   // Eq. (11): P -= W S W^T = C C^T with C = P H^T L^-T (S = L L^T). L^-T is upper triangular, so C
@@ -241,11 +254,11 @@ bool EkfSlam::update_landmark(std::size_t index, const Vector2& z) {
   const Matrix2 lower = llt.matrixL();
   const double a00 = 1.0 / lower(0, 0), a11 = 1.0 / lower(1, 1);
   const double a01 = -lower(1, 0) * a00 * a11;
-  auto c0 = pht_.col(0).head(n);
-  auto c1 = pht_.col(1).head(n);
+  auto c0 = pht.col(0);
+  auto c1 = pht.col(1);
   c1 = a01 * c0 + a11 * c1;
   c0 *= a00;
-  p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>().rankUpdate(pht_.topRows(n), -1.0);
+  p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>().rankUpdate(pht, -1.0);
   return true;
 }
 
@@ -261,36 +274,43 @@ bool EkfSlam::update_landmarks(std::span<const LandmarkObservation> batch) {
   const auto n = static_cast<Eigen::Index>(dim_);
   const auto k = static_cast<Eigen::Index>(2 * batch.size());
   const Pose2 xv = x_.head<3>();
+  if (pht_.cols() < k) pht_.resize(pht_.rows(), std::max(k, 2 * pht_.cols()));
+  if (batch_s_.rows() < k) {
+    batch_s_.resize(pht_.cols(), pht_.cols());
+    batch_nu_.resize(pht_.cols());
+  }
+  batch_hx_.resize(batch.size());
+  batch_hm_.resize(batch.size());
   // W = P H^T, two columns per observation, each pair from the two column blocks its row of H touches.
-  Eigen::MatrixXd pht(n, k);
-  Eigen::VectorXd nu(k);
-  std::vector<Matrix23> hx(batch.size());
-  std::vector<Matrix2> hm(batch.size());
+  auto pht = pht_.topLeftCorner(n, k);
+  auto nu = batch_nu_.head(k);
   for (std::size_t i = 0; i < batch.size(); ++i) {
     const auto l = landmark_offset(batch[i].index);
+    const auto r = 2 * static_cast<Eigen::Index>(i);
     const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(l));
-    observation_->jacobians(xv, m, hx[i], hm[i]);
-    nu.segment<2>(2 * static_cast<Eigen::Index>(i)) = observation_->residual(batch[i].z, observation_->predict(xv, m));
-    covariance_times_jacobian(l, hx[i], hm[i]);
-    pht.middleCols<2>(2 * static_cast<Eigen::Index>(i)) = pht_.topRows(n);
+    observation_->jacobians(xv, m, batch_hx_[i], batch_hm_[i]);
+    nu.segment<2>(r) = observation_->residual(batch[i].z, observation_->predict(xv, m));
+    covariance_times_jacobian(l, batch_hx_[i], batch_hm_[i], pht.middleCols<2>(r));
   }
   // S = H P H^T + R, block (i, j) = H_i (P H_j^T).
-  Eigen::MatrixXd s(k, k);
+  auto s = batch_s_.topLeftCorner(k, k);
   for (std::size_t i = 0; i < batch.size(); ++i) {
     const auto l = static_cast<Eigen::Index>(landmark_offset(batch[i].index));
     const auto r = 2 * static_cast<Eigen::Index>(i);
-    s.middleRows<2>(r).noalias() = hx[i] * pht.topRows<3>() + hm[i] * pht.middleRows<2>(l);
+    s.middleRows<2>(r).noalias() = batch_hx_[i] * pht.topRows<3>() + batch_hm_[i] * pht.middleRows<2>(l);
     s.block<2, 2>(r, r) += observation_->noise();
   }
-  s = (0.5 * (s + s.transpose())).eval();
-  const Eigen::LLT<Eigen::MatrixXd> llt(s);
+  // The factorisation reads the lower triangle only, so symmetrising it is enough; in place, as an
+  // LLT of a Ref, so that it needs no storage of its own.
+  s.triangularView<Eigen::StrictlyLower>() = 0.5 * (s + s.transpose());
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(s);
   if (llt.info() != Eigen::Success) return false;
-  x_.head(n).noalias() += pht * llt.solve(nu);
+  llt.solveInPlace(nu);
+  x_.head(n).noalias() += pht * nu;
   x_[2] = wrap_angle(x_[2]);
-  // P -= W S^-1 W^T = C C^T with C^T = L^-1 W^T: one pass over the lower triangle for the scan.
-  Eigen::MatrixXd ct = pht.transpose();
-  llt.matrixL().solveInPlace(ct);
-  p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>().rankUpdate(ct.transpose(), -1.0);
+  // P -= W S^-1 W^T = C C^T with C = W L^-T: one pass over the lower triangle for the scan.
+  llt.matrixU().solveInPlace<Eigen::OnTheRight>(pht);
+  p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>().rankUpdate(pht, -1.0);
   return true;
 }
 
@@ -356,9 +376,13 @@ void EkfSlam::remove_landmark(std::size_t index) {
   if (id != kUnknownId) index_of_id_.erase(id);
   for (auto& [key, i] : index_of_id_)
     if (i > index) --i;
-  std::vector<Vector2> positions(ids_.size());
-  for (std::size_t i = 0; i < ids_.size(); ++i) positions[i] = landmark_position(i);
-  grid_.rebuild(positions);
+  rebuild_grid();
+}
+
+void EkfSlam::rebuild_grid() {
+  positions_.resize(ids_.size());
+  for (std::size_t i = 0; i < ids_.size(); ++i) positions_[i] = landmark_position(i);
+  grid_.rebuild(positions_);
 }
 
 void EkfSlam::update(const ScanEvent& scan) {
@@ -431,35 +455,37 @@ void EkfSlam::apply_joint_batch() {
   batch_.clear();
 }
 
-void EkfSlam::find_candidates(double range_margin, double angle_margin, std::vector<std::size_t>& out) const {
-  out.clear();
+void EkfSlam::find_candidates(double range_margin, double angle_margin) {
+  candidates_.clear();
   if (ids_.empty()) return;
   // The grid bins landmarks where they were last re-binned; one extra cell covers the drift since.
   const double reach = sensor_.max_range + range_margin;
-  std::vector<std::size_t> nearby;
-  grid_.query(x_.head<2>(), reach + grid_.cell_size(), nearby);
+  nearby_.clear();
+  grid_.query(x_.head<2>(), reach + grid_.cell_size(), nearby_);
   const Pose2 xv = pose();
-  for (const std::size_t j : nearby) {
+  for (const std::size_t j : nearby_) {
     const Vector2 z = observation_->predict(xv, landmark_position(j));
     if (z[0] > reach) continue;
     if (!full_circle(sensor_) && std::abs(z[1]) > 0.5 * sensor_.fov + angle_margin) continue;
-    out.push_back(j);
+    candidates_.push_back(j);
   }
-  std::sort(out.begin(), out.end());
+  std::sort(candidates_.begin(), candidates_.end());
 }
 
-std::vector<Pairing> EkfSlam::associate_scan(const ScanEvent& scan) {
+const std::vector<Pairing>& EkfSlam::associate_scan(const ScanEvent& scan) {
   // Candidates reach a little beyond the sensor: a landmark just outside the predicted view may be
   // the one seen at the edge.
-  find_candidates(association_.view_margin_m, association_.view_margin_rad, candidates_);
-  return associate(scan.observations, candidates_, *this, *observation_, association_, &association_stats_);
+  find_candidates(association_.view_margin_m, association_.view_margin_rad);
+  associate(scan.observations, candidates_, *this, *observation_, association_, association_workspace_, pairings_,
+            &association_stats_);
+  return pairings_;
 }
 
 void EkfSlam::update_unknown(const ScanEvent& scan) {
-  const std::vector<Pairing> pairings = associate_scan(scan);
+  const std::vector<Pairing>& pairings = associate_scan(scan);
 
   const Vector2 position_before = x_.head<2>();
-  std::vector<bool> seen(ids_.size(), false);
+  seen_.assign(ids_.size(), false);
   batch_.clear();
   for (std::size_t k = 0; k < pairings.size(); ++k) {
     if (pairings[k].decision != AssociationDecision::kUpdate) continue;
@@ -469,7 +495,7 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
     else if (!update_landmark(index, scan.observations[k].z))
       continue;
     last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
-    seen[index] = true;
+    seen_[index] = true;
     Track& track = tracks_[index];
     ++track.observations;
     track.misses = 0;
@@ -491,30 +517,28 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
   for (const std::size_t j : candidates_) grid_.move(j, landmark_position(j));
   drift_since_rebuild_ += (x_.head<2>() - position_before).norm();
   if (drift_since_rebuild_ > 0.5 * grid_.cell_size()) {
-    std::vector<Vector2> positions(ids_.size());
-    for (std::size_t i = 0; i < ids_.size(); ++i) positions[i] = landmark_position(i);
-    grid_.rebuild(positions);
+    rebuild_grid();
     drift_since_rebuild_ = 0.0;
   }
-  manage_map(seen);
+  manage_map();
 }
 
-void EkfSlam::manage_map(const std::vector<bool>& seen) {
+void EkfSlam::manage_map() {
   // Only landmarks predicted well inside the view count as missed: near the edge the sensor's own
   // noise decides whether they are seen.
-  find_candidates(-association_.view_margin_m, -association_.view_margin_rad, candidates_);
-  std::vector<std::size_t> doomed;
+  find_candidates(-association_.view_margin_m, -association_.view_margin_rad);
+  doomed_.clear();
   for (const std::size_t j : candidates_) {
-    if (j >= seen.size() || seen[j]) continue;  // added this scan, or seen
+    if (j >= seen_.size() || seen_[j]) continue;  // added this scan, or seen
     Track& track = tracks_[j];
     ++track.misses;
     const bool expired = track.confirmed
                              ? association_.confirmed_max_misses > 0 && track.misses >= association_.confirmed_max_misses
                              : track.misses >= association_.provisional_max_misses;
-    if (expired) doomed.push_back(j);
+    if (expired) doomed_.push_back(j);
   }
   // Highest index first, so the indices still to remove stay valid.
-  for (auto it = doomed.rbegin(); it != doomed.rend(); ++it) {
+  for (auto it = doomed_.rbegin(); it != doomed_.rend(); ++it) {
     remove_landmark(*it);
     ++removed_;
   }
@@ -542,6 +566,25 @@ void EkfSlam::manage_map(const std::vector<bool>& seen) {
 
 long EkfSlam::local_offset(std::size_t index) const { return in_area() ? local_of_[index] : -1; }
 
+void EkfSlam::reserve_area(Eigen::Index d) {
+  if (d <= pa_.rows()) return;
+  // Doubling, like the stored state: an area larger than every one before is rare once the map is
+  // built. The open area's part of each buffer is kept.
+  const Eigen::Index capacity = std::max(d, 2 * pa_.rows());
+  auto grow = [&](Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
+    Eigen::MatrixXd grown(capacity, capacity);
+    grown.topLeftCorner(rows, cols) = m.topLeftCorner(rows, cols);
+    m.swap(grown);
+  };
+  grow(pa_, d_, d_);
+  grow(phi_, d_, a0_);
+  grow(psi_, a0_, a0_);
+  Eigen::VectorXd theta(capacity);
+  theta.head(a0_) = theta_.head(a0_);
+  theta_.swap(theta);
+  h_phi_.resize(2, capacity);
+}
+
 void EkfSlam::begin_area(long must_include) {
   area_centre_ = x_.head<2>();
   // Every landmark the vehicle can see from inside the square is active, so observations made
@@ -558,16 +601,18 @@ void EkfSlam::begin_area(long must_include) {
     area_offsets_.push_back(l);
     area_offsets_.push_back(l + 1);
   }
-  a0_ = static_cast<Eigen::Index>(area_offsets_.size());
-  pa_.resize(a0_, a0_);
-  for (Eigen::Index c = 0; c < a0_; ++c)
-    for (Eigen::Index r = c; r < a0_; ++r) {
-      const auto i = static_cast<Eigen::Index>(area_offsets_[r]), j = static_cast<Eigen::Index>(area_offsets_[c]);
-      pa_(r, c) = pa_(c, r) = i > j ? p_(i, j) : p_(j, i);
+  const auto a0 = static_cast<Eigen::Index>(area_offsets_.size());
+  reserve_area(a0);
+  a0_ = d_ = a0;
+  auto pa = this->pa();
+  for (std::size_t c = 0; c < area_offsets_.size(); ++c)
+    for (std::size_t r = c; r < area_offsets_.size(); ++r) {
+      const auto i = static_cast<Eigen::Index>(r), j = static_cast<Eigen::Index>(c);
+      pa(i, j) = pa(j, i) = stored_entry(area_offsets_[r], area_offsets_[c]);
     }
-  phi_.setIdentity(a0_, a0_);
-  psi_.setZero(a0_, a0_);
-  theta_.setZero(a0_);
+  phi().setIdentity();
+  psi().setZero();
+  theta().setZero();
 }
 
 void EkfSlam::activate(std::size_t index) {
@@ -579,24 +624,33 @@ void EkfSlam::activate(std::size_t index) {
 void EkfSlam::flush_local_area() {
   if (!in_area()) return;
   const auto n = static_cast<Eigen::Index>(dim_);
-  merge_area(x_.head(n), p_.topLeftCorner(n, n));
+  merge_area(x_.head(n), p_.topLeftCorner(n, n), merge_);
   area_offsets_.clear();
   local_of_.clear();
   ++flushes_;
 }
 
 void EkfSlam::predict_local(const Matrix3& f, const Matrix3& q) {
-  const Eigen::Index rest = pa_.rows() - 3;
-  const Matrix3 pvv = f * pa_.topLeftCorner<3, 3>() * f.transpose() + q;
-  pa_.topRightCorner(3, rest) = f * pa_.topRightCorner(3, rest);
-  pa_.bottomLeftCorner(rest, 3) = pa_.topRightCorner(3, rest).transpose();
-  pa_.topLeftCorner<3, 3>() = pvv;
-  phi_.topRows<3>() = f * phi_.topRows<3>();
+  auto pa = this->pa();
+  const Eigen::Index rest = d_ - 3;
+  const Matrix3 pvv = f * pa.topLeftCorner<3, 3>() * f.transpose() + q;
+  // P_Av <- P_Av F^T and phi_v <- F phi_v through scratch3_ (at least dim_ x 3), as products that
+  // overwrite their own operand would go through a temporary.
+  auto pav = scratch3_.topRows(rest);
+  pav.noalias() = pa.bottomLeftCorner(rest, 3) * f.transpose();
+  pa.bottomLeftCorner(rest, 3) = pav;
+  pa.topRightCorner(3, rest) = pav.transpose();
+  pa.topLeftCorner<3, 3>() = pvv;
+  auto phi_v = scratch3_.topRows(a0_);
+  phi_v.noalias() = phi().topRows<3>().transpose() * f.transpose();
+  phi().topRows<3>() = phi_v.transpose();
 }
 
 bool EkfSlam::update_local(std::size_t index, const Vector2& z) {
   const auto l = static_cast<Eigen::Index>(local_of_[index]);
-  const Eigen::Index d = pa_.rows();
+  const Eigen::Index d = d_;
+  auto pa = this->pa();
+  auto phi = this->phi();
   const Pose2 xv = x_.head<3>();
   const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
   Matrix23 hx;
@@ -604,9 +658,9 @@ bool EkfSlam::update_local(std::size_t index, const Vector2& z) {
   observation_->jacobians(xv, m, hx, hm);
   const Vector2 nu = observation_->residual(z, observation_->predict(xv, m));
 
-  auto pht = pht_.topRows(d);
-  pht.noalias() = pa_.leftCols<3>() * hx.transpose();
-  pht.noalias() += pa_.middleCols<2>(l) * hm.transpose();
+  auto pht = pht_.leftCols<2>().topRows(d);
+  pht.noalias() = pa.leftCols<3>() * hx.transpose();
+  pht.noalias() += pa.middleCols<2>(l) * hm.transpose();
   Matrix2 s = hx * pht.topRows<3>() + hm * pht.middleRows<2>(l) + observation_->noise();
   s(0, 1) = s(1, 0) = 0.5 * (s(0, 1) + s(1, 0));
   const Eigen::LLT<Matrix2> llt(s);
@@ -616,80 +670,77 @@ bool EkfSlam::update_local(std::size_t index, const Vector2& z) {
   for (Eigen::Index r = 0; r < d; ++r) x_[static_cast<Eigen::Index>(area_offsets_[r])] += pht.row(r).dot(s_inv_nu);
   x_[2] = wrap_angle(x_[2]);
 
-  const Eigen::Matrix<double, 2, Eigen::Dynamic> h_phi = hx * phi_.topRows<3>() + hm * phi_.middleRows<2>(l);
-  theta_.noalias() += h_phi.transpose() * s_inv_nu;
-  const Eigen::Matrix<double, 2, Eigen::Dynamic> g = llt.matrixL().solve(h_phi);  // S^-1 = L^-T L^-1
-  psi_.noalias() += g.transpose() * g;
-  phi_.noalias() -= pht * llt.solve(h_phi);  // W_A H_A phi
+  // With g = L^-1 H_A phi (S = L L^T): theta += (H_A phi)^T S^-1 nu, psi += g^T g and
+  // phi -= W_A H_A phi = P H^T L^-T g, all through one 2 x dim(A0) buffer.
+  auto h_phi = h_phi_.leftCols(a0_);
+  h_phi.noalias() = hx * phi.topRows<3>();
+  h_phi.noalias() += hm * phi.middleRows<2>(l);
+  theta().noalias() += h_phi.transpose() * s_inv_nu;
+  llt.matrixL().solveInPlace(h_phi);
+  psi().noalias() += h_phi.transpose() * h_phi;
+  llt.matrixU().solveInPlace(h_phi);
+  phi.noalias() -= pht * h_phi;
 
-  const Eigen::Matrix<double, Eigen::Dynamic, 2> c = llt.matrixL().solve(pht.transpose()).transpose();
-  pa_.noalias() -= c * c.transpose();  // W_A S W_A^T
+  llt.matrixL().solveInPlace(pht.transpose());  // now C = P H^T L^-T
+  pa.noalias() -= pht * pht.transpose();         // W_A S W_A^T = C C^T
   return true;
 }
 
 void EkfSlam::add_local(const Matrix23& gx, const Matrix2& pnew) {
-  const Eigen::Index d = pa_.rows();
+  const Eigen::Index d = d_;
   const std::size_t l = dim_;
-  pa_.conservativeResize(d + 2, d + 2);
-  pa_.bottomLeftCorner(2, d).noalias() = gx * pa_.topLeftCorner(3, d);
-  pa_.topRightCorner(d, 2) = pa_.bottomLeftCorner(2, d).transpose();
-  pa_.bottomRightCorner<2, 2>().noalias() = gx * pa_.block<3, 2>(0, d) + pnew;
-  phi_.conservativeResize(d + 2, Eigen::NoChange);
-  phi_.bottomRows<2>().noalias() = gx * phi_.topRows<3>();
+  reserve_area(d + 2);
+  d_ = d + 2;
+  auto pa = this->pa();
+  pa.bottomLeftCorner(2, d).noalias() = gx * pa.topLeftCorner(3, d);
+  pa.topRightCorner(d, 2) = pa.bottomLeftCorner(2, d).transpose();
+  pa.bottomRightCorner<2, 2>().noalias() = gx * pa.block<3, 2>(0, d) + pnew;
+  phi().bottomRows<2>().noalias() = gx * phi().topRows<3>();
   local_of_.push_back(static_cast<long>(d));
   area_offsets_.push_back(l);
   area_offsets_.push_back(l + 1);
 }
 
-Eigen::MatrixXd EkfSlam::landmark_start_cross(std::size_t index) const {
-  return area_start_cross({landmark_offset(index), landmark_offset(index) + 1});
-}
-
-std::vector<std::size_t> EkfSlam::outside_area() const {
-  std::vector<bool> active(dim_, false);
-  for (const std::size_t a : area_offsets_) active[a] = true;
-  std::vector<std::size_t> outside;
-  outside.reserve(dim_ - area_offsets_.size());
+void EkfSlam::merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::MatrixXd> p, MergeWorkspace& ws) const {
+  const Eigen::Index n = x.size(), d = d_;
+  ws.active.assign(dim_, 0);
+  for (const std::size_t a : area_offsets_) ws.active[a] = 1;
+  ws.outside.clear();
   for (std::size_t i = 0; i < dim_; ++i)
-    if (!active[i]) outside.push_back(i);
-  return outside;
-}
-
-Eigen::MatrixXd EkfSlam::area_start_cross(const std::vector<std::size_t>& rows) const {
-  // B's rows and A0's columns are not written while the area is open: the stored values are P_BA(0).
-  Eigen::MatrixXd u(static_cast<Eigen::Index>(rows.size()), a0_);
+    if (!ws.active[i]) ws.outside.push_back(i);
+  const auto n_b = static_cast<Eigen::Index>(ws.outside.size());
+  auto fit = [](Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
+    if (m.rows() < rows || m.cols() < cols) m.resize(std::max(rows, m.rows()), std::max(cols, m.cols()));
+    return m.topLeftCorner(rows, cols);
+  };
+  auto u_b = fit(ws.u_b, n_b, a0_);
   for (Eigen::Index c = 0; c < a0_; ++c) {
-    const auto a = static_cast<Eigen::Index>(area_offsets_[c]);
-    for (Eigen::Index r = 0; r < u.rows(); ++r) {
-      const auto b = static_cast<Eigen::Index>(rows[r]);
-      u(r, c) = b > a ? p_(b, a) : p_(a, b);
-    }
+    const std::size_t a = area_offsets_[static_cast<std::size_t>(c)];
+    for (Eigen::Index r = 0; r < n_b; ++r) u_b(r, c) = stored_entry(ws.outside[static_cast<std::size_t>(r)], a);
   }
-  return u;
-}
-
-void EkfSlam::merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::MatrixXd> p) const {
-  const Eigen::Index n = x.size(), d = pa_.rows();
-  const std::vector<std::size_t> outside = outside_area();
-  const Eigen::MatrixXd u_b = area_start_cross(outside);
   // P_BA(0) spread over all n rows, zero in A's: the P_BB downdate is then one triangular product
   // on the stored layout, leaving A's rows untouched.
-  Eigen::MatrixXd u = Eigen::MatrixXd::Zero(n, a0_);
-  for (std::size_t r = 0; r < outside.size(); ++r)
-    u.row(static_cast<Eigen::Index>(outside[r])) = u_b.row(static_cast<Eigen::Index>(r));
+  auto u = fit(ws.u, n, a0_);
+  u.setZero();
+  for (Eigen::Index r = 0; r < n_b; ++r)
+    u.row(static_cast<Eigen::Index>(ws.outside[static_cast<std::size_t>(r)])) = u_b.row(r);
 
-  x.noalias() += u * theta_;
-  p.triangularView<Eigen::Lower>() -= u * (psi_ * u.transpose());
-  const Eigen::MatrixXd p_ba = u_b * phi_.transpose();
+  x.noalias() += u * theta();
+  auto psi_ut = fit(ws.psi_ut, a0_, n);
+  psi_ut.noalias() = psi() * u.transpose();
+  p.triangularView<Eigen::Lower>() -= u * psi_ut;
+  auto p_ba = fit(ws.p_ba, n_b, d);
+  p_ba.noalias() = u_b * phi().transpose();
+  auto pa = this->pa();
   for (Eigen::Index c = 0; c < d; ++c) {
     const auto a = static_cast<Eigen::Index>(area_offsets_[c]);
-    for (std::size_t r = 0; r < outside.size(); ++r) {
-      const auto b = static_cast<Eigen::Index>(outside[r]);
-      (b > a ? p(b, a) : p(a, b)) = p_ba(static_cast<Eigen::Index>(r), c);
+    for (Eigen::Index r = 0; r < n_b; ++r) {
+      const auto b = static_cast<Eigen::Index>(ws.outside[static_cast<std::size_t>(r)]);
+      (b > a ? p(b, a) : p(a, b)) = p_ba(r, c);
     }
     for (Eigen::Index r = 0; r < d; ++r) {
       const auto b = static_cast<Eigen::Index>(area_offsets_[r]);
-      if (b >= a) p(b, a) = pa_(r, c);
+      if (b >= a) p(b, a) = pa(r, c);
     }
   }
 }

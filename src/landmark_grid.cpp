@@ -20,7 +20,7 @@ LandmarkGrid::Key LandmarkGrid::key_of(const Vector2& p) const {
 }
 
 void LandmarkGrid::rebuild(const std::vector<Vector2>& positions) {
-  cells_.clear();
+  for (auto& [key, cell] : cells_) cell.clear();
   cell_of_.clear();
   for (std::size_t i = 0; i < positions.size(); ++i) add(i, positions[i]);
 }

@@ -13,6 +13,7 @@
 //    are individually plausible but jointly inconsistent. The joint distance is extended by one
 //    block Cholesky step per node, O(k^2) per node for k pairings.
 #include <Eigen/Core>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -54,8 +55,34 @@ struct AssociationStats {
   bool jcbb_budget_exhausted = false;
 };
 
+/// What associate() keeps from one scan to the next: its tables, search stacks and factors, and the
+/// chi-square gates. A filter holds one, so that a scan no larger than those before it allocates
+/// nothing. Copies start empty: the contents are scratch.
+class AssociationWorkspace {
+ public:
+  AssociationWorkspace();
+  AssociationWorkspace(const AssociationWorkspace&);
+  AssociationWorkspace& operator=(const AssociationWorkspace&);
+  AssociationWorkspace(AssociationWorkspace&&) noexcept;
+  AssociationWorkspace& operator=(AssociationWorkspace&&) noexcept;
+  ~AssociationWorkspace();
+
+  /// Defined where associate() is: nothing outside it looks inside.
+  struct Impl;
+  Impl& impl() { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
 /// Pairs each of `observations` with one of `candidates` (map indices of landmarks that can be in
-/// view) or decides it is new or ambiguous. `method` must be kNearestNeighbour or kJcbb.
+/// view) or decides it is new or ambiguous, into `out` (one entry per observation). `method` must be
+/// kNearestNeighbour or kJcbb.
+void associate(std::span<const Observation> observations, std::span<const std::size_t> candidates,
+               const GaussianMapView& belief, const ObservationModel& model, const AssociationConfig& config,
+               AssociationWorkspace& workspace, std::vector<Pairing>& out, AssociationStats* stats = nullptr);
+
+/// The same with storage of its own, for one-off calls.
 std::vector<Pairing> associate(std::span<const Observation> observations, std::span<const std::size_t> candidates,
                                const GaussianMapView& belief, const ObservationModel& model,
                                const AssociationConfig& config, AssociationStats* stats = nullptr);

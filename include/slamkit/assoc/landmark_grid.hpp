@@ -3,7 +3,8 @@
 // at the cells near the vehicle instead of scanning the whole map. Landmarks are binned at the
 // position they had when last (re)binned; callers re-bin the landmarks they touch and rebuild the
 // grid after large corrections (a loop closure), and query with a margin that covers the drift
-// in between.
+// in between. Cells keep their storage once created (a rebuild empties them), so re-binning and
+// rebuilding over ground already mapped do not allocate.
 #include <cstdint>
 #include <unordered_map>
 #include <vector>

@@ -4,7 +4,9 @@
 // Storage: the state is [x y theta | m1x m1y | m2x m2y | ...]; the covariance is kept in one dense
 // column-major buffer of which only the LOWER triangle is meaningful. Symmetry therefore holds by
 // construction (no symmetrisation pass), and every update touches half the matrix. Buffers grow by
-// doubling, so adding a landmark does not reallocate each time.
+// doubling, so adding a landmark does not reallocate each time. Every temporary of a step lives in a
+// member workspace that only grows, so once the map stops growing predict and update allocate
+// nothing (tests/ekf_allocation_test.cpp).
 //
 // Cost: a time update is O(n) (vehicle block and vehicle-map cross-covariance only); an observation
 // update is O(n^2) with the constant of one symmetric rank-2 downdate, because the observation
@@ -112,8 +114,9 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   /// Takes landmark `index` out of the state: its rows and columns leave the covariance. O(n^2).
   void remove_landmark(std::size_t index);
   /// The association step of update() alone (NN or JCBB, as configured): pairs the scan's
-  /// observations with the landmarks that can be in view. Changes no estimate.
-  std::vector<Pairing> associate_scan(const ScanEvent& scan);
+  /// observations with the landmarks that can be in view. Changes no estimate. The pairings are
+  /// valid until the next call of associate_scan or update.
+  const std::vector<Pairing>& associate_scan(const ScanEvent& scan);
   int landmark_id(std::size_t index) const { return ids_[index]; }
   /// Compressed variant: applies the update accumulated in the current local area to the whole map,
   /// O(n_B^2 n_A); the next operation starts a new area around the vehicle. Every accessor already
@@ -133,16 +136,22 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   /// Symmetric 2x2 or 3x3 diagonal block from the lower triangle.
   template <int N>
   Eigen::Matrix<double, N, N> diagonal_block(std::size_t offset) const;
-  /// Fills pht_ with P H^T for an observation Jacobian with blocks hx (vehicle) and hm (landmark).
-  void covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm);
+  /// Fills `out` (dim_ x 2) with P H^T for an observation Jacobian with blocks hx (vehicle) and hm
+  /// (landmark).
+  void covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm,
+                                 Eigen::Ref<Eigen::MatrixX2d> out) const;
   void update_known(const ScanEvent& scan);
   /// Applies the scan's collected updates jointly (joint_scan_update).
   void apply_joint_batch();
   void update_unknown(const ScanEvent& scan);
-  /// Landmarks that can be in view from the current pose (range and field of view plus margins).
-  void find_candidates(double range_margin, double angle_margin, std::vector<std::size_t>& out) const;
-  /// Counts misses of landmarks predicted well inside the view and removes those past their limit.
-  void manage_map(const std::vector<bool>& seen);
+  /// Landmarks that can be in view from the current pose (range and field of view plus margins),
+  /// into candidates_.
+  void find_candidates(double range_margin, double angle_margin);
+  /// Counts misses of landmarks predicted well inside the view (not in seen_) and removes those
+  /// past their limit.
+  void manage_map();
+  /// Bins every landmark at its current estimate.
+  void rebuild_grid();
   /// The bookkeeping of a new landmark, shared by both variants.
   std::size_t register_landmark(int id);
 
@@ -158,14 +167,46 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   void predict_local(const Matrix3& f, const Matrix3& q);
   bool update_local(std::size_t index, const Vector2& z);
   void add_local(const Matrix23& gx, const Matrix2& pnew);
-  /// Stored offsets of B, ascending.
-  std::vector<std::size_t> outside_area() const;
-  /// P_BA(0): rows of B landmarks (stored offsets `rows`), columns of the area's initial A.
-  Eigen::MatrixXd area_start_cross(const std::vector<std::size_t>& rows) const;
-  /// The two rows of area_start_cross for landmark `index` (in B).
-  Eigen::MatrixXd landmark_start_cross(std::size_t index) const;
+  /// Makes room for a local state of dimension d, keeping the open area's matrices.
+  void reserve_area(Eigen::Index d);
+  // The open area's matrices: views of buffers with room to grow.
+  auto pa() { return pa_.topLeftCorner(d_, d_); }
+  auto pa() const { return pa_.topLeftCorner(d_, d_); }
+  auto phi() { return phi_.topLeftCorner(d_, a0_); }
+  auto phi() const { return phi_.topLeftCorner(d_, a0_); }
+  auto psi() { return psi_.topLeftCorner(a0_, a0_); }
+  auto psi() const { return psi_.topLeftCorner(a0_, a0_); }
+  auto theta() { return theta_.head(a0_); }
+  auto theta() const { return theta_.head(a0_); }
+  /// Stored covariance entry (i, j), read from the lower triangle.
+  double stored_entry(std::size_t i, std::size_t j) const {
+    return i > j ? p_(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j))
+                 : p_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i));
+  }
+  /// Column c of U = P_BA(0) for landmark `index` in B: its cross-covariance with A0's c-th variable
+  /// when the area began (B's rows and A0's columns are not written while the area is open).
+  Vector2 start_cross(std::size_t index, Eigen::Index c) const {
+    const std::size_t l = landmark_offset(index), a = area_offsets_[static_cast<std::size_t>(c)];
+    return {stored_entry(l, a), stored_entry(l + 1, a)};
+  }
+  /// m U^T for landmark `index` in B and m with a0_ columns, summed column by column: the accessors'
+  /// products with U, without gathering U.
+  template <typename Derived>
+  Eigen::Matrix<double, Derived::RowsAtCompileTime, 2> times_start_cross_t(const Eigen::MatrixBase<Derived>& m,
+                                                                           std::size_t index) const;
+  /// U_i psi U_j^T for landmarks i and j in B.
+  Matrix2 start_cross_quadratic(std::size_t i, std::size_t j) const;
+  /// Reused by merge_area; a flush makes room in it once and then reuses it.
+  struct MergeWorkspace {
+    std::vector<char> active;         // per stored offset: in A
+    std::vector<std::size_t> outside;  // stored offsets of B, ascending
+    Eigen::MatrixXd u_b;               // P_BA(0): B's rows, A0's columns
+    Eigen::MatrixXd u;                 // u_b spread over all rows (zero in A's): n x a0
+    Eigen::MatrixXd psi_ut;            // psi u^T
+    Eigen::MatrixXd p_ba;              // u_b phi^T: the new P_BA
+  };
   /// Writes the accumulated update into x and the lower triangle of p (the stored state's layout).
-  void merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::MatrixXd> p) const;
+  void merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::MatrixXd> p, MergeWorkspace& ws) const;
 
   /// Bookkeeping of map management, one per landmark, parallel to ids_.
   struct Track {
@@ -183,7 +224,8 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   Eigen::Matrix<double, Eigen::Dynamic, 3> scratch3_;  // capacity x 3, reused by the time update
   /// Product of the motion Jacobians not yet applied to the stored P_mv: P_mv = stored * pending^T.
   Matrix3 pending_motion_ = Matrix3::Identity();
-  Eigen::Matrix<double, Eigen::Dynamic, 2> pht_;       // capacity x 2, P H^T of the current update
+  // capacity x 2 per observation of the largest joint update so far: P H^T of the current update.
+  Eigen::MatrixXd pht_;
   std::vector<int> ids_;
   std::unordered_map<int, std::size_t> index_of_id_;
   std::vector<Track> tracks_;
@@ -197,22 +239,35 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   EkfVariant variant_;
   bool joint_scan_update_;
   std::vector<LandmarkObservation> batch_;  // a scan's updates, when applied jointly
+  // The joint update's other terms, sized for the largest batch so far.
+  std::vector<Matrix23> batch_hx_;
+  std::vector<Matrix2> batch_hm_;
+  Eigen::VectorXd batch_nu_;
+  Eigen::MatrixXd batch_s_;
   double area_half_side_;
   // The local area (compressed variant), empty when none is open. The local state is
   // [vehicle | A0's landmarks | landmarks added since], in which order area_offsets_ lists the
-  // stored offsets; pa_ is its full symmetric covariance. x_ holds the local state in place.
+  // stored offsets; pa() is its full symmetric covariance. x_ holds the local state in place.
+  // pa_, phi_, psi_ and theta_ are buffers of a capacity that only grows; pa() etc. view them.
   Vector2 area_centre_ = Vector2::Zero();
   std::vector<std::size_t> area_offsets_;
   std::vector<long> local_of_;  // per landmark: local offset, or -1
   Eigen::MatrixXd pa_;
+  Eigen::Index d_ = 0;     // dim(A)
   Eigen::Index a0_ = 0;    // dim(A0), the active part when the area began
   Eigen::MatrixXd phi_;    // dim(A) x dim(A0): P_BA = P_BA(0) phi^T
   Eigen::MatrixXd psi_;    // dim(A0) square:   P_BB = P_BB(0) - P_BA(0) psi P_AB(0)
   Eigen::VectorXd theta_;  // dim(A0):          x_B  = x_B(0) + P_BA(0) theta
+  Eigen::Matrix<double, 2, Eigen::Dynamic> h_phi_;  // H_A phi of the current local update
+  MergeWorkspace merge_;
   std::size_t flushes_ = 0;
   // Reused per scan.
   std::vector<std::size_t> new_observations_;
-  std::vector<std::size_t> candidates_;
+  std::vector<std::size_t> candidates_, nearby_, doomed_;
+  std::vector<bool> seen_;  // per landmark: paired in this scan
+  std::vector<Vector2> positions_;  // for rebuilding the grid
+  AssociationWorkspace association_workspace_;
+  std::vector<Pairing> pairings_;
   // Statistics.
   AssociationStats association_stats_;
   std::size_t discarded_ = 0, removed_ = 0, outliers_ = 0;
