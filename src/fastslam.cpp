@@ -11,8 +11,8 @@
 #include <functional>
 #include <limits>
 #include <mutex>
+#include <new>
 #include <random>
-#include <span>
 #include <stdexcept>
 #include <thread>
 #include <tuple>
@@ -22,6 +22,7 @@
 #include "slamkit/angles.hpp"
 #include "slamkit/eval/chi_square.hpp"
 #include "slamkit/filters/landmark_tree.hpp"
+#include "slamkit/filters/node_pool.hpp"
 
 namespace slamkit {
 
@@ -36,10 +37,13 @@ constexpr double kMinusInf = -std::numeric_limits<double>::infinity();
 constexpr std::size_t kPredictGrain = 256;
 constexpr std::size_t kUpdateGrain = 4;
 
-// The candidate grid is rebuilt this often [scans]; landmarks appended in between are candidates
-// regardless of position, so the only staleness is estimates moving, allowed for by kDriftMargin.
-constexpr std::size_t kGridRebuildScans = 5;
-constexpr double kDriftMargin = 5.0;  // m
+// The candidate grid drops its stale entries around the vehicle this often [scans]; they cost only
+// filtering in the meantime.
+constexpr std::size_t kGridPruneScans = 5;
+
+// Poses per chunk of path storage: the surviving trajectory grows by one pose per control, so its
+// storage grows once per this many controls at first and ever more rarely as the chunks grow.
+constexpr std::size_t kPathChunkNodes = 8192;
 
 std::uint64_t splitmix64(std::uint64_t x) {
   x += 0x9e3779b97f4a7c15ULL;
@@ -80,6 +84,19 @@ Pose2 sample_gaussian(const Pose2& mean, const Matrix3& cov, std::mt19937_64& rn
   return x;
 }
 
+/// Makes sure a scratch vector can take n elements, growing it to twice that when it must grow:
+/// a scan a little busier than any before then does not allocate again.
+template <class T>
+void make_room(std::vector<T>& v, std::size_t n) {
+  if (v.capacity() < n) v.reserve(2 * n);
+}
+
+/// The first of `origins` (pairs of id and origin, sorted by id) whose id is not below `id`.
+template <class Origins>
+auto origin_lower_bound(Origins& origins, int id) {
+  return std::lower_bound(origins.begin(), origins.end(), id, [](const auto& entry, int key) { return entry.first < key; });
+}
+
 // ---- Worker pool ---------------------------------------------------------------------------------
 
 /// Runs a loop body over [0, n) in contiguous chunks on persistent threads plus the calling thread.
@@ -88,7 +105,12 @@ class WorkerPool {
   using Body = std::function<void(std::size_t begin, std::size_t end)>;
 
   explicit WorkerPool(unsigned threads) {
-    for (unsigned i = 1; i < threads; ++i) workers_.emplace_back([this] { loop(); });
+    // Worker i takes the node pools' free list i; the calling thread keeps list 0.
+    for (unsigned i = 1; i < threads; ++i)
+      workers_.emplace_back([this, i] {
+        pool_thread_slot = i;
+        loop();
+      });
   }
   ~WorkerPool() {
     {
@@ -167,75 +189,157 @@ class WorkerPool {
 
 // ---- Trajectory history --------------------------------------------------------------------------
 
-/// One pose of a particle's path. Paths share their common past: resampling copies the pointer.
+/// One pose of a particle's path. Paths share their common past: copying a path copies a pointer.
 struct PathNode {
-  PathNode(double t_, const Pose2& pose_, std::shared_ptr<PathNode> parent_)
-      : t(t_), pose(pose_), parent(std::move(parent_)) {}
-  // Unlinks the ancestors this node alone keeps alive one at a time: releasing them recursively
-  // would nest one destructor call per step of a path thousands of steps long.
-  ~PathNode() {
-    std::shared_ptr<PathNode> next = std::move(parent);
-    while (next && next.use_count() == 1) next = std::move(next->parent);
-  }
-  PathNode(const PathNode&) = delete;
-  PathNode& operator=(const PathNode&) = delete;
-
+  std::atomic<std::size_t> refs{1};
   double t;
   Pose2 pose;
-  std::shared_ptr<PathNode> parent;
+  PathNode* parent;
+};
+
+/// A reference to the newest node of a path, whose nodes come from a filter's NodePool: each step
+/// adds a node per particle and resampling drops the nodes of the paths it does not draw, so the
+/// pool recycles all but the one node per step by which the surviving past grows.
+class Path {
+ public:
+  Path() = default;
+  /// A new newest node after `parent`, whose reference it takes over.
+  Path(NodePool& pool, double t, const Pose2& pose, Path&& parent)
+      : pool_(&pool), node_(new (pool.allocate()) PathNode{{1}, t, pose, std::exchange(parent.node_, nullptr)}) {}
+  Path(const Path& other) noexcept : pool_(other.pool_), node_(other.node_) {
+    if (node_ != nullptr) node_->refs.fetch_add(1, std::memory_order_relaxed);
+  }
+  Path(Path&& other) noexcept : pool_(other.pool_), node_(std::exchange(other.node_, nullptr)) {}
+  Path& operator=(Path other) noexcept {
+    std::swap(pool_, other.pool_);
+    std::swap(node_, other.node_);
+    return *this;
+  }
+  // Releases the nodes this path alone keeps alive one at a time: a recursive release would nest
+  // one call per step of a path thousands of steps long.
+  ~Path() {
+    for (PathNode* node = node_; node != nullptr && node->refs.fetch_sub(1, std::memory_order_acq_rel) == 1;) {
+      PathNode* parent = node->parent;
+      node->~PathNode();
+      pool_->deallocate(node);
+      node = parent;
+    }
+  }
+
+  const PathNode* newest() const { return node_; }
+
+  /// Replaces the newest pose (same time): in place when no other path shares the node, which is
+  /// the rule, since resampling shares paths only after a scan and a prediction adds an unshared node.
+  void replace_newest(const Pose2& pose) {
+    if (node_->refs.load(std::memory_order_acquire) == 1) {
+      node_->pose = pose;
+      return;
+    }
+    Path parent;
+    parent.pool_ = pool_;
+    parent.node_ = node_->parent;
+    if (parent.node_ != nullptr) parent.node_->refs.fetch_add(1, std::memory_order_relaxed);
+    *this = Path(*pool_, node_->t, pose, std::move(parent));
+  }
+
+ private:
+  NodePool* pool_ = nullptr;
+  PathNode* node_ = nullptr;
 };
 
 // ---- Candidate grid ------------------------------------------------------------------------------
 
-/// Landmark indices by position, over every particle's version of every landmark.
+/// Landmark indices by position, over every particle's version of every landmark, kept up to date
+/// incrementally: an entry (cell, index) is added when some particle's landmark `index` is created
+/// in the cell or moves into it, so every live version is always listed in the cell of its current
+/// mean. Entries that no particle needs any more (the landmark moved on, was removed, or its
+/// particles were not drawn by resampling) stay until prune() drops them; until then they are only
+/// candidates that filtering rejects. So the grid costs O(changes) per scan, not O(map size).
+///
+/// A cell's entries are a list of nodes from a pool, so entries move between cells without
+/// allocating. A query creates the cells of its box and a ring around it, where the scan's new and
+/// moved landmarks land, so a vehicle revisiting places lists them without allocating.
+/// Calling thread only.
 class CandidateGrid {
  public:
-  explicit CandidateGrid(double cell) : cell_(cell) {}
+  explicit CandidateGrid(double cell) : cell_(cell), entries_(sizeof(Entry), 1, kChunkEntries) {}
 
-  void build(std::span<const LandmarkTree* const> maps) {
-    cells_.clear();
-    indexed_ = 0;
-    for (const LandmarkTree* map : maps) indexed_ = std::max(indexed_, map->size());
-    LandmarkTree::for_each_version(maps, [&](std::size_t index, const LandmarkGaussian& lm) {
-      if (!lm.removed) cells_[key(lm.mean)].push_back(static_cast<std::uint32_t>(index));
-    });
-    for (auto& [k, indices] : cells_) {
-      std::sort(indices.begin(), indices.end());
-      indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
-    }
+  std::uint64_t key(const Vector2& p) const {
+    const auto [ix, iy] = cell_of(p);
+    return pack(ix, iy);
+  }
+
+  /// Lists landmark `index` at `p`: a new landmark, or one that has moved there.
+  void insert(const Vector2& p, std::uint32_t index) {
+    const auto [ix, iy] = cell_of(p);
+    Entry*& head = cells_[pack(ix, iy)];
+    for (const Entry* e = head; e != nullptr; e = e->next)
+      if (e->index == index) return;
+    head = new (entries_.allocate()) Entry{index, head};
   }
 
   /// Indices of landmarks possibly within `radius` of `centre`, sorted, unique: those of the cells
-  /// touching the disc's bounding box, and every index at or past the last build's map size.
-  void query(const Vector2& centre, double radius, std::size_t map_size, std::vector<std::uint32_t>& out) const {
+  /// touching the disc's bounding box, which the next prune() visits.
+  void query(const Vector2& centre, double radius, std::vector<std::uint32_t>& out) {
     out.clear();
-    const auto lo = cell_of(centre - Vector2::Constant(radius));
-    const auto hi = cell_of(centre + Vector2::Constant(radius));
-    for (std::int64_t ix = lo.first; ix <= hi.first; ++ix)
-      for (std::int64_t iy = lo.second; iy <= hi.second; ++iy) {
-        const auto it = cells_.find(pack(ix, iy));
-        if (it != cells_.end()) out.insert(out.end(), it->second.begin(), it->second.end());
-      }
-    for (std::size_t i = indexed_; i < map_size; ++i) out.push_back(static_cast<std::uint32_t>(i));
+    lo_ = cell_of(centre - Vector2::Constant(radius));
+    hi_ = cell_of(centre + Vector2::Constant(radius));
+    for (std::int64_t ix = lo_.first - 1; ix <= hi_.first + 1; ++ix)
+      for (std::int64_t iy = lo_.second - 1; iy <= hi_.second + 1; ++iy) cells_.try_emplace(pack(ix, iy), nullptr);
+    std::size_t n = 0;
+    for_each_cell([&](std::uint64_t, const Entry* head) {
+      for (const Entry* e = head; e != nullptr; e = e->next) ++n;
+    });
+    make_room(out, n);
+    for_each_cell([&](std::uint64_t, const Entry* head) {
+      for (const Entry* e = head; e != nullptr; e = e->next) out.push_back(e->index);
+    });
     std::sort(out.begin(), out.end());
     out.erase(std::unique(out.begin(), out.end()), out.end());
   }
 
+  /// Drops the entries of the last query's cells for which needed(key, index) is false. Only those
+  /// cells: they are where stale entries cost, and where map management has just been at work.
+  template <class Needed>
+  void prune(Needed&& needed) {
+    for_each_cell([&](std::uint64_t k, Entry*& head) {
+      for (Entry** link = &head; *link != nullptr;) {
+        Entry* e = *link;
+        if (needed(k, e->index)) {
+          link = &e->next;
+          continue;
+        }
+        *link = e->next;
+        entries_.deallocate(e);
+      }
+    });
+  }
+
  private:
+  struct Entry {
+    std::uint32_t index;
+    Entry* next;
+  };
+  static constexpr std::size_t kChunkEntries = 4096;
+
   std::pair<std::int64_t, std::int64_t> cell_of(const Vector2& p) const {
     return {static_cast<std::int64_t>(std::floor(p.x() / cell_)), static_cast<std::int64_t>(std::floor(p.y() / cell_))};
   }
   static std::uint64_t pack(std::int64_t ix, std::int64_t iy) {
     return (static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffULL);
   }
-  std::uint64_t key(const Vector2& p) const {
-    const auto [ix, iy] = cell_of(p);
-    return pack(ix, iy);
+  /// f(key, head) for each existing cell of the last query's box.
+  template <class F>
+  void for_each_cell(F&& f) {
+    for (std::int64_t ix = lo_.first; ix <= hi_.first; ++ix)
+      for (std::int64_t iy = lo_.second; iy <= hi_.second; ++iy)
+        if (const auto it = cells_.find(pack(ix, iy)); it != cells_.end()) f(it->first, it->second);
   }
 
   double cell_;
-  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
-  std::size_t indexed_ = 0;
+  NodePool entries_;
+  std::unordered_map<std::uint64_t, Entry*> cells_;
+  std::pair<std::int64_t, std::int64_t> lo_{0, 0}, hi_{-1, -1};  // the last query's cells; none yet
 };
 
 }  // namespace
@@ -248,7 +352,7 @@ struct FastSlam::Impl {
     Matrix3 pose_cov = Matrix3::Zero();  // FastSLAM 2.0: prediction covariance since the last scan
     double log_weight = 0.0;             // log of the normalised weight
     LandmarkTree map;
-    std::shared_ptr<PathNode> path;
+    Path path;
   };
 
   /// What one particle does with one observation; `index` is in that particle's map.
@@ -262,6 +366,7 @@ struct FastSlam::Impl {
     std::uint32_t index;
     Vector2 zhat;
     Matrix2 s_inverse;
+    bool taken = false;  // paired with an observation of this scan
   };
 
   /// Per particle slot (not per particle: resampling moves particles, slots stay): the random
@@ -272,8 +377,9 @@ struct FastSlam::Impl {
     std::vector<Candidate> candidates;
     std::vector<std::tuple<double, std::uint32_t, std::uint32_t>> pairs;  // d2, observation, candidate
     std::vector<double> min_d2;
-    std::vector<char> candidate_taken;
     std::vector<std::uint32_t> observed;
+    // (mean, index) of each landmark this scan created or moved into another grid cell.
+    std::vector<std::pair<Vector2, std::uint32_t>> grid_entries;
     double log_likelihood = 0.0;
   };
 
@@ -296,12 +402,17 @@ struct FastSlam::Impl {
   LandmarkGaussian new_landmark(const Pose2& x, const Vector2& z, int id) const;
   void count_misses(Particle& p, Slot& s) const;
   void assign_new_ids(std::size_t observations, std::size_t scan_index);
-  std::vector<AssociationRecord> records(std::size_t slot) const;
+  void record_associations(std::size_t slot);
   void reweight_and_resample();
-  void rebuild_grid();
+  void index_grid_entries();
+  void prune_grid();
+  void set_origin(int id, const LandmarkOrigin& origin);
   const Particle& best_particle() const { return particles[best]; }
 
   FastSlamConfig config;
+  // Node memory first: it must outlive every map and path, i.e. the particles.
+  LandmarkTree::NodeStorage map_nodes;
+  NodePool path_nodes;
   std::shared_ptr<const MotionModel> motion;
   std::shared_ptr<const ObservationModel> observation;
   Matrix2 r;
@@ -315,18 +426,25 @@ struct FastSlam::Impl {
   std::vector<double> weights;
   std::vector<double> log_weights;  // scratch of reweighting
   std::mt19937_64 resample_rng;
+  // Scratch of resampling; next_particles is empty between scans (its elements would hold
+  // references that make every node look shared) but keeps its capacity.
+  ResampleScratch resample_scratch;
+  std::vector<std::size_t> parents;
+  std::vector<Particle> next_particles;
   std::size_t best = 0;
 
   std::vector<char> valid;  // per observation of the current scan: finite measurement
   std::vector<Pairing> known_plan;
   std::unordered_map<int, std::uint32_t> known_index;
   CandidateGrid grid;
-  std::size_t scans_since_grid = kGridRebuildScans;
+  std::size_t scans_since_prune = 0;
   std::vector<std::uint32_t> scan_candidates;
 
   int next_id = 0;
   std::vector<int> new_ids;  // per observation of the current scan
-  std::unordered_map<int, LandmarkOrigin> origins;
+  // Sorted by id. Ids made by update() increase, so they are appended; a vector rather than a hash
+  // map, so that a new id costs an allocation only when the capacity doubles (or not after reserve).
+  std::vector<std::pair<int, LandmarkOrigin>> origins;
   std::vector<AssociationRecord> last_records;
 
   std::size_t scans = 0;
@@ -370,6 +488,8 @@ unsigned thread_count(unsigned requested) {
 FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
                      std::shared_ptr<const ObservationModel> observation_model, const FastSlamConfig& cfg)
     : config((validate(cfg), cfg)),
+      map_nodes(thread_count(cfg.threads)),
+      path_nodes(sizeof(PathNode), thread_count(cfg.threads), kPathChunkNodes),
       motion(std::move(motion_model)),
       observation(std::move(observation_model)),
       pool(thread_count(cfg.threads)),
@@ -387,7 +507,10 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
 
   const auto n = static_cast<std::size_t>(config.particles);
   particles.resize(n);
+  next_particles.reserve(n);
+  parents.reserve(n);
   for (Particle& p : particles) {
+    p.map = LandmarkTree(&map_nodes);
     p.pose = config.initial_pose;
     p.pose[2] = wrap_angle(p.pose[2]);
     p.log_weight = -std::log(static_cast<double>(n));
@@ -398,8 +521,8 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
 }
 
 void FastSlam::Impl::start(double t) {
-  if (particles.front().path) return;
-  const auto root = std::make_shared<PathNode>(t, particles.front().pose, nullptr);
+  if (particles.front().path.newest() != nullptr) return;
+  const Path root(path_nodes, t, particles.front().pose, Path());
   for (Particle& p : particles) p.path = root;
 }
 
@@ -413,12 +536,13 @@ void FastSlam::Impl::predict_particle(std::size_t i, const ControlEvent& c) {
     p.pose_cov = symmetric(f * p.pose_cov * f.transpose() + motion->process_noise(p.pose, c.u, c.dt));
     p.pose = motion->predict(p.pose, c.u, c.dt);
   }
-  p.path = std::make_shared<PathNode>(c.t, p.pose, std::move(p.path));
+  p.path = Path(path_nodes, c.t, p.pose, std::move(p.path));
 }
 
 void FastSlam::Impl::plan_known_association(const ScanEvent& scan, std::size_t scan_index) {
   // Known identities make every particle's decisions the same, and so its map indices.
   auto next_index = static_cast<std::uint32_t>(particles.front().map.size());
+  make_room(known_plan, scan.observations.size());
   known_plan.assign(scan.observations.size(), Pairing{});
   for (std::size_t k = 0; k < scan.observations.size(); ++k) {
     const int id = scan.observations[k].id;
@@ -426,7 +550,7 @@ void FastSlam::Impl::plan_known_association(const ScanEvent& scan, std::size_t s
     const auto [it, inserted] = known_index.try_emplace(id, next_index);
     if (inserted) {
       known_plan[k] = {AssociationDecision::kNew, next_index++};
-      origins[id] = {scan_index, k};
+      set_origin(id, {scan_index, k});
     } else {
       known_plan[k] = {AssociationDecision::kUpdate, it->second};
     }
@@ -446,16 +570,14 @@ void FastSlam::Impl::gather_candidates() {
     return mean;
   }();
   double spread = 0.0;
-  std::size_t max_size = 0;
-  for (const Particle& p : particles) {
-    spread = std::max(spread, (p.pose.head<2>() - centre_pose.head<2>()).norm());
-    max_size = std::max(max_size, p.map.size());
-  }
-  // A zero measurement is the sensor itself, which may be mounted off the pose origin.
+  for (const Particle& p : particles) spread = std::max(spread, (p.pose.head<2>() - centre_pose.head<2>()).norm());
+  // A zero measurement is the sensor itself, which may be mounted off the pose origin: a particle's
+  // sensor lies within spread + 2 * offset of this one (position difference plus the offset turned
+  // by any heading difference), and the grid lists every landmark version at its current mean.
   const Vector2 sensor = observation->inverse(centre_pose, Vector2::Zero());
-  const double radius = config.sensor.max_range + config.association.view_margin_m + kDriftMargin + spread +
-                        (sensor - centre_pose.head<2>()).norm();
-  grid.query(sensor, radius, max_size, scan_candidates);
+  const double radius = config.sensor.max_range + config.association.view_margin_m + spread +
+                        2.0 * (sensor - centre_pose.head<2>()).norm();
+  grid.query(sensor, radius, scan_candidates);
 }
 
 void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan) const {
@@ -465,6 +587,7 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
   // uncertainty should when judging whether an observation fits a landmark.
   const Pose2& x = p.pose;
   s.candidates.clear();
+  make_room(s.candidates, scan_candidates.size());
   for (const std::uint32_t index : scan_candidates) {
     if (index >= p.map.size()) break;
     const LandmarkGaussian& lm = p.map[index];
@@ -482,6 +605,8 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
   }
 
   s.pairs.clear();
+  make_room(s.pairs, n_obs * s.candidates.size());
+  make_room(s.min_d2, n_obs);
   s.min_d2.assign(n_obs, std::numeric_limits<double>::infinity());
   for (std::size_t k = 0; k < n_obs; ++k) {
     if (!valid[k]) continue;
@@ -495,11 +620,11 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
   }
   // Greedy by distance: the most certain pairings first, each observation and landmark once.
   std::sort(s.pairs.begin(), s.pairs.end());
+  make_room(s.pairings, n_obs);
   s.pairings.assign(n_obs, Pairing{});
-  s.candidate_taken.assign(s.candidates.size(), 0);
   for (const auto& [d2, k, c] : s.pairs) {
-    if (s.pairings[k].decision != AssociationDecision::kDiscard || s.candidate_taken[c]) continue;
-    s.candidate_taken[c] = 1;
+    if (s.pairings[k].decision != AssociationDecision::kDiscard || s.candidates[c].taken) continue;
+    s.candidates[c].taken = true;
     s.pairings[k] = {AssociationDecision::kUpdate, s.candidates[c].index};
   }
   auto next_index = static_cast<std::uint32_t>(p.map.size());
@@ -544,6 +669,18 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   Slot& s = slots[i];
   const std::size_t n_obs = scan.observations.size();
   if (!known()) associate(p, s, scan);
+  s.grid_entries.clear();
+  make_room(s.grid_entries, n_obs);
+  // A landmark update at the particle's final pose; a landmark leaving its grid cell is listed in
+  // the new one.
+  auto update_at = [&](std::uint32_t index, const Vector2& z) {
+    LandmarkGaussian& lm = p.map.mutate(index);
+    if (known()) return update_landmark(lm, p.pose, z);
+    const std::uint64_t before = grid.key(lm.mean);
+    const double ll = update_landmark(lm, p.pose, z);
+    if (grid.key(lm.mean) != before) s.grid_entries.emplace_back(lm.mean, index);
+    return ll;
+  };
   const std::vector<Pairing>& pairings = known() ? known_plan : s.pairings;
   const std::size_t old_size = p.map.size();
   auto is_old_update = [&](std::size_t k) {
@@ -579,13 +716,13 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
     }
     p.pose = sample_gaussian(mu, sigma, s.rng);
     p.pose_cov.setZero();
-    p.path = std::make_shared<PathNode>(p.path->t, p.pose, p.path->parent);
+    p.path.replace_newest(p.pose);
   }
 
   // Landmark updates at the particle's final pose; for FastSLAM 1.0 they also give the weight.
   for (std::size_t k = 0; k < n_obs; ++k) {
     if (!is_old_update(k)) continue;
-    const double ll = update_landmark(p.map.mutate(pairings[k].index), p.pose, scan.observations[k].z);
+    const double ll = update_at(pairings[k].index, scan.observations[k].z);
     if (config.version == 1) log_likelihood += ll;
   }
   // New landmarks, and repeated observations of landmarks started in this scan, in scan order.
@@ -594,11 +731,12 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
     const Vector2& z = scan.observations[k].z;
     if (pairing.decision == AssociationDecision::kNew) {
       p.map.push_back(new_landmark(p.pose, z, known() ? scan.observations[k].id : kUnknownId));
+      if (!known()) s.grid_entries.emplace_back(p.map[pairing.index].mean, pairing.index);
       log_likelihood += log_p0;
     } else if (pairing.decision == AssociationDecision::kDiscard) {
       log_likelihood += log_p0;
     } else if (!is_old_update(k)) {
-      log_likelihood += update_landmark(p.map.mutate(pairing.index), p.pose, z);
+      log_likelihood += update_at(pairing.index, z);
     }
   }
   if (!known()) count_misses(p, s);
@@ -608,6 +746,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
 void FastSlam::Impl::count_misses(Particle& p, Slot& s) const {
   const AssociationConfig& a = config.association;
   s.observed.clear();
+  make_room(s.observed, s.pairings.size());
   for (const Pairing& pairing : s.pairings)
     if (pairing.decision == AssociationDecision::kUpdate) s.observed.push_back(pairing.index);
   std::sort(s.observed.begin(), s.observed.end());
@@ -626,6 +765,7 @@ void FastSlam::Impl::count_misses(Particle& p, Slot& s) const {
 }
 
 void FastSlam::Impl::assign_new_ids(std::size_t observations, std::size_t scan_index) {
+  make_room(new_ids, observations);
   new_ids.assign(observations, kUnknownId);
   for (const Slot& s : slots)
     for (std::size_t k = 0; k < observations; ++k)
@@ -633,7 +773,7 @@ void FastSlam::Impl::assign_new_ids(std::size_t observations, std::size_t scan_i
   for (std::size_t k = 0; k < observations; ++k) {
     if (new_ids[k] == kUnknownId) continue;
     new_ids[k] = next_id++;
-    origins[new_ids[k]] = {scan_index, k};
+    set_origin(new_ids[k], {scan_index, k});
   }
   for (std::size_t i = 0; i < particles.size(); ++i)
     for (std::size_t k = 0; k < observations; ++k)
@@ -641,13 +781,13 @@ void FastSlam::Impl::assign_new_ids(std::size_t observations, std::size_t scan_i
         particles[i].map.mutate(slots[i].pairings[k].index).id = new_ids[k];
 }
 
-std::vector<AssociationRecord> FastSlam::Impl::records(std::size_t slot) const {
+void FastSlam::Impl::record_associations(std::size_t slot) {
   const std::vector<Pairing>& pairings = known() ? known_plan : slots[slot].pairings;
-  std::vector<AssociationRecord> out(pairings.size());
+  make_room(last_records, pairings.size());
+  last_records.assign(pairings.size(), AssociationRecord{});
   for (std::size_t k = 0; k < pairings.size(); ++k)
     if (pairings[k].decision != AssociationDecision::kDiscard)
-      out[k] = {pairings[k].decision, particles[slot].map[pairings[k].index].id};
-  return out;
+      last_records[k] = {pairings[k].decision, particles[slot].map[pairings[k].index].id};
 }
 
 void FastSlam::Impl::reweight_and_resample() {
@@ -658,32 +798,48 @@ void FastSlam::Impl::reweight_and_resample() {
   const double ess = effective_sample_size(weights);
   ess_sum += ess;
   best = static_cast<std::size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
-  last_records = records(best);
+  record_associations(best);
 
   if (config.policy.should_resample(scans, ess, n)) {
-    const std::vector<std::size_t> parents = resample(config.resample, weights, resample_rng);
-    std::vector<Particle> next;
-    next.reserve(n);
+    resample(config.resample, weights, resample_rng, resample_scratch, parents);
     // Copies share the maps and paths: O(1) per particle however large the maps.
-    for (const std::size_t parent : parents) next.push_back(particles[parent]);
+    for (const std::size_t parent : parents) next_particles.push_back(particles[parent]);
     // The best particle stays best: the first copy of the highest-weight parent drawn.
     std::size_t new_best = 0;
     for (std::size_t j = 1; j < n; ++j)
       if (weights[parents[j]] > weights[parents[new_best]]) new_best = j;
     best = new_best;
-    particles.swap(next);
+    particles.swap(next_particles);
+    next_particles.clear();
     weights.assign(n, 1.0 / static_cast<double>(n));
     ++resamples;
   }
   for (std::size_t i = 0; i < n; ++i) particles[i].log_weight = std::log(weights[i]);
 }
 
-void FastSlam::Impl::rebuild_grid() {
-  std::vector<const LandmarkTree*> maps;
-  maps.reserve(particles.size());
-  for (const Particle& p : particles) maps.push_back(&p.map);
-  grid.build(maps);
-  scans_since_grid = 0;
+void FastSlam::Impl::index_grid_entries() {
+  for (const Slot& s : slots)
+    for (const auto& [mean, index] : s.grid_entries) grid.insert(mean, index);
+}
+
+void FastSlam::Impl::prune_grid() {
+  // An entry is needed while some particle's live version of the landmark has its mean in the cell.
+  grid.prune([&](std::uint64_t key, std::uint32_t index) {
+    return std::any_of(particles.begin(), particles.end(), [&](const Particle& p) {
+      if (index >= p.map.size()) return false;
+      const LandmarkGaussian& lm = p.map[index];
+      return !lm.removed && grid.key(lm.mean) == key;
+    });
+  });
+  scans_since_prune = 0;
+}
+
+void FastSlam::Impl::set_origin(int id, const LandmarkOrigin& origin) {
+  const auto it = origin_lower_bound(origins, id);
+  if (it != origins.end() && it->first == id)
+    it->second = origin;
+  else
+    origins.insert(it, {id, origin});
 }
 
 // ---- Public interface ----------------------------------------------------------------------------
@@ -695,6 +851,11 @@ FastSlam::FastSlam(std::shared_ptr<const MotionModel> motion, std::shared_ptr<co
 FastSlam::~FastSlam() = default;
 
 std::string FastSlam::name() const { return impl_->config.version == 1 ? "fastslam1" : "fastslam2"; }
+
+void FastSlam::reserve(std::size_t steps, std::size_t landmarks) {
+  impl_->path_nodes.reserve(steps);
+  impl_->origins.reserve(impl_->origins.size() + landmarks);
+}
 
 const FastSlamConfig& FastSlam::config() const { return impl_->config; }
 
@@ -716,6 +877,7 @@ void FastSlam::update(const ScanEvent& scan) {
   s.start(scan.t);
   const std::size_t scan_index = s.scans++;
   const std::size_t n_obs = scan.observations.size();
+  make_room(s.valid, n_obs);
   s.valid.resize(n_obs);
   for (std::size_t k = 0; k < n_obs; ++k) s.valid[k] = scan.observations[k].z.allFinite();
 
@@ -726,9 +888,12 @@ void FastSlam::update(const ScanEvent& scan) {
   s.pool.run(s.particles.size(), kUpdateGrain, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) s.update_particle(i, scan);
   });
-  if (!s.known()) s.assign_new_ids(n_obs, scan_index);
+  if (!s.known()) {
+    s.assign_new_ids(n_obs, scan_index);
+    s.index_grid_entries();
+  }
   s.reweight_and_resample();
-  if (!s.known() && ++s.scans_since_grid >= kGridRebuildScans) s.rebuild_grid();
+  if (!s.known() && ++s.scans_since_prune >= kGridPruneScans) s.prune_grid();
 }
 
 Pose2 FastSlam::pose() const {
@@ -775,7 +940,7 @@ const std::vector<AssociationRecord>& FastSlam::last_associations() const { retu
 
 std::vector<StampedPose> FastSlam::smoothed_trajectory() const {
   std::vector<StampedPose> out;
-  for (const PathNode* node = impl_->best_particle().path.get(); node != nullptr; node = node->parent.get())
+  for (const PathNode* node = impl_->best_particle().path.newest(); node != nullptr; node = node->parent)
     out.push_back({node->t, node->pose});
   std::reverse(out.begin(), out.end());
   return out;
@@ -801,7 +966,7 @@ void FastSlam::set_initial_map(const std::vector<Landmark>& map) {
   Impl& s = *impl_;
   if (s.scans > 0) throw std::logic_error("FastSLAM: set_initial_map after the first update");
   std::unordered_set<int> ids;
-  LandmarkTree tree;
+  LandmarkTree tree(&s.map_nodes);
   s.known_index.clear();
   s.next_id = 0;
   for (const Landmark& lm : map) {
@@ -814,15 +979,16 @@ void FastSlam::set_initial_map(const std::vector<Landmark>& map) {
     g.observations = s.config.association.confirm_after;
     s.known_index[lm.id] = static_cast<std::uint32_t>(tree.size());
     s.next_id = std::max(s.next_id, lm.id + 1);
+    if (!s.known()) s.grid.insert(g.mean, static_cast<std::uint32_t>(tree.size()));
     tree.push_back(g);
   }
   for (Impl::Particle& p : s.particles) p.map = tree;
-  if (!s.known()) s.rebuild_grid();
 }
 
 std::optional<LandmarkOrigin> FastSlam::landmark_origin(int id) const {
-  const auto it = impl_->origins.find(id);
-  if (it == impl_->origins.end()) return std::nullopt;
+  const auto& origins = impl_->origins;
+  const auto it = origin_lower_bound(origins, id);
+  if (it == origins.end() || it->first != id) return std::nullopt;
   return it->second;
 }
 

@@ -46,9 +46,9 @@ void select(std::span<const double> weights, std::size_t count, Point point, std
 /// uniforms are the normalised partial sums of count + 1 exponential variates (the uniform order
 /// statistics), which makes the draw O(N) instead of a binary search per draw.
 void draw_multinomial(std::span<const double> weights, std::size_t count, std::mt19937_64& rng,
-                      std::vector<std::size_t>& out) {
+                      std::vector<double>& points, std::vector<std::size_t>& out) {
   if (count == 0) return;
-  std::vector<double> points(count);
+  points.resize(count);
   double sum = 0.0;
   for (double& p : points) {
     sum += -std::log1p(-uniform01(rng));
@@ -57,6 +57,50 @@ void draw_multinomial(std::span<const double> weights, std::size_t count, std::m
   sum += -std::log1p(-uniform01(rng));
   const double scale = total(weights) / sum;
   select(weights, count, [&](std::size_t k) { return points[k] * scale; }, out);
+}
+
+void multinomial(std::span<const double> weights, std::mt19937_64& rng, ResampleScratch& scratch,
+                 std::vector<std::size_t>& out) {
+  draw_multinomial(weights, weights.size(), rng, scratch.points, out);
+}
+
+void stratified(std::span<const double> weights, std::mt19937_64& rng, std::vector<std::size_t>& out) {
+  const std::size_t n = weights.size();
+  const double step = total(weights) / static_cast<double>(n);
+  select(weights, n, [&](std::size_t k) { return (static_cast<double>(k) + uniform01(rng)) * step; }, out);
+}
+
+void systematic(std::span<const double> weights, std::mt19937_64& rng, std::vector<std::size_t>& out) {
+  const std::size_t n = weights.size();
+  const double step = total(weights) / static_cast<double>(n);
+  const double offset = uniform01(rng);
+  select(weights, n, [&](std::size_t k) { return (static_cast<double>(k) + offset) * step; }, out);
+}
+
+void residual(std::span<const double> weights, std::mt19937_64& rng, ResampleScratch& scratch,
+              std::vector<std::size_t>& out) {
+  const std::size_t n = weights.size();
+  const double scale = static_cast<double>(n) / total(weights);
+  scratch.whole.clear();
+  scratch.residual.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double expected = weights[i] * scale;
+    const double whole = std::floor(expected);
+    scratch.whole.insert(scratch.whole.end(), static_cast<std::size_t>(whole), i);
+    scratch.residual[i] = expected - whole;
+  }
+  scratch.rest.clear();
+  draw_multinomial(scratch.residual, n - scratch.whole.size(), rng, scratch.points, scratch.rest);
+  out.resize(n);
+  std::merge(scratch.whole.begin(), scratch.whole.end(), scratch.rest.begin(), scratch.rest.end(), out.begin());
+}
+
+std::vector<std::size_t> resample_returning(ResampleMethod method, std::span<const double> weights,
+                                            std::mt19937_64& rng) {
+  ResampleScratch scratch;
+  std::vector<std::size_t> parents;
+  resample(method, weights, rng, scratch, parents);
+  return parents;
 }
 
 }  // namespace
@@ -160,62 +204,36 @@ bool normalize_log_weights(std::span<const double> log_weights, std::vector<doub
 }
 
 std::vector<std::size_t> resample_multinomial(std::span<const double> weights, std::mt19937_64& rng) {
-  require_weights(weights);
-  std::vector<std::size_t> out;
-  out.reserve(weights.size());
-  draw_multinomial(weights, weights.size(), rng, out);
-  return out;
+  return resample_returning(ResampleMethod::kMultinomial, weights, rng);
 }
 
 std::vector<std::size_t> resample_stratified(std::span<const double> weights, std::mt19937_64& rng) {
-  require_weights(weights);
-  const std::size_t n = weights.size();
-  const double step = total(weights) / static_cast<double>(n);
-  std::vector<std::size_t> out;
-  out.reserve(n);
-  select(weights, n, [&](std::size_t k) { return (static_cast<double>(k) + uniform01(rng)) * step; }, out);
-  return out;
+  return resample_returning(ResampleMethod::kStratified, weights, rng);
 }
 
 std::vector<std::size_t> resample_systematic(std::span<const double> weights, std::mt19937_64& rng) {
-  require_weights(weights);
-  const std::size_t n = weights.size();
-  const double step = total(weights) / static_cast<double>(n);
-  const double offset = uniform01(rng);
-  std::vector<std::size_t> out;
-  out.reserve(n);
-  select(weights, n, [&](std::size_t k) { return (static_cast<double>(k) + offset) * step; }, out);
-  return out;
+  return resample_returning(ResampleMethod::kSystematic, weights, rng);
 }
 
 std::vector<std::size_t> resample_residual(std::span<const double> weights, std::mt19937_64& rng) {
-  require_weights(weights);
-  const std::size_t n = weights.size();
-  const double scale = static_cast<double>(n) / total(weights);
-  std::vector<std::size_t> out;
-  out.reserve(n);
-  std::vector<double> residual(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double expected = weights[i] * scale;
-    const double whole = std::floor(expected);
-    out.insert(out.end(), static_cast<std::size_t>(whole), i);
-    residual[i] = expected - whole;
-  }
-  std::vector<std::size_t> rest;
-  rest.reserve(n - out.size());
-  draw_multinomial(residual, n - out.size(), rng, rest);
-  std::vector<std::size_t> merged(n);
-  std::merge(out.begin(), out.end(), rest.begin(), rest.end(), merged.begin());
-  return merged;
+  return resample_returning(ResampleMethod::kResidual, weights, rng);
 }
 
 std::vector<std::size_t> resample(ResampleMethod method, std::span<const double> weights,
                                   std::mt19937_64& rng) {
+  return resample_returning(method, weights, rng);
+}
+
+void resample(ResampleMethod method, std::span<const double> weights, std::mt19937_64& rng,
+              ResampleScratch& scratch, std::vector<std::size_t>& parents) {
+  require_weights(weights);
+  parents.clear();
+  parents.reserve(weights.size());
   switch (method) {
-    case ResampleMethod::kMultinomial: return resample_multinomial(weights, rng);
-    case ResampleMethod::kStratified: return resample_stratified(weights, rng);
-    case ResampleMethod::kSystematic: return resample_systematic(weights, rng);
-    case ResampleMethod::kResidual: return resample_residual(weights, rng);
+    case ResampleMethod::kMultinomial: return multinomial(weights, rng, scratch, parents);
+    case ResampleMethod::kStratified: return stratified(weights, rng, parents);
+    case ResampleMethod::kSystematic: return systematic(weights, rng, parents);
+    case ResampleMethod::kResidual: return residual(weights, rng, scratch, parents);
   }
   throw std::invalid_argument("unknown resampling method");
 }

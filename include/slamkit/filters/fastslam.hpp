@@ -42,16 +42,21 @@
 //     observation starts a landmark if it is outside the new-landmark gate of every candidate and is
 //     discarded otherwise. Provisional landmarks and miss counts follow AssociationConfig exactly;
 //     removal is a tombstone in the particle's map.
-//   Candidates come from a per-filter uniform grid of landmark indices, built from every distinct
-//   landmark version across the particles' maps (shared subtrees visited once) and rebuilt every few
-//   scans; landmarks appended since the last build are always candidates. A scan's query covers the
-//   sensor disc around the mean pose, widened by the particle spread and a margin for how far a
-//   landmark estimate can move between builds. So a particle checks the O(landmarks in view)
-//   candidates, not its whole map. A build costs O(distinct nodes), i.e. O(map size): about 6 ms
-//   at 20000 landmarks, 1.3 ms per scan amortised, against ~0.8 ms for the scan itself with 100
-//   particles (bench/bench_fastslam.cpp); an incremental build (only the nodes new since the last
-//   one) would remove that term. View tests read a measurement as (range, bearing), the terms in
+//   Candidates come from a per-filter uniform grid of landmark indices over every particle's version
+//   of every landmark, kept up to date as the particles change their maps: a landmark is listed in
+//   its cell when a particle creates it and again when an update moves it into another cell, so
+//   every live version is always listed where its mean is; entries no particle needs any more are
+//   dropped around the vehicle every few scans. A scan's query covers the sensor disc around the
+//   mean pose, widened by the particle spread. So a particle checks the O(landmarks in view)
+//   candidates, not its whole map, and the grid costs O(changes) per scan, not O(map size)
+//   (bench/bench_fastslam.cpp). View tests read a measurement as (range, bearing), the terms in
 //   which SensorLimits are given.
+//
+// Memory: the nodes of the landmark trees and of the particles' paths, and the grid's entries, come
+// from pools the filter owns (NodePool), and per-scan scratch is kept between scans, so once the
+// pools have grown to the working set (a lap of a route) predict() and update() make no heap
+// allocation (tests/fastslam_allocation_test.cpp). What grows for good is the map and the surviving
+// path, one pose per predict(); their storage grows in large chunks, and reserve() takes it ahead.
 //
 // Map ids: kKnown uses the observation ids. Otherwise a new landmark's id names the observation
 // that created it: every particle that starts a landmark from observation k of scan s gives it the
@@ -139,6 +144,13 @@ class FastSlam final : public SlamFilter {
   /// Which observation started the landmark with this map id; nullopt for an id never created by
   /// update() (e.g. from set_initial_map).
   std::optional<LandmarkOrigin> landmark_origin(int id) const;
+
+  /// Pre-allocates what `steps` more predict() calls and `landmarks` more map ids made by update()
+  /// (without identities) add for good: the poses by which the particles' shared past grows, one per
+  /// step, and the ids' origins. The steps then run without a heap allocation once the pools have
+  /// seen the map (everything else a step needs is recycled); without reserve, that storage grows
+  /// in chunks of thousands of poses, and by doubling.
+  void reserve(std::size_t steps, std::size_t landmarks);
 
   const FastSlamConfig& config() const;
   /// Threads the per-particle work runs on, the calling thread included.

@@ -22,6 +22,11 @@
 // share nodes (the reference counts are atomic). One map object is like a standard container: no
 // concurrent change together with any other access to that same object.
 //
+// Node memory: a map made with a NodeStorage takes its nodes from that storage's pools (NodePool) and
+// gives them back when their last reference goes, so a filter whose maps copy paths every step
+// reuses the same memory instead of calling the heap; copies of the map use the same storage, which
+// must outlive them all. A map made without one uses operator new and delete.
+//
 // Fan-out: 2 is the binary tree of the FastSLAM papers. Wider nodes make the tree shallower (fewer
 // dependent pointer loads per lookup and fewer nodes per path copy) at the price of copying wider
 // nodes; leaves of 64-byte landmarks dominate that price. bench/bench_fastslam.cpp measures it: a
@@ -36,10 +41,13 @@
 #include <atomic>
 #include <bit>
 #include <cstddef>
+#include <new>
 #include <span>
+#include <type_traits>
 #include <unordered_set>
 #include <utility>
 
+#include "slamkit/filters/node_pool.hpp"
 #include "slamkit/types.hpp"
 
 namespace slamkit {
@@ -61,15 +69,31 @@ class BasicLandmarkTree {
  public:
   static constexpr int kFanOut = FanOut;
 
+  /// Pools for the nodes of the maps made with it, safe for `threads` thread slots (pool_thread_slot).
+  class NodeStorage {
+   public:
+    explicit NodeStorage(unsigned threads)
+        : leaves_(sizeof(Leaf), threads, kChunkNodes), inners_(sizeof(Inner), threads, kChunkNodes) {}
+
+   private:
+    friend class BasicLandmarkTree;
+    // A chunk of leaves is about 1 MB at fan-out 8: growth is rare and its cost amortised.
+    static constexpr std::size_t kChunkNodes = 2048;
+    NodePool leaves_;
+    NodePool inners_;
+  };
+
   BasicLandmarkTree() noexcept = default;
+  explicit BasicLandmarkTree(NodeStorage* storage) noexcept : storage_(storage) {}
   BasicLandmarkTree(const BasicLandmarkTree& other) noexcept
-      : root_(other.root_), size_(other.size_), height_(other.height_) {
+      : root_(other.root_), size_(other.size_), height_(other.height_), storage_(other.storage_) {
     retain(root_);
   }
   BasicLandmarkTree(BasicLandmarkTree&& other) noexcept
       : root_(std::exchange(other.root_, nullptr)),
         size_(std::exchange(other.size_, 0)),
-        height_(std::exchange(other.height_, 0)) {}
+        height_(std::exchange(other.height_, 0)),
+        storage_(other.storage_) {}
   BasicLandmarkTree& operator=(const BasicLandmarkTree& other) noexcept {
     if (this != &other) BasicLandmarkTree(other).swap(*this);
     return *this;
@@ -84,6 +108,7 @@ class BasicLandmarkTree {
     std::swap(root_, other.root_);
     std::swap(size_, other.size_);
     std::swap(height_, other.height_);
+    std::swap(storage_, other.storage_);
   }
 
   /// Number of landmarks ever appended, tombstones included.
@@ -113,9 +138,9 @@ class BasicLandmarkTree {
   void push_back(const LandmarkGaussian& landmark) {
     if (size_ == capacity()) {
       if (root_ == nullptr) {
-        root_ = new Leaf;
+        root_ = make<Leaf>();
       } else {
-        auto* grown = new Inner;
+        auto* grown = make<Inner>();
         grown->children[0] = root_;
         root_ = grown;
       }
@@ -126,7 +151,7 @@ class BasicLandmarkTree {
     for (int level = height_; level > 1; --level) {
       Inner* inner = static_cast<Inner*>(make_unique(*slot, level));
       slot = &inner->children[digit(index, level)];
-      if (*slot == nullptr) *slot = level == 2 ? static_cast<Node*>(new Leaf) : new Inner;
+      if (*slot == nullptr) *slot = level == 2 ? static_cast<Node*>(make<Leaf>()) : make<Inner>();
     }
     static_cast<Leaf*>(make_unique(*slot, 1))->items[index & kMask] = landmark;
     ++size_;
@@ -135,17 +160,7 @@ class BasicLandmarkTree {
   /// Calls f(index, landmark) for every landmark in index order, tombstones included.
   template <class F>
   void for_each(F&& f) const {
-    if (root_ != nullptr) visit(root_, height_, 0, size_, nullptr, f);
-  }
-
-  /// Calls f(index, landmark) once for every distinct stored version of a landmark across `trees`:
-  /// a subtree shared by several maps is visited once. Cost proportional to the number of distinct
-  /// nodes, which is what the maps of a particle set really hold.
-  template <class F>
-  static void for_each_version(std::span<const BasicLandmarkTree* const> trees, F&& f) {
-    std::unordered_set<const Node*> seen;
-    for (const BasicLandmarkTree* tree : trees)
-      if (tree->root_ != nullptr) visit(tree->root_, tree->height_, 0, tree->size_, &seen, f);
+    if (root_ != nullptr) visit(root_, height_, 0, size_, f);
   }
 
   /// Distinct nodes reachable from `trees`: the memory a set of maps really occupies.
@@ -185,34 +200,53 @@ class BasicLandmarkTree {
   static void retain(Node* node) {
     if (node != nullptr) node->refs.fetch_add(1, std::memory_order_relaxed);
   }
-  static void release(Node* node, int level) {
+  template <class T>
+  NodePool& pool() const {
+    if constexpr (std::is_same_v<T, Leaf>)
+      return storage_->leaves_;
+    else
+      return storage_->inners_;
+  }
+  template <class T, class... Args>
+  T* make(Args&&... args) const {
+    if (storage_ == nullptr) return new T(std::forward<Args>(args)...);
+    void* block = pool<T>().allocate();
+    return new (block) T(std::forward<Args>(args)...);
+  }
+  template <class T>
+  void destroy(T* node) const {
+    if (storage_ == nullptr) {
+      delete node;
+      return;
+    }
+    node->~T();
+    pool<T>().deallocate(node);
+  }
+
+  void release(Node* node, int level) const {
     // acq_rel: the last owner must see every other owner's accesses before it frees the node.
     if (node == nullptr || node->refs.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
     if (level == 1) {
-      delete static_cast<Leaf*>(node);
+      destroy(static_cast<Leaf*>(node));
       return;
     }
     auto* inner = static_cast<Inner*>(node);
     for (Node* child : inner->children) release(child, level - 1);
-    delete inner;
+    destroy(inner);
   }
   /// Makes *slot a node only this map reaches (the caller owns the path to slot) and returns it.
-  static Node* make_unique(Node*& slot, int level) {
+  Node* make_unique(Node*& slot, int level) const {
     if (slot->refs.load(std::memory_order_acquire) == 1) return slot;
-    Node* copy = level == 1 ? static_cast<Node*>(new Leaf(*static_cast<const Leaf*>(slot)))
-                            : new Inner(*static_cast<const Inner*>(slot));
+    Node* copy = level == 1 ? static_cast<Node*>(make<Leaf>(*static_cast<const Leaf*>(slot)))
+                            : make<Inner>(*static_cast<const Inner*>(slot));
     release(slot, level);
     slot = copy;
     return copy;
   }
 
-  /// Visits the landmarks under `node` (whose first index is `first`) in index order; with `seen`,
-  /// skips the nodes already in it. A shared leaf holds the same values in every map that reaches it
-  /// (appending into it would have copied it), so whichever map's size bounds the visit is right.
+  /// Visits the landmarks under `node` (whose first index is `first`) in index order, up to `size`.
   template <class F>
-  static void visit(const Node* node, int level, std::size_t first, std::size_t size,
-                    std::unordered_set<const Node*>* seen, F& f) {
-    if (seen != nullptr && !seen->insert(node).second) return;
+  static void visit(const Node* node, int level, std::size_t first, std::size_t size, F& f) {
     if (level == 1) {
       const auto* leaf = static_cast<const Leaf*>(node);
       for (std::size_t i = 0; i < FanOut && first + i < size; ++i) f(first + i, leaf->items[i]);
@@ -221,7 +255,7 @@ class BasicLandmarkTree {
     const auto* inner = static_cast<const Inner*>(node);
     const std::size_t span = std::size_t{1} << (kBits * (level - 1));
     for (std::size_t c = 0; c < FanOut && inner->children[c] != nullptr; ++c)
-      visit(inner->children[c], level - 1, first + c * span, size, seen, f);
+      visit(inner->children[c], level - 1, first + c * span, size, f);
   }
   static void count_nodes(const Node* node, int level, std::unordered_set<const Node*>& seen) {
     if (node == nullptr || !seen.insert(node).second || level == 1) return;
@@ -231,6 +265,7 @@ class BasicLandmarkTree {
   Node* root_ = nullptr;
   std::size_t size_ = 0;
   int height_ = 0;
+  NodeStorage* storage_ = nullptr;
 };
 
 /// The fan-out FastSLAM uses; see the header comment and bench/bench_fastslam.cpp.

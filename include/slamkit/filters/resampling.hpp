@@ -68,4 +68,17 @@ std::vector<std::size_t> resample_residual(std::span<const double> weights, std:
 std::vector<std::size_t> resample(ResampleMethod method, std::span<const double> weights,
                                   std::mt19937_64& rng);
 
+/// The working vectors of the schemes, kept by a caller that resamples repeatedly so that, once
+/// they have grown to the particle count, resampling does not allocate.
+struct ResampleScratch {
+  std::vector<double> points;      // multinomial draws: sorted uniforms
+  std::vector<double> residual;    // residual: the fractional parts of N w_i
+  std::vector<std::size_t> whole;  // residual: the floor(N w_i) copies
+  std::vector<std::size_t> rest;   // residual: the copies drawn from the fractional parts
+};
+
+/// resample() into `parents` (its contents replaced), the same draw from the same generator state.
+void resample(ResampleMethod method, std::span<const double> weights, std::mt19937_64& rng,
+              ResampleScratch& scratch, std::vector<std::size_t>& parents);
+
 }  // namespace slamkit

@@ -1,0 +1,134 @@
+#pragma once
+// A pool of fixed-size memory blocks for the nodes of persistent structures (FastSLAM's landmark
+// trees and particle paths), so that the per-step churn of node copies and releases recycles memory
+// instead of calling the heap allocator.
+//
+// Blocks come from chunks allocated with operator new and are never returned to the heap before the
+// pool is destroyed: a filter's working set of nodes is roughly constant from step to step, so the
+// blocks freed by one step are the ones the next step takes. Chunks grow geometrically (each at
+// least half the capacity so far, and at least `min_chunk_blocks`), so a structure that keeps
+// growing, such as the surviving trajectory, allocates once per large chunk.
+//
+// Thread safety: allocate and deallocate may be called concurrently from any threads. Each thread
+// slot (pool_thread_slot, set by the thread running the work; 0 for any other thread) has its own
+// free list that needs no lock; a slot's list hands surplus blocks to a shared list, and an empty
+// one refills from it, in batches under a mutex, so the lock is taken once per kBatch blocks. A slot
+// beyond the pool's thread count uses the shared list directly. Two threads must not use the same
+// slot of one pool at the same time.
+#include <algorithm>
+#include <cstddef>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+namespace slamkit {
+
+/// The free list of the pools this thread uses: worker threads set it once to their index.
+inline thread_local unsigned pool_thread_slot = 0;
+
+class NodePool {
+ public:
+  /// Blocks of `block_size` bytes, aligned as operator new aligns (enough for Eigen's fixed-size
+  /// types); `threads` slots with their own free lists.
+  NodePool(std::size_t block_size, unsigned threads, std::size_t min_chunk_blocks)
+      : block_size_(round_up(std::max(block_size, sizeof(FreeBlock)))),
+        min_chunk_(std::max<std::size_t>(min_chunk_blocks, kBatch)),
+        slots_(std::make_unique<Slot[]>(std::max(1u, threads))),
+        slot_count_(std::max(1u, threads)) {}
+  NodePool(const NodePool&) = delete;
+  NodePool& operator=(const NodePool&) = delete;
+
+  void* allocate() {
+    if (pool_thread_slot >= slot_count_) {
+      const std::lock_guard lock(mutex_);
+      if (shared_ == nullptr) grow(0);
+      return pop(shared_, shared_count_);
+    }
+    Slot& slot = slots_[pool_thread_slot];
+    if (slot.head == nullptr) refill(slot);
+    return pop(slot.head, slot.count);
+  }
+
+  void deallocate(void* block) noexcept {
+    auto* free = static_cast<FreeBlock*>(block);
+    if (pool_thread_slot >= slot_count_) {
+      const std::lock_guard lock(mutex_);
+      push(shared_, shared_count_, free);
+      return;
+    }
+    Slot& slot = slots_[pool_thread_slot];
+    push(slot.head, slot.count, free);
+    if (slot.count >= 2 * kBatch) spill(slot);
+  }
+
+  /// Makes sure `blocks` more blocks can be allocated without growing: adds one chunk for the
+  /// shortfall of the free blocks on the shared list.
+  void reserve(std::size_t blocks) {
+    const std::lock_guard lock(mutex_);
+    if (shared_count_ < blocks) grow(blocks - shared_count_);
+  }
+
+ private:
+  struct FreeBlock {
+    FreeBlock* next;
+  };
+  // Own cache lines, so that threads pushing to their own lists do not contend.
+  struct alignas(64) Slot {
+    FreeBlock* head = nullptr;
+    std::size_t count = 0;
+  };
+  static constexpr std::size_t kAlign = __STDCPP_DEFAULT_NEW_ALIGNMENT__;
+  static constexpr std::size_t kBatch = 64;
+
+  static std::size_t round_up(std::size_t size) { return (size + kAlign - 1) / kAlign * kAlign; }
+  static void push(FreeBlock*& head, std::size_t& count, FreeBlock* block) {
+    block->next = head;
+    head = block;
+    ++count;
+  }
+  static void* pop(FreeBlock*& head, std::size_t& count) {
+    FreeBlock* block = head;
+    head = block->next;
+    --count;
+    return block;
+  }
+
+  void refill(Slot& slot) {
+    const std::lock_guard lock(mutex_);
+    if (shared_count_ < kBatch) grow(kBatch);
+    for (std::size_t i = 0; i < kBatch; ++i) push(slot.head, slot.count, static_cast<FreeBlock*>(pop(shared_, shared_count_)));
+  }
+  void spill(Slot& slot) {
+    // Unlink a batch outside the lock, then splice it onto the shared list.
+    FreeBlock* first = slot.head;
+    FreeBlock* last = first;
+    for (std::size_t i = 1; i < kBatch; ++i) last = last->next;
+    slot.head = last->next;
+    slot.count -= kBatch;
+    const std::lock_guard lock(mutex_);
+    last->next = shared_;
+    shared_ = first;
+    shared_count_ += kBatch;
+  }
+  /// Adds a chunk of at least `blocks` blocks to the shared list; the caller holds the mutex.
+  void grow(std::size_t blocks) {
+    const std::size_t n = std::max({blocks, min_chunk_, capacity_ / 2});
+    chunks_.push_back(std::make_unique_for_overwrite<std::byte[]>(n * block_size_));
+    std::byte* base = chunks_.back().get();
+    // Pushed in reverse so that blocks are handed out in address order.
+    for (std::size_t i = n; i-- > 0;) push(shared_, shared_count_, reinterpret_cast<FreeBlock*>(base + i * block_size_));
+    capacity_ += n;
+  }
+
+  const std::size_t block_size_;
+  const std::size_t min_chunk_;
+  const std::unique_ptr<Slot[]> slots_;
+  const unsigned slot_count_;
+  std::mutex mutex_;
+  FreeBlock* shared_ = nullptr;
+  std::size_t shared_count_ = 0;
+  std::size_t capacity_ = 0;
+  std::vector<std::unique_ptr<std::byte[]>> chunks_;
+};
+
+}  // namespace slamkit
