@@ -12,6 +12,31 @@ namespace {
 constexpr std::size_t kInitialLandmarkCapacity = 64;
 
 bool full_circle(const SensorLimits& sensor) { return sensor.fov >= 2.0 * kPi - 1e-9; }
+
+// Eigen's matrix-product kernels pack their operands into buffers that live on the stack up to
+// EIGEN_STACK_ALLOCATION_LIMIT (128 KB) and come from the heap above it. A product over the whole
+// covariance (a tall n x k operand) passes that limit once the map has a few hundred landmarks, so
+// the two products that span it are cut into row tiles whose packed operands stay below it.
+constexpr Eigen::Index kPackedBytes = 96 * 1024;
+Eigen::Index tile_rows(Eigen::Index depth) {
+  return std::clamp<Eigen::Index>(kPackedBytes / (static_cast<Eigen::Index>(sizeof(double)) * std::max<Eigen::Index>(depth, 1)),
+                                  16, 512);
+}
+
+// The lower triangle of P -= C C^T, tile by tile: still one pass over P, each tile read and written
+// once, with C's few columns re-read from cache.
+void downdate_lower(Eigen::Ref<Eigen::MatrixXd> p, const Eigen::Ref<const Eigen::MatrixXd>& c) {
+  const Eigen::Index n = p.rows();
+  const Eigen::Index tile = tile_rows(c.cols());
+  for (Eigen::Index j = 0; j < n; j += tile) {
+    const Eigen::Index w = std::min(tile, n - j);
+    p.block(j, j, w, w).selfadjointView<Eigen::Lower>().rankUpdate(c.middleRows(j, w), -1.0);
+    for (Eigen::Index i = j + w; i < n; i += tile) {
+      const Eigen::Index h = std::min(tile, n - i);
+      p.block(i, j, h, w).noalias() -= c.middleRows(i, h) * c.middleRows(j, w).transpose();
+    }
+  }
+}
 }  // namespace
 
 EkfSlam::EkfSlam(std::shared_ptr<const MotionModel> motion,
@@ -261,7 +286,7 @@ bool EkfSlam::update_landmark(std::size_t index, const Vector2& z) {
   auto c1 = pht.col(1);
   c1 = a01 * c0 + a11 * c1;
   c0 *= a00;
-  p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>().rankUpdate(pht, -1.0);
+  downdate_lower(p_.topLeftCorner(n, n), pht);
   return true;
 }
 
@@ -312,8 +337,10 @@ bool EkfSlam::update_landmarks(std::span<const LandmarkObservation> batch) {
   x_.head(n).noalias() += pht * nu;
   x_[2] = wrap_angle(x_[2]);
   // P -= W S^-1 W^T = C C^T with C = W L^-T: one pass over the lower triangle for the scan.
-  llt.matrixU().solveInPlace<Eigen::OnTheRight>(pht);
-  p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>().rankUpdate(pht, -1.0);
+  // Row by row independent (C L^T = W), so solved in row tiles for the same reason as the downdate.
+  for (Eigen::Index r = 0, tile = tile_rows(k); r < n; r += tile)
+    llt.matrixU().solveInPlace<Eigen::OnTheRight>(pht.middleRows(r, std::min(tile, n - r)));
+  downdate_lower(p_.topLeftCorner(n, n), pht);
   return true;
 }
 

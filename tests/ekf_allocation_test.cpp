@@ -10,12 +10,17 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <random>
 #include <string>
 #include <variant>
 #include <vector>
 
 #include "allocation_counter.hpp"
+#include "slamkit/angles.hpp"
+#include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/filters/factory.hpp"
+#include "slamkit/models/motion_model.hpp"
+#include "slamkit/models/observation_model.hpp"
 #include "slamkit/sim/simulator.hpp"
 
 using namespace slamkit;
@@ -142,5 +147,59 @@ INSTANTIATE_TEST_SUITE_P(
                       Mode{"CompressedNearestNeighbour", AssociationMethod::kNearestNeighbour, "joint", "compressed"},
                       Mode{"CompressedJcbb", AssociationMethod::kJcbb, "joint", "compressed"}),
     [](const ::testing::TestParamInfo<Mode>& info) { return info.param.name; });
+
+// On a large map the updates' products span a covariance far bigger than Eigen's stack buffers for
+// packed operands (128 KB), which they would then take from the heap on every scan: the downdate
+// and the joint update's solve are tiled to stay below it. 1,500 landmarks (state dimension 3,003)
+// is well past the point where an untiled update allocated (about 300 landmarks).
+class EkfLargeMapAllocationFree : public ::testing::TestWithParam<bool> {};
+
+TEST_P(EkfLargeMapAllocationFree, KnownScansMakeNoHeapAllocation) {
+  EkfSlamOptions options;
+  options.joint_scan_update = GetParam();
+  EkfSlam ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>(), options);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> range(2.0, 30.0), bearing(-kPi, kPi);
+  Control u(2);
+  u << 3.0, 0.05;
+  constexpr int kLandmarks = 1500;
+  for (int i = 0; i < kLandmarks; ++i) {
+    ekf.predict(u, 0.025);
+    ekf.add_landmark(Vector2(range(rng), bearing(rng)), i);
+  }
+  // The scan re-observes the 15 newest landmarks, a little off their predictions, alternately to
+  // either side, so every scan has a real correction to make.
+  ScanEvent scan;
+  const auto observe = [&](double sign) {
+    scan.observations.clear();
+    for (int id = kLandmarks - 15; id < kLandmarks; ++id) {
+      const Vector2 z = ekf.observation_model().predict(ekf.pose(), ekf.landmark_position(ekf.find_landmark(id)));
+      scan.observations.push_back({z + sign * Vector2(0.05, 0.005), id});
+    }
+  };
+  scan.observations.reserve(15);
+  for (int warm = 0; warm < 2; ++warm) {
+    for (int k = 0; k < 8; ++k) ekf.predict(u, 0.025);
+    observe(warm % 2 ? 1.0 : -1.0);
+    ekf.update(scan);
+  }
+  const auto watched = ekf.find_landmark(kLandmarks - 1);
+  const double variance_before = ekf.landmark_covariance(watched).trace();
+  double vehicle_variance_predicted = 0.0;
+  const test::AllocationCount count;
+  for (int s = 0; s < 6; ++s) {
+    for (int k = 0; k < 8; ++k) ekf.predict(u, 0.025);
+    observe(s % 2 ? 1.0 : -1.0);
+    vehicle_variance_predicted = ekf.pose_covariance().trace();
+    ekf.update(scan);
+  }
+  EXPECT_EQ(count.count(), 0u);
+  EXPECT_EQ(ekf.landmarks().size(), static_cast<std::size_t>(kLandmarks));
+  EXPECT_LT(ekf.landmark_covariance(watched).trace(), variance_before);
+  EXPECT_LT(ekf.pose_covariance().trace(), vehicle_variance_predicted);
+}
+
+INSTANTIATE_TEST_SUITE_P(Updates, EkfLargeMapAllocationFree, ::testing::Values(true, false),
+                         [](const ::testing::TestParamInfo<bool>& info) { return info.param ? "Joint" : "Sequential"; });
 
 }  // namespace
