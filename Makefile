@@ -40,10 +40,12 @@ demo: build
 test: build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
 
-# Micro-benchmarks (Google Benchmark; about 2 minutes), and whole runs of the command line. Neither is
-# part of `make test`. docs/performance.md explains the figures.
+# Micro-benchmarks (Google Benchmark, medians of 5 repetitions; about 10 minutes), and whole runs of the
+# command line. Neither is part of `make test`. docs/performance.md explains the figures.
+# BENCH_ARGS passes Google Benchmark options, e.g. BENCH_ARGS=--benchmark_filter=Ekf.
+BENCH_ARGS ?=
 bench: build
-	$(BUILD_DIR)/slamkit_bench
+	$(BUILD_DIR)/slamkit_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true $(BENCH_ARGS)
 
 bench-e2e: build
 	SLAMKIT=$(SLAMKIT) scripts/bench_end_to_end.sh

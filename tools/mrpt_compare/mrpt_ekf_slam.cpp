@@ -251,10 +251,26 @@ int main(int argc, char** argv) {
               << ", \"mrpt_first_nonfinite_t\": ";
     if (first_nonfinite) std::cout << *first_nonfinite; else std::cout << "null";
     if (!truth_scans.empty()) std::cout << ", " << json_score("mrpt", score(estimate, map, truth_scans, ds.truth.landmarks));
+    std::vector<StampedPose> sk_traj;
     if (!slamkit_run.empty() && !truth_scans.empty()) {
-      const auto sk_traj = slamkit::read_tum(slamkit_run + "/trajectory.tum");
+      sk_traj = slamkit::read_tum(slamkit_run + "/trajectory.tum");
       const auto sk_map = slamkit::read_map(slamkit_run + "/map.txt");
       std::cout << ", " << json_score("slamkit", score(sk_traj, sk_map, truth_scans, ds.truth.landmarks));
+    }
+    if (first_nonfinite && !truth_scans.empty()) {
+      // Once MRPT's estimate is NaN its accuracy is undefined; both trajectories are also scored on the
+      // scans before that, so the two filters are compared where both have an answer.
+      const auto before = [&](const std::vector<StampedPose>& poses) {
+        std::vector<StampedPose> out;
+        for (const StampedPose& p : poses)
+          if (p.t < *first_nonfinite) out.push_back(p);
+        return out;
+      };
+      const auto truth_before = before(truth_scans);
+      std::cout << ", \"mrpt_ate_rmse_before_nonfinite_m\": " << score(before(estimate), {}, truth_before, {}).ate_rmse;
+      if (!sk_traj.empty())
+        std::cout << ", \"slamkit_ate_rmse_before_nonfinite_m\": "
+                  << score(before(sk_traj), {}, truth_before, {}).ate_rmse;
     }
     std::cout << "}\n";
   } catch (const std::exception& e) {
