@@ -44,8 +44,12 @@ test: build
 # command line. Neither is part of `make test`. docs/performance.md explains the figures.
 # BENCH_ARGS passes Google Benchmark options, e.g. BENCH_ARGS=--benchmark_filter=Ekf.
 BENCH_ARGS ?=
+# The results go to out/bench/bench.json, and `slamkit plot-bench` draws them into out/bench/*.svg.
 bench: build
-	$(BUILD_DIR)/slamkit_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true $(BENCH_ARGS)
+	mkdir -p out/bench
+	$(BUILD_DIR)/slamkit_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
+	  --benchmark_out=out/bench/bench.json --benchmark_out_format=json $(BENCH_ARGS)
+	$(SLAMKIT) plot-bench out/bench/bench.json --out out/bench
 
 bench-e2e: build
 	SLAMKIT=$(SLAMKIT) scripts/bench_end_to_end.sh

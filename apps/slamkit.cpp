@@ -16,6 +16,7 @@
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/io/sim_log.hpp"
 #include "slamkit/pipeline/runner.hpp"
+#include "slamkit/plot/benchmark_plots.hpp"
 #include "slamkit/plot/report.hpp"
 #include "slamkit/sim/simulator.hpp"
 #include "slamkit/sim/world.hpp"
@@ -135,6 +136,16 @@ int main(int argc, char** argv) {
   std::string eval_dir;
   eval_cmd->add_option("dir", eval_dir, "Run folder written by 'slamkit run'")->required()->check(CLI::ExistingDirectory);
 
+  // ---- plot-bench ----
+  auto* bench_cmd =
+      app.add_subcommand("plot-bench", "Plot benchmark results (Google Benchmark JSON) against map size and particles");
+  std::vector<std::string> bench_json;
+  std::string bench_out;
+  bench_cmd->add_option("json", bench_json, "Files written by slamkit_bench --benchmark_out (later ones override)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  bench_cmd->add_option("--out", bench_out, "Folder for the SVG plots")->required();
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -165,6 +176,8 @@ int main(int argc, char** argv) {
       fmt::print("simulated {} landmarks, {} controls, {} scans ({:.0f} s) -> {}\n", world.landmarks.size(),
                  log.events.size() - scans, scans, log.truth.poses.empty() ? 0.0 : log.truth.poses.back().t,
                  sim_out);
+    } else if (*bench_cmd) {
+      for (const std::string& file : plot::write_benchmark_plots(bench_json, bench_out)) fmt::print("wrote {}\n", file);
     } else if (*world_cmd) {
       write_world(world_out, generate_world(gen));
       fmt::print("wrote {} ({} landmarks)\n", world_out, gen.landmarks);

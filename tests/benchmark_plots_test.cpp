@@ -1,0 +1,71 @@
+// The performance page's plots come from Google Benchmark's JSON: medians are taken where the file
+// has repetitions, bare NaN (which Google Benchmark writes for some counters) does not break the
+// reader, and a file that is not benchmark output is a clear error.
+#include "slamkit/plot/benchmark_plots.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "slamkit/error.hpp"
+#include "test_data.hpp"
+
+namespace slamkit {
+namespace {
+
+using test_data::ScratchDir;
+
+std::string read_all(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+
+std::string entry(const std::string& name, const std::string& type, const std::string& aggregate, double cpu,
+                  const std::string& unit) {
+  return "{\"name\": \"" + name + (aggregate.empty() ? "" : "_" + aggregate) + "\", \"run_name\": \"" + name +
+         "\", \"run_type\": \"" + type + "\", \"aggregate_name\": \"" + aggregate + "\", \"cpu_time\": " +
+         std::to_string(cpu) + ", \"real_time\": " + std::to_string(cpu) + ", \"time_unit\": \"" + unit +
+         "\", \"flushes\": NaN}";
+}
+
+TEST(BenchmarkPlots, DrawsMediansOfThePresentSeries) {
+  ScratchDir dir;
+  const std::string json =
+      "{\"context\": {}, \"benchmarks\": [" + entry("BM_EkfObservationUpdate/100", "aggregate", "mean", 999.0, "us") +
+      ", " + entry("BM_EkfObservationUpdate/100", "aggregate", "median", 15.0, "us") + ", " +
+      entry("BM_EkfObservationUpdate/1000", "aggregate", "median", 1.2, "ms") + ", " +
+      entry("BM_AssociationJcbb/100", "iteration", "", 20000.0, "ns") + ", " +
+      entry("BM_AssociationJcbb/5000", "iteration", "", 21000.0, "ns") + "]}";
+  write(dir.file("bench.json"), json);
+  const auto files = plot::write_benchmark_plots({dir.file("bench.json")}, dir.file("plots"));
+  ASSERT_EQ(files.size(), 2U);  // no FastSLAM benchmarks in the file, so no FastSLAM plots
+  const std::string ekf = read_all(dir.file("plots/ekf_vs_landmarks.svg"));
+  EXPECT_NE(ekf.find("observation update (one landmark)"), std::string::npos);
+  EXPECT_EQ(ekf.find("scan of 15 observations"), std::string::npos);
+  // The log axis spans the medians, 15 us to 1.2 ms; had it taken the 999 us mean, 10^-4 would be off it.
+  EXPECT_NE(ekf.find(">10⁻⁴<"), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(dir.file("plots/association_vs_landmarks.svg")));
+  EXPECT_FALSE(std::filesystem::exists(dir.file("plots/fastslam_vs_particles.svg")));
+}
+
+TEST(BenchmarkPlots, RejectsWhatIsNotBenchmarkOutput) {
+  ScratchDir dir;
+  write(dir.file("bad.json"), "{\"benchmarks\": 3}");
+  try {
+    plot::write_benchmark_plots({dir.file("bad.json")}, dir.file("plots"));
+    FAIL() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.json"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(plot::write_benchmark_plots({dir.file("missing.json")}, dir.file("plots")), InputError);
+}
+
+}  // namespace
+}  // namespace slamkit
