@@ -8,7 +8,8 @@
 # 1.2 km route (about 49 observations per scan). Each filter runs RUNS times on each log; the table
 # gives median filter times (slamkit: metrics.json "wall_time_s"; MRPT: the processing loop of
 # tools/mrpt_compare, log reading excluded) and the accuracy (the same every run). Where MRPT's
-# estimate turns NaN, both ATEs are also given over the scans before that.
+# estimate diverges (a non-positive pose variance, then NaN), both ATEs are also given over the scans
+# before that.
 #
 # Environment: SLAMKIT (default build/slamkit), MRPT_TOOL (default build/mrpt_compare/mrpt_ekf_slam),
 # RUNS (default 5), OUT (scratch folder, default out/bench-compare), WORLDS (default "1000:360:240";
@@ -32,11 +33,11 @@ mkdir -p "$out"
 median() { printf '%s\n' "$@" | sort -g | sed -n "$(( ($# + 1) / 2 ))p"; }
 # A number field of a JSON object by key: metrics.json (one key per line) or the tool's one-line output.
 json_number() { grep -o "\"$2\": *[-0-9.eE+]*" "$1" | head -1 | sed 's/.*: *//'; }
-# MRPT's ATE, or where its estimate first went NaN/infinite.
+# MRPT's ATE, or where its estimate diverged and its ATE before that.
 mrpt_ate() {
-  local t; t=$(json_number "$1" mrpt_first_nonfinite_t)
+  local t; t=$(json_number "$1" mrpt_first_invalid_t)
   if [[ -n $t ]]; then
-    echo "diverged (NaN from t = $t s); $(fmt3 "$(json_number "$1" mrpt_ate_rmse_before_nonfinite_m)") before"
+    echo "diverged at t = $t s; $(fmt3 "$(json_number "$1" mrpt_ate_rmse_before_invalid_m)") before"
   else
     fmt3 "$(json_number "$1" mrpt_ate_rmse_m)"
   fi
@@ -44,8 +45,8 @@ mrpt_ate() {
 # slamkit's ATE, and over the same scans as MRPT's where MRPT diverged.
 slamkit_ate() {
   local all before; all=$(fmt3 "$(json_number "$1" slamkit_ate_rmse_m)")
-  before=$(json_number "$1" slamkit_ate_rmse_before_nonfinite_m)
-  if [[ -n $before ]]; then echo "$all; $(fmt3 "$before") before MRPT's NaN"; else echo "$all"; fi
+  before=$(json_number "$1" slamkit_ate_rmse_before_invalid_m)
+  if [[ -n $before ]]; then echo "$all; $(fmt3 "$before") before MRPT diverged"; else echo "$all"; fi
 }
 fmt3() { if [[ -z $1 ]]; then echo "n/a"; else printf '%.3f' "$1"; fi; }
 

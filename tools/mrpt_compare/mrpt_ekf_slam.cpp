@@ -152,7 +152,10 @@ int main(int argc, char** argv) {
     Pose2 incr = Pose2::Zero();
     Matrix3 incr_cov = Matrix3::Zero();
     bool first_scan = true;
-    std::optional<double> first_nonfinite;  // time of the first scan after which MRPT's pose is NaN/inf
+    // The first scan after which MRPT's estimate is no longer a valid Gaussian: a NaN/inf pose, or a
+    // pose variance that is not positive. It blows up (variances of -1e9, the pose 1e10 m away) a scan
+    // or two before it turns NaN, so scoring must stop at the first invalid covariance, not at the NaN.
+    std::optional<double> first_invalid;
     const bool debug = std::getenv("MRPT_COMPARE_DEBUG") != nullptr;
     for (const slamkit::Event& event : ds.events) {
       if (const auto* c = std::get_if<slamkit::ControlEvent>(&event)) {
@@ -219,8 +222,9 @@ int main(int argc, char** argv) {
       mrpt::poses::CPosePDFGaussian pose;
       slam.getCurrentRobotPose(pose);
       estimate.push_back({scan.t, Pose2(pose.mean.x(), pose.mean.y(), pose.mean.phi())});
-      if (!first_nonfinite && !(estimate.back().pose.allFinite() && pose.cov.array().isFinite().all()))
-        first_nonfinite = scan.t;
+      const bool valid = estimate.back().pose.allFinite() && pose.cov.array().isFinite().all() &&
+                         pose.cov(0, 0) > 0.0 && pose.cov(1, 1) > 0.0 && pose.cov(2, 2) > 0.0;
+      if (!first_invalid && !valid) first_invalid = scan.t;
       if (debug) std::cerr << scan.t << " " << estimate.back().pose.transpose() << " | " << pose.cov(0, 0) << " "
                            << pose.cov(1, 1) << " " << pose.cov(2, 2) << "\n";
       scan_times.push_back(scan.t);
@@ -248,8 +252,8 @@ int main(int argc, char** argv) {
     const auto truth_scans = truth_at(ds.truth.poses, scan_times);
     std::cout << "{\"scans\": " << scan_times.size() << ", \"observations\": " << observations
               << ", \"mrpt_landmarks\": " << map.size() << ", \"mrpt_wall_time_s\": " << wall
-              << ", \"mrpt_first_nonfinite_t\": ";
-    if (first_nonfinite) std::cout << *first_nonfinite; else std::cout << "null";
+              << ", \"mrpt_first_invalid_t\": ";
+    if (first_invalid) std::cout << *first_invalid; else std::cout << "null";
     if (!truth_scans.empty()) std::cout << ", " << json_score("mrpt", score(estimate, map, truth_scans, ds.truth.landmarks));
     std::vector<StampedPose> sk_traj;
     if (!slamkit_run.empty() && !truth_scans.empty()) {
@@ -257,19 +261,19 @@ int main(int argc, char** argv) {
       const auto sk_map = slamkit::read_map(slamkit_run + "/map.txt");
       std::cout << ", " << json_score("slamkit", score(sk_traj, sk_map, truth_scans, ds.truth.landmarks));
     }
-    if (first_nonfinite && !truth_scans.empty()) {
-      // Once MRPT's estimate is NaN its accuracy is undefined; both trajectories are also scored on the
-      // scans before that, so the two filters are compared where both have an answer.
+    if (first_invalid && !truth_scans.empty()) {
+      // Once MRPT's estimate is invalid its accuracy is meaningless; both trajectories are also scored
+      // on the scans before that, so the two filters are compared where both have an answer.
       const auto before = [&](const std::vector<StampedPose>& poses) {
         std::vector<StampedPose> out;
         for (const StampedPose& p : poses)
-          if (p.t < *first_nonfinite) out.push_back(p);
+          if (p.t < *first_invalid) out.push_back(p);
         return out;
       };
       const auto truth_before = before(truth_scans);
-      std::cout << ", \"mrpt_ate_rmse_before_nonfinite_m\": " << score(before(estimate), {}, truth_before, {}).ate_rmse;
+      std::cout << ", \"mrpt_ate_rmse_before_invalid_m\": " << score(before(estimate), {}, truth_before, {}).ate_rmse;
       if (!sk_traj.empty())
-        std::cout << ", \"slamkit_ate_rmse_before_nonfinite_m\": "
+        std::cout << ", \"slamkit_ate_rmse_before_invalid_m\": "
                   << score(before(sk_traj), {}, truth_before, {}).ate_rmse;
     }
     std::cout << "}\n";
