@@ -22,6 +22,7 @@
 #include "slamkit/error.hpp"
 #include "slamkit/io/course_log.hpp"
 #include "slamkit/models/motion_model.hpp"
+#include "test_data.hpp"
 
 using namespace slamkit;
 namespace fs = std::filesystem;
@@ -121,15 +122,7 @@ class CourseLog : public testing::Test {
 
   /// Reading the directory must throw an InputError at `line` of `file`; returns its message.
   std::string input_error(const std::string& file, std::size_t line) const {
-    try {
-      read_course_log(dir_.string());
-    } catch (const InputError& e) {
-      EXPECT_EQ(e.file(), path(file));
-      EXPECT_EQ(e.line(), line) << e.what();
-      return e.what();
-    }
-    ADD_FAILURE() << "expected an InputError in " << file;
-    return {};
+    return test_data::input_error_at([&] { read_course_log(dir_.string()); }, path(file), line);
   }
 
   fs::path dir_;

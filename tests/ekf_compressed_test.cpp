@@ -27,17 +27,41 @@ struct Differences {
   std::size_t landmarks = 0;
 };
 
+/// The full EKF (with sequential updates, what the compressed variant does) and the compressed one,
+/// built alike for `data` and driven by the same events.
+struct VariantPair {
+  VariantPair(const Dataset& data, AssociationMethod method) {
+    FilterConfig config;
+    config.association.method = method;
+    config.ekf_update = "sequential";
+    full_filter = make_filter(config, data);
+    config.ekf_variant = "compressed";
+    compressed_filter = make_filter(config, data);
+  }
+  /// Feeds `event` to both; true when it was a scan.
+  bool step(const Event& event) {
+    if (const auto* c = std::get_if<ControlEvent>(&event)) {
+      full().predict(*c);
+      compressed().predict(*c);
+      return false;
+    }
+    full().update(std::get<ScanEvent>(event));
+    compressed().update(std::get<ScanEvent>(event));
+    return true;
+  }
+  EkfSlam& full() { return dynamic_cast<EkfSlam&>(*full_filter); }
+  EkfSlam& compressed() { return dynamic_cast<EkfSlam&>(*compressed_filter); }
+
+  std::unique_ptr<SlamFilter> full_filter;
+  std::unique_ptr<SlamFilter> compressed_filter;
+};
+
 /// Runs the full and the compressed EKF side by side over `data`, comparing the whole state and
 /// covariance every `check_every` scans and at the end, and every scan's association decisions.
 Differences compare_variants(const Dataset& data, AssociationMethod method, std::size_t check_every) {
-  FilterConfig config;
-  config.association.method = method;
-  config.ekf_update = "sequential";  // what the compressed variant does
-  const std::unique_ptr<SlamFilter> full_filter = make_filter(config, data);
-  config.ekf_variant = "compressed";
-  const std::unique_ptr<SlamFilter> compressed_filter = make_filter(config, data);
-  auto& full = dynamic_cast<EkfSlam&>(*full_filter);
-  auto& compressed = dynamic_cast<EkfSlam&>(*compressed_filter);
+  VariantPair pair(data, method);
+  EkfSlam& full = pair.full();
+  EkfSlam& compressed = pair.compressed();
 
   Differences diff;
   auto compare = [&] {
@@ -49,14 +73,7 @@ Differences compare_variants(const Dataset& data, AssociationMethod method, std:
   };
   std::size_t scans = 0;
   for (const Event& e : data.events) {
-    if (const auto* c = std::get_if<ControlEvent>(&e)) {
-      full.predict(*c);
-      compressed.predict(*c);
-      continue;
-    }
-    const auto& scan = std::get<ScanEvent>(e);
-    full.update(scan);
-    compressed.update(scan);
+    if (!pair.step(e)) continue;
     const auto& a = full.last_associations();
     const auto& b = compressed.last_associations();
     for (std::size_t k = 0; k < a.size(); ++k)
@@ -124,24 +141,12 @@ TEST(EkfCompressed, AccessorsAnswerForTheWholeMapInsideAnArea) {
   // Landmark 0 is left behind the area when the vehicle drives off and a new area opens: reading it
   // then must include the updates accumulated since, without a flush.
   const Dataset data = simulate(default_world(), SimulatorConfig{});
-  FilterConfig config;
-  config.ekf_update = "sequential";  // what the compressed variant does
-  const auto full_filter = make_filter(config, data);
-  config.ekf_variant = "compressed";
-  const auto compressed_filter = make_filter(config, data);
-  auto& full = dynamic_cast<EkfSlam&>(*full_filter);
-  auto& compressed = dynamic_cast<EkfSlam&>(*compressed_filter);
+  VariantPair pair(data, AssociationMethod::kKnown);
+  EkfSlam& full = pair.full();
+  EkfSlam& compressed = pair.compressed();
   std::size_t scans = 0;
-  for (const Event& e : data.events) {
-    if (const auto* c = std::get_if<ControlEvent>(&e)) {
-      full.predict(*c);
-      compressed.predict(*c);
-    } else {
-      full.update(std::get<ScanEvent>(e));
-      compressed.update(std::get<ScanEvent>(e));
-      if (++scans == 400) break;
-    }
-  }
+  for (const Event& e : data.events)
+    if (pair.step(e) && ++scans == 400) break;
   const double flushes = compressed.statistics().at("local_area_flushes");
   ASSERT_GT(flushes, 0.0);
   const std::size_t n = full.num_landmarks();
@@ -163,22 +168,12 @@ TEST(EkfCompressed, AccessorsAnswerForTheWholeMapInsideAnArea) {
 
 TEST(EkfCompressed, RemovalFlushesAndStaysExact) {
   const Dataset data = simulate(default_world(), SimulatorConfig{});
-  FilterConfig config;
-  config.ekf_update = "sequential";  // what the compressed variant does
-  const auto full_filter = make_filter(config, data);
-  config.ekf_variant = "compressed";
-  const auto compressed_filter = make_filter(config, data);
-  auto& full = dynamic_cast<EkfSlam&>(*full_filter);
-  auto& compressed = dynamic_cast<EkfSlam&>(*compressed_filter);
+  VariantPair pair(data, AssociationMethod::kKnown);
+  EkfSlam& full = pair.full();
+  EkfSlam& compressed = pair.compressed();
   std::size_t scans = 0;
   for (const Event& e : data.events) {
-    if (const auto* c = std::get_if<ControlEvent>(&e)) {
-      full.predict(*c);
-      compressed.predict(*c);
-      continue;
-    }
-    full.update(std::get<ScanEvent>(e));
-    compressed.update(std::get<ScanEvent>(e));
+    if (!pair.step(e)) continue;
     // Remove an active landmark (the one added last) and one far behind, then go on.
     if (++scans == 300 || scans == 600) {
       full.remove_landmark(full.num_landmarks() - 1);

@@ -19,6 +19,7 @@
 #include "slamkit/error.hpp"
 #include "slamkit/eval/metrics.hpp"
 #include "slamkit/io/mrclam.hpp"
+#include "test_data.hpp"
 
 using namespace slamkit;
 namespace fs = std::filesystem;
@@ -225,15 +226,7 @@ class MrclamFiles : public testing::Test {
 
   /// Reading robot 1 must throw an InputError at `line` of `file`; returns its message.
   std::string input_error(const std::string& file, std::size_t line, int robot = 1) const {
-    try {
-      read_mrclam(dir_.string(), robot);
-    } catch (const InputError& e) {
-      EXPECT_EQ(e.file(), path(file));
-      EXPECT_EQ(e.line(), line) << e.what();
-      return e.what();
-    }
-    ADD_FAILURE() << "expected an InputError in " << file;
-    return {};
+    return test_data::input_error_at([&] { read_mrclam(dir_.string(), robot); }, path(file), line);
   }
 
   fs::path dir_;

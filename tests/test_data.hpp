@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "slamkit/angles.hpp"
+#include "slamkit/error.hpp"
 
 namespace slamkit::test_data {
 
@@ -21,6 +22,20 @@ inline std::filesystem::path shared_dataset(const std::string& folder) {
                                          ? std::filesystem::path(env)
                                          : std::filesystem::path(SLAMKIT_SOURCE_DIR) / ".." / "shared" / "datasets";
   return root / folder;
+}
+
+/// Runs `read`, which must throw an InputError naming `file` and `line`; returns its message.
+template <typename F>
+std::string input_error_at(F&& read, const std::string& file, std::size_t line) {
+  try {
+    read();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), file);
+    EXPECT_EQ(e.line(), line) << e.what();
+    return e.what();
+  }
+  ADD_FAILURE() << "expected an InputError in " << file;
+  return {};
 }
 
 /// Central-difference Jacobian of f at x; the `angular_rows` of f are differenced the short way
