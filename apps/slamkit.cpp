@@ -9,10 +9,10 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "slamkit/error.hpp"
+#include "slamkit/core/error.hpp"
 #include "slamkit/eval/evaluation.hpp"
-#include "slamkit/filters/factory.hpp"
-#include "slamkit/io/dataset.hpp"
+#include "slamkit/pipeline/factory.hpp"
+#include "slamkit/io/load_dataset.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/io/sim_log.hpp"
 #include "slamkit/pipeline/runner.hpp"

@@ -5,7 +5,7 @@
 
 #include <random>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
 
 namespace {

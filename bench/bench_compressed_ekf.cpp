@@ -10,7 +10,7 @@
 #include <memory>
 #include <random>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
 
 namespace {

@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "slamkit/io/dataset.hpp"
-#include "slamkit/io/text_reader.hpp"
+#include "slamkit/io/load_dataset.hpp"
+#include "slamkit/core/text_reader.hpp"
 #include "slamkit/io/victoria_park.hpp"
 
 namespace {

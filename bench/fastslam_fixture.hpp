@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/filters/fastslam.hpp"
 
 namespace slamkit::bench {

@@ -10,7 +10,7 @@
 #include <functional>
 #include <stdexcept>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 
 using namespace slamkit;
 

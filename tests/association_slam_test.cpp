@@ -5,7 +5,7 @@
 #include <map>
 #include <set>
 
-#include "slamkit/eval/chi_square.hpp"
+#include "slamkit/core/chi_square.hpp"
 #include "slamkit/eval/evaluation.hpp"
 #include "slamkit/eval/metrics.hpp"
 #include "slamkit/filters/ekf_slam.hpp"

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <random>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/assoc/association.hpp"
 #include "slamkit/assoc/landmark_grid.hpp"
 

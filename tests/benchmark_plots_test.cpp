@@ -10,7 +10,7 @@
 #include <sstream>
 #include <string>
 
-#include "slamkit/error.hpp"
+#include "slamkit/core/error.hpp"
 #include "test_data.hpp"
 
 namespace slamkit {

@@ -7,7 +7,7 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "slamkit/eval/chi_square.hpp"
+#include "slamkit/core/chi_square.hpp"
 
 using namespace slamkit::eval;
 

@@ -18,8 +18,8 @@
 #include <variant>
 #include <vector>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/error.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/error.hpp"
 #include "slamkit/io/course_log.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "test_data.hpp"

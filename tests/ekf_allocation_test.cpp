@@ -16,9 +16,9 @@
 #include <vector>
 
 #include "allocation_counter.hpp"
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
-#include "slamkit/filters/factory.hpp"
+#include "slamkit/pipeline/factory.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 #include "slamkit/sim/simulator.hpp"

@@ -8,7 +8,7 @@
 #include <stdexcept>
 
 #include "slamkit/filters/ekf_slam.hpp"
-#include "slamkit/filters/factory.hpp"
+#include "slamkit/pipeline/factory.hpp"
 #include "slamkit/sim/simulator.hpp"
 #include "slamkit/sim/world.hpp"
 

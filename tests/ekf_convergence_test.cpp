@@ -5,7 +5,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
-#include "slamkit/eval/chi_square.hpp"
+#include "slamkit/core/chi_square.hpp"
 #include "slamkit/eval/metrics.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/sim/simulator.hpp"

@@ -4,7 +4,7 @@
 #include <Eigen/Dense>
 #include <random>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
 
 using namespace slamkit;

@@ -10,7 +10,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/eval/metrics.hpp"
 
 using namespace slamkit;

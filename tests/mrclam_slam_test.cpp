@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "slamkit/eval/evaluation.hpp"
-#include "slamkit/filters/factory.hpp"
+#include "slamkit/pipeline/factory.hpp"
 #include "slamkit/io/mrclam.hpp"
 #include "slamkit/pipeline/runner.hpp"
 #include "test_data.hpp"

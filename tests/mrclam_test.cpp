@@ -15,8 +15,8 @@
 #include <string>
 #include <variant>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/error.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/error.hpp"
 #include "slamkit/eval/metrics.hpp"
 #include "slamkit/io/mrclam.hpp"
 #include "test_data.hpp"

@@ -13,10 +13,12 @@
 #include <string>
 #include <vector>
 
-#include "slamkit/error.hpp"
-#include "slamkit/io/dataset.hpp"
+#include "slamkit/core/error.hpp"
+#include "slamkit/io/load_dataset.hpp"
 #include "slamkit/sim/simulator.hpp"
 #include "slamkit/sim/world.hpp"
+#include "slamkit/models/motion_model.hpp"
+#include "slamkit/models/observation_model.hpp"
 
 namespace slamkit {
 namespace {

@@ -20,8 +20,10 @@
 #include <utility>
 #include <vector>
 
-#include "slamkit/error.hpp"
+#include "slamkit/core/error.hpp"
 #include "slamkit/io/sim_log.hpp"
+#include "slamkit/models/motion_model.hpp"
+#include "slamkit/models/observation_model.hpp"
 #include "slamkit/sim/simulator.hpp"
 #include "slamkit/sim/world.hpp"
 

@@ -12,8 +12,10 @@
 #include <string>
 #include <vector>
 
-#include "slamkit/error.hpp"
+#include "slamkit/core/error.hpp"
 #include "slamkit/sim/world.hpp"
+#include "slamkit/models/motion_model.hpp"
+#include "slamkit/models/observation_model.hpp"
 
 namespace slamkit {
 namespace {

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/error.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/error.hpp"
 
 namespace slamkit::test_data {
 

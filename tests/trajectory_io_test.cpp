@@ -11,8 +11,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/error.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/error.hpp"
 #include "slamkit/io/trajectory_io.hpp"
 #include "test_data.hpp"
 

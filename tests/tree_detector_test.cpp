@@ -17,9 +17,9 @@
 #include <tuple>
 #include <vector>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/io/text_reader.hpp"
-#include "slamkit/io/text_reader.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/text_reader.hpp"
+#include "slamkit/core/text_reader.hpp"
 
 using namespace slamkit;
 

@@ -8,7 +8,7 @@
 #include <functional>
 #include <vector>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/models/velocity_model.hpp"
 
 using namespace slamkit;

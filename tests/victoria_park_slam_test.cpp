@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "slamkit/eval/evaluation.hpp"
-#include "slamkit/filters/factory.hpp"
+#include "slamkit/pipeline/factory.hpp"
 #include "slamkit/io/victoria_park.hpp"
 #include "slamkit/pipeline/runner.hpp"
 #include "test_data.hpp"

@@ -28,9 +28,11 @@
 #include <variant>
 #include <vector>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/error.hpp"
-#include "slamkit/io/text_reader.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/error.hpp"
+#include "slamkit/core/text_reader.hpp"
+#include "slamkit/models/motion_model.hpp"
+#include "slamkit/models/observation_model.hpp"
 
 using namespace slamkit;
 

@@ -45,9 +45,9 @@
 #include <string>
 #include <vector>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/eval/metrics.hpp"
-#include "slamkit/io/dataset.hpp"
+#include "slamkit/io/load_dataset.hpp"
 #include "slamkit/io/trajectory_io.hpp"
 #include "slamkit/models/observation_model.hpp"
 

@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "slamkit/assoc/association_config.hpp"
-#include "slamkit/filters/slam_filter.hpp"
+#include "slamkit/core/association_record.hpp"
 #include "slamkit/models/observation_model.hpp"
 
 namespace slamkit {

@@ -9,7 +9,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "slamkit/types.hpp"
+#include "slamkit/core/types.hpp"
 
 namespace slamkit {
 

@@ -22,8 +22,8 @@
 #include <string>
 
 #include "slamkit/eval/metrics.hpp"
-#include "slamkit/io/dataset.hpp"
-#include "slamkit/pipeline/runner.hpp"
+#include "slamkit/core/dataset.hpp"
+#include "slamkit/core/run_result.hpp"
 
 namespace slamkit {
 

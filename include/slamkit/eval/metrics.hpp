@@ -8,8 +8,8 @@
 #include <optional>
 #include <vector>
 
-#include "slamkit/eval/chi_square.hpp"
-#include "slamkit/types.hpp"
+#include "slamkit/core/chi_square.hpp"
+#include "slamkit/core/types.hpp"
 
 namespace slamkit::eval {
 

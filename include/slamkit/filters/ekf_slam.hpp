@@ -16,7 +16,7 @@
 // the vehicle stays in a local area: only the active part A (vehicle + landmarks near the area) is
 // updated, and the effect on the rest B is accumulated in matrices of A's size, applied to the whole
 // map once, when the vehicle leaves the area. The result is the full EKF's: an exact reorganisation
-// of the same products (see src/ekf_slam.cpp for the derivation).
+// of the same products (see src/filters/ekf_slam.cpp for the derivation).
 #include <Eigen/Core>
 #include <memory>
 #include <span>

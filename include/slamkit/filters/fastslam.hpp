@@ -80,7 +80,7 @@
 #include "slamkit/assoc/association_config.hpp"
 #include "slamkit/filters/resampling.hpp"
 #include "slamkit/filters/slam_filter.hpp"
-#include "slamkit/io/dataset.hpp"
+#include "slamkit/core/dataset.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 

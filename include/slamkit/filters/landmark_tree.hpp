@@ -48,7 +48,7 @@
 #include <utility>
 
 #include "slamkit/filters/node_pool.hpp"
-#include "slamkit/types.hpp"
+#include "slamkit/core/types.hpp"
 
 namespace slamkit {
 

@@ -7,19 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "slamkit/types.hpp"
+#include "slamkit/core/association_record.hpp"
+#include "slamkit/core/types.hpp"
 
 namespace slamkit {
-
-/// What a filter did with one observation: updated a landmark, started a new one from it, or
-/// discarded it (ambiguous, or outside every gate).
-enum class AssociationDecision { kUpdate, kNew, kDiscard };
-
-struct AssociationRecord {
-  AssociationDecision decision = AssociationDecision::kDiscard;
-  /// The landmark updated or created (its map id); kUnknownId when discarded.
-  int landmark_id = kUnknownId;
-};
 
 class SlamFilter {
  public:

@@ -38,8 +38,8 @@
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/io/dataset.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/dataset.hpp"
 #include "slamkit/models/observation_model.hpp"
 #include "slamkit/models/velocity_model.hpp"
 

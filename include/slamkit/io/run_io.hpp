@@ -9,7 +9,7 @@
 //   metrics.json         the evaluation (written by the evaluation, see eval/evaluation.hpp)
 #include <string>
 
-#include "slamkit/pipeline/runner.hpp"
+#include "slamkit/core/run_result.hpp"
 
 namespace slamkit {
 

@@ -21,7 +21,7 @@
 // The truth files are optional: a log without them is a dataset without ground truth.
 #include <string>
 
-#include "slamkit/io/dataset.hpp"
+#include "slamkit/core/dataset.hpp"
 #include "slamkit/sim/simulator.hpp"
 #include "slamkit/sim/world.hpp"
 

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "slamkit/types.hpp"
+#include "slamkit/core/types.hpp"
 
 namespace slamkit {
 

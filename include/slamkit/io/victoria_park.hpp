@@ -31,8 +31,8 @@
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/io/dataset.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/dataset.hpp"
 #include "slamkit/models/acfr_car.hpp"
 #include "slamkit/sensors/tree_detector.hpp"
 

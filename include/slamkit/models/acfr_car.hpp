@@ -12,7 +12,7 @@
 // Control vector: (v_e [m/s], alpha [rad]).
 #include <string>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/models/motion_model.hpp"
 
 namespace slamkit {

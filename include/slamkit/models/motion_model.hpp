@@ -8,8 +8,8 @@
 #include <random>
 #include <string>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/types.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/types.hpp"
 
 namespace slamkit {
 

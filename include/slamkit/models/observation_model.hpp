@@ -6,8 +6,8 @@
 #include <Eigen/Core>
 #include <string>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/types.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/types.hpp"
 
 namespace slamkit {
 

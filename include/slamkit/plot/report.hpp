@@ -6,8 +6,8 @@
 #include <string>
 
 #include "slamkit/eval/evaluation.hpp"
-#include "slamkit/io/dataset.hpp"
-#include "slamkit/pipeline/runner.hpp"
+#include "slamkit/core/dataset.hpp"
+#include "slamkit/core/run_result.hpp"
 
 namespace slamkit {
 

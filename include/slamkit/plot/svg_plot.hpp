@@ -15,7 +15,7 @@
 #include <variant>
 #include <vector>
 
-#include "slamkit/types.hpp"
+#include "slamkit/core/types.hpp"
 
 namespace slamkit::plot {
 

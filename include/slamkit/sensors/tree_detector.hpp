@@ -15,7 +15,7 @@
 #include <span>
 #include <vector>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 
 namespace slamkit {
 

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/io/dataset.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/dataset.hpp"
 #include "slamkit/sim/world.hpp"
 
 namespace slamkit {

@@ -2,7 +2,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/models/motion_model.hpp"
 
 namespace slamkit {

@@ -7,7 +7,7 @@
 
 #include "slamkit/assoc/association_config.hpp"
 #include "slamkit/filters/slam_filter.hpp"
-#include "slamkit/io/dataset.hpp"
+#include "slamkit/core/dataset.hpp"
 
 namespace slamkit {
 

@@ -14,8 +14,9 @@
 #include <span>
 #include <vector>
 
-#include "slamkit/error.hpp"
-#include "slamkit/io/text_reader.hpp"
+#include "slamkit/core/error.hpp"
+#include "slamkit/core/text_reader.hpp"
+#include "slamkit/models/observation_model.hpp"
 
 namespace slamkit {
 namespace {

@@ -1,7 +1,7 @@
 #include <stdexcept>
 
 #include "slamkit/filters/ekf_slam.hpp"
-#include "slamkit/filters/factory.hpp"
+#include "slamkit/pipeline/factory.hpp"
 #include "slamkit/filters/fastslam.hpp"
 
 namespace slamkit {

@@ -10,9 +10,9 @@
 #include <random>
 #include <unordered_map>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/error.hpp"
-#include "slamkit/io/text_reader.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/error.hpp"
+#include "slamkit/core/text_reader.hpp"
 
 namespace slamkit {
 namespace {

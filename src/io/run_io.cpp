@@ -8,8 +8,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "slamkit/error.hpp"
-#include "slamkit/io/text_reader.hpp"
+#include "slamkit/core/error.hpp"
+#include "slamkit/core/text_reader.hpp"
 #include "slamkit/io/trajectory_io.hpp"
 
 namespace slamkit {

@@ -19,8 +19,8 @@
 #include <unordered_map>
 #include <unordered_set>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/eval/chi_square.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/chi_square.hpp"
 #include "slamkit/filters/landmark_tree.hpp"
 #include "slamkit/filters/node_pool.hpp"
 

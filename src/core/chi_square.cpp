@@ -1,4 +1,4 @@
-#include "slamkit/eval/chi_square.hpp"
+#include "slamkit/core/chi_square.hpp"
 
 #include <algorithm>
 #include <cmath>

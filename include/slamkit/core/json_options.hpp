@@ -13,8 +13,8 @@
 #include <span>
 #include <string>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/error.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/error.hpp"
 
 namespace slamkit {
 

@@ -8,7 +8,7 @@
 #include <unordered_set>
 #include <nlohmann/json.hpp>
 
-#include "slamkit/error.hpp"
+#include "slamkit/core/error.hpp"
 
 namespace slamkit {
 

@@ -17,10 +17,10 @@
 #include <utility>
 #include <vector>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/error.hpp"
-#include "slamkit/io/json_options.hpp"
-#include "slamkit/io/text_reader.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
+#include "slamkit/core/text_reader.hpp"
 
 namespace slamkit {
 namespace {

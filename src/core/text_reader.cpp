@@ -1,4 +1,4 @@
-#include "slamkit/io/text_reader.hpp"
+#include "slamkit/core/text_reader.hpp"
 
 #include <zlib.h>
 

@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
-#include "slamkit/error.hpp"
+#include "slamkit/core/error.hpp"
 #include "slamkit/plot/svg_plot.hpp"
 
 namespace slamkit::plot {

@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-#include "slamkit/error.hpp"
+#include "slamkit/core/error.hpp"
 
 struct gzFile_s;  // zlib's file handle, kept out of the header
 

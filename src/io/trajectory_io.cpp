@@ -11,8 +11,8 @@
 #include <unordered_set>
 #include <utility>
 
-#include "slamkit/angles.hpp"
-#include "slamkit/io/text_reader.hpp"
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/text_reader.hpp"
 
 namespace slamkit {
 

@@ -1,4 +1,4 @@
-#include "slamkit/io/dataset.hpp"
+#include "slamkit/io/load_dataset.hpp"
 
 #include <fmt/format.h>
 
@@ -10,7 +10,7 @@
 #include <iterator>
 #include <string_view>
 
-#include "slamkit/error.hpp"
+#include "slamkit/core/error.hpp"
 #include "slamkit/io/course_log.hpp"
 #include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/sim_log.hpp"

@@ -5,7 +5,7 @@
 #include <limits>
 #include <stdexcept>
 
-#include "slamkit/eval/chi_square.hpp"
+#include "slamkit/core/chi_square.hpp"
 
 namespace slamkit {
 

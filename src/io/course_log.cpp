@@ -13,9 +13,9 @@
 #include <unordered_map>
 #include <variant>
 
-#include "slamkit/error.hpp"
-#include "slamkit/io/json_options.hpp"
-#include "slamkit/io/text_reader.hpp"
+#include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
+#include "slamkit/core/text_reader.hpp"
 
 namespace slamkit {
 namespace {

@@ -1,6 +1,6 @@
 #include <cmath>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 #include "slamkit/models/observation_model.hpp"
 
 namespace slamkit {

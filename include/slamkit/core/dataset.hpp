@@ -1,16 +1,18 @@
 #pragma once
 // A dataset, whatever its origin: the time-ordered event stream a filter consumes, the models and
 // sensor limits that fit the platform that recorded it, and the ground truth where there is one.
-// Readers (simulator logs, real logs) all produce this; filters and evaluation only see this.
+// Readers (simulator logs, real logs) all produce this; filters and evaluation only see this. The
+// models are only named here: a module that calls them includes slamkit/models.
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "slamkit/models/motion_model.hpp"
-#include "slamkit/models/observation_model.hpp"
-#include "slamkit/types.hpp"
+#include "slamkit/core/types.hpp"
 
 namespace slamkit {
+
+class MotionModel;
+class ObservationModel;
 
 struct GroundTruth {
   std::vector<StampedPose> poses;
@@ -34,15 +36,5 @@ struct Dataset {
   Pose2 initial_pose = Pose2::Zero();
   GroundTruth truth;
 };
-
-/// Opens a dataset from a "kind:PATH" spec ("sim:DIR", "victoria-park:DIR", "mrclam:DIR:robotN",
-/// "course:DIR"). `settings_path` names a JSON file of the dataset's settings (noise, sensor limits,
-/// ...; the shipped ones are config/*.json); empty for the defaults, which equal the shipped files.
-/// Throws InputError on a bad spec, file or setting.
-Dataset load_dataset(const std::string& spec, const std::string& settings_path = "");
-
-/// Where datasets named without a path are looked up: $SLAMKIT_DATA if set, else ../shared/datasets
-/// (relative to the working directory).
-std::string datasets_folder();
 
 }  // namespace slamkit

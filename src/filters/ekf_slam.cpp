@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <stdexcept>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 
 namespace slamkit {
 

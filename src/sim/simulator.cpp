@@ -11,7 +11,9 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "slamkit/error.hpp"
+#include "slamkit/core/error.hpp"
+#include "slamkit/models/motion_model.hpp"
+#include "slamkit/models/observation_model.hpp"
 
 namespace slamkit {
 namespace {

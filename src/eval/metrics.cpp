@@ -10,7 +10,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 
 namespace slamkit::eval {
 

@@ -3,6 +3,8 @@
 #include <chrono>
 #include <cmath>
 
+#include "slamkit/models/motion_model.hpp"
+
 namespace slamkit {
 
 namespace {

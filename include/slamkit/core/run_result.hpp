@@ -1,0 +1,55 @@
+#pragma once
+// What a run produces, as the runner records it, the run folder stores it and evaluation reads it:
+// the estimated trajectory with its pose covariance, the final map, the landmark standard deviations
+// over time (the data of the tutorial's Figure 3) and what the filter did with each observation.
+#include <map>
+#include <string>
+#include <vector>
+
+#include "slamkit/core/association_record.hpp"
+#include "slamkit/core/types.hpp"
+
+namespace slamkit {
+
+/// One particle at one time, for pictures of the cloud.
+struct ParticleSample {
+  double t = 0.0;
+  WeightedPose particle;
+};
+
+struct LandmarkStdSample {
+  double t = 0.0;
+  int id = 0;
+  double std_x = 0.0;
+  double std_y = 0.0;
+};
+
+/// Everything a run writes to its output folder (and `slamkit evaluate` reads back).
+struct RunResult {
+  std::string filter;
+  std::string dataset;
+  std::string dataset_settings;  // the JSON settings file the dataset was read with; empty: defaults
+  std::string association;  // "known", "nn" or "jcbb"
+  /// The estimated trajectory: the filter's smoothed trajectory where it has one (FastSLAM's best
+  /// particle), else the per-step estimates.
+  std::vector<StampedPose> trajectory;
+  /// The per-step (filtering) estimates with their covariances: what NEES is computed on.
+  std::vector<StampedPose> filtered;
+  std::vector<Matrix3> pose_covariances;  // one per filtered sample
+  std::vector<StampedPose> dead_reckoning;
+  std::vector<Landmark> map;
+  std::vector<LandmarkStdSample> landmark_std;
+  /// Per scan, in stream order, what the filter did with each observation.
+  std::vector<double> scan_times;
+  std::vector<std::vector<AssociationRecord>> associations;
+  /// Particle clouds (particle filters only), sampled like landmark_std.
+  std::vector<ParticleSample> particles;
+  /// Filter-specific figures (SlamFilter::statistics at the end of the run).
+  std::map<std::string, double> statistics;
+  std::size_t steps = 0;         // control events
+  std::size_t scans = 0;         // observation scans
+  std::size_t observations = 0;  // individual landmark observations
+  double wall_time_s = 0.0;      // filter time only, not reading or writing files
+};
+
+}  // namespace slamkit
