@@ -3,10 +3,11 @@
 //
 // Storage: the state is [x y theta | m1x m1y | m2x m2y | ...]; the covariance is kept in one dense
 // column-major buffer of which only the LOWER triangle is meaningful. Symmetry therefore holds by
-// construction (no symmetrisation pass), and every update touches half the matrix. Buffers grow by
-// doubling, so adding a landmark does not reallocate each time. Every temporary of a step lives in a
-// member workspace that only grows, so once the map stops growing predict and update allocate
-// nothing (tests/ekf_allocation_test.cpp).
+// construction (no symmetrisation pass), and every update touches half the matrix. Buffers grow by a
+// quarter of their size, so adding a landmark does not reallocate each time (and the square buffer
+// is at most 1.56x the covariance). Every temporary of a step lives in a member workspace that only
+// grows, so once the map stops growing predict and update allocate nothing
+// (tests/ekf_allocation_test.cpp).
 //
 // Cost: a time update is O(n) (vehicle block and vehicle-map cross-covariance only); an observation
 // update is O(n^2) with the constant of one symmetric rank-2 downdate, because the observation
