@@ -143,7 +143,7 @@ TEST(PooledLandmarkTree, ChangesToSharedMapsRecycleNodes) {
   const auto round = [&](int r) {
     for (std::size_t m = 0; m < maps.size(); ++m) {
       maps[m] = base;
-      for (std::size_t k = 0; k < 15; ++k) maps[m].mutate((m * 97 + k * 61 + r) % 1000).misses = r;
+      for (std::size_t k = 0; k < 15; ++k) maps[m].mutate((m * 97 + k * 61 + r) % 1000).covariance(0, 1) = r;
     }
   };
   round(0);
@@ -151,8 +151,9 @@ TEST(PooledLandmarkTree, ChangesToSharedMapsRecycleNodes) {
   for (int r = 1; r <= 100; ++r) round(r);
   EXPECT_EQ(allocations.count(), 0u);
   for (std::size_t m = 0; m < maps.size(); ++m)
-    for (std::size_t k = 0; k < 15; ++k) EXPECT_EQ(maps[m][(m * 97 + k * 61 + 100) % 1000].misses, 100);
-  EXPECT_EQ(base[999].misses, 0);
+    for (std::size_t k = 0; k < 15; ++k)
+      EXPECT_EQ(maps[m][(m * 97 + k * 61 + 100) % 1000].covariance(0, 1), 100.0);
+  EXPECT_EQ(base[999].covariance(0, 1), 0.0);
   EXPECT_EQ(base[999].id, 999);
 }
 

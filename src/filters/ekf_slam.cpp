@@ -11,8 +11,6 @@ namespace slamkit {
 namespace {
 constexpr std::size_t kInitialLandmarkCapacity = 64;
 
-bool full_circle(const SensorLimits& sensor) { return sensor.fov >= 2.0 * kPi - 1e-9; }
-
 // Eigen's matrix-product kernels pack their operands into buffers that live on the stack up to
 // EIGEN_STACK_ALLOCATION_LIMIT (128 KB) and come from the heap above it. A product over the whole
 // covariance (a tall n x k operand) passes that limit once the map has a few hundred landmarks, so
@@ -43,9 +41,12 @@ EkfSlam::EkfSlam(std::shared_ptr<const MotionModel> motion,
                  std::shared_ptr<const ObservationModel> observation, const EkfSlamOptions& options)
     : motion_(std::move(motion)),
       observation_(std::move(observation)),
-      association_(options.association),
+      association_((validate(options.association), options.association)),
       gates_(Gates::from(options.association)),
-      sensor_(options.sensor),
+      gate_known_(options.association.gate_known.value_or(true)),
+      sensor_((validate(options.sensor), options.sensor)),
+      association_view_(association_view(options.sensor, options.association)),
+      existence_rule_(options.association, options.sensor),
       // Cells of a third of the sensor range: a query touches a few dozen cells at most.
       grid_(std::max(5.0, options.sensor.max_range / 3.0)),
       variant_(options.variant),
@@ -178,7 +179,7 @@ std::vector<Landmark> EkfSlam::landmarks() const {
   std::vector<Landmark> out;
   out.reserve(ids_.size());
   for (std::size_t i = 0; i < ids_.size(); ++i)
-    if (tracks_[i].confirmed) out.push_back(Landmark{ids_[i], landmark_position(i), landmark_covariance(i)});
+    if (existence_rule_.confirmed(existence_[i])) out.push_back(Landmark{ids_[i], landmark_position(i), landmark_covariance(i)});
   return out;
 }
 
@@ -187,7 +188,7 @@ std::map<std::string, double> EkfSlam::statistics() const {
                                      {"landmarks_removed", static_cast<double>(removed_)},
                                      {"landmarks_in_state", static_cast<double>(ids_.size())}};
   if (compressed()) s["local_area_flushes"] = static_cast<double>(flushes_);
-  if (association_.method == AssociationMethod::kKnown && association_.gate_known)
+  if (association_.method == AssociationMethod::kKnown && gate_known_)
     s["outliers_rejected"] = static_cast<double>(outliers_);
   if (association_.method != AssociationMethod::kKnown)
     s["association_pairs_evaluated"] = static_cast<double>(association_stats_.candidate_pairs);
@@ -373,10 +374,10 @@ std::size_t EkfSlam::register_landmark(int id) {
   const std::size_t index = ids_.size();
   ids_.push_back(id);
   if (id != kUnknownId) index_of_id_[id] = index;
-  Track track;
-  track.confirmed = association_.method == AssociationMethod::kKnown || association_.confirm_after <= 1;
-  tracks_.push_back(track);
-  grid_.add(index, landmark_position(index));
+  existence_.push_back(association_.method == AssociationMethod::kKnown ? existence_rule_.given()
+                                                                      : existence_rule_.first_observed());
+  binned_.push_back(grid_.cell_of(landmark_position(index)));
+  grid_.insert(binned_.back(), static_cast<std::uint32_t>(index));
   return index;
 }
 
@@ -402,7 +403,7 @@ void EkfSlam::remove_landmark(std::size_t index) {
   dim_ -= 2;
   const int id = ids_[index];
   ids_.erase(ids_.begin() + static_cast<std::ptrdiff_t>(index));
-  tracks_.erase(tracks_.begin() + static_cast<std::ptrdiff_t>(index));
+  existence_.erase(existence_.begin() + static_cast<std::ptrdiff_t>(index));
   if (id != kUnknownId) index_of_id_.erase(id);
   for (auto& [key, i] : index_of_id_)
     if (i > index) --i;
@@ -410,9 +411,20 @@ void EkfSlam::remove_landmark(std::size_t index) {
 }
 
 void EkfSlam::rebuild_grid() {
-  positions_.resize(ids_.size());
-  for (std::size_t i = 0; i < ids_.size(); ++i) positions_[i] = landmark_position(i);
-  grid_.rebuild(positions_);
+  grid_.clear();
+  binned_.resize(ids_.size());
+  for (std::size_t i = 0; i < ids_.size(); ++i) {
+    binned_[i] = grid_.cell_of(landmark_position(i));
+    grid_.insert(binned_[i], static_cast<std::uint32_t>(i));
+  }
+}
+
+void EkfSlam::rebin(std::size_t index) {
+  const LandmarkGrid::Cell cell = grid_.cell_of(landmark_position(index));
+  if (cell == binned_[index]) return;
+  grid_.erase(binned_[index], static_cast<std::uint32_t>(index));
+  grid_.insert(cell, static_cast<std::uint32_t>(index));
+  binned_[index] = cell;
 }
 
 void EkfSlam::update(const ScanEvent& scan) {
@@ -427,7 +439,7 @@ void EkfSlam::update(const ScanEvent& scan) {
 void EkfSlam::update_known(const ScanEvent& scan) {
   new_observations_.clear();
   auto apply = [&](std::size_t k, std::size_t index) {
-    if (association_.gate_known) {
+    if (gate_known_) {
       Vector2 zhat;
       Matrix2 s;
       innovation(index, zhat, s);
@@ -441,10 +453,10 @@ void EkfSlam::update_known(const ScanEvent& scan) {
     if (joint_scan_update_) {
       batch_.push_back({index, scan.observations[k].z});
       last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
-      ++tracks_[index].observations;
+      existence_rule_.observed(existence_[index]);
     } else if (update_landmark(index, scan.observations[k].z)) {
       last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
-      ++tracks_[index].observations;
+      existence_rule_.observed(existence_[index]);
     } else {
       ++discarded_;
     }
@@ -485,27 +497,18 @@ void EkfSlam::apply_joint_batch() {
   batch_.clear();
 }
 
-void EkfSlam::find_candidates(double range_margin, double angle_margin) {
+void EkfSlam::find_candidates(const SensorView& view) {
   candidates_.clear();
   if (ids_.empty()) return;
   // The grid bins landmarks where they were last re-binned; one extra cell covers the drift since.
-  const double reach = sensor_.max_range + range_margin;
-  nearby_.clear();
-  grid_.query(x_.head<2>(), reach + grid_.cell_size(), nearby_);
+  grid_.query(x_.head<2>(), view.reach() + grid_.cell_size(), nearby_);
   const Pose2 xv = pose();
-  for (const std::size_t j : nearby_) {
-    const Vector2 z = observation_->predict(xv, landmark_position(j));
-    if (z[0] > reach) continue;
-    if (!full_circle(sensor_) && std::abs(z[1]) > 0.5 * sensor_.fov + angle_margin) continue;
-    candidates_.push_back(j);
-  }
-  std::sort(candidates_.begin(), candidates_.end());
+  for (const std::uint32_t j : nearby_)
+    if (view.contains(observation_->predict(xv, landmark_position(j)))) candidates_.push_back(j);
 }
 
 const std::vector<Pairing>& EkfSlam::associate_scan(const ScanEvent& scan) {
-  // Candidates reach a little beyond the sensor: a landmark just outside the predicted view may be
-  // the one seen at the edge.
-  find_candidates(association_.view_margin_m, association_.view_margin_rad);
+  find_candidates(association_view_);
   associate(scan.observations, candidates_, *this, *observation_, association_, association_workspace_, pairings_,
             &association_stats_);
   return pairings_;
@@ -526,10 +529,7 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
       continue;
     last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
     seen_[index] = true;
-    Track& track = tracks_[index];
-    ++track.observations;
-    track.misses = 0;
-    if (track.observations >= association_.confirm_after) track.confirmed = true;
+    existence_rule_.observed(existence_[index]);
   }
   apply_joint_batch();
   for (std::size_t k = 0; k < pairings.size(); ++k) {
@@ -544,7 +544,7 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
 
   // Keep the grid honest: the landmarks just updated moved the most; a large vehicle correction
   // (a loop closure) moved the whole map, so then the grid is rebuilt.
-  for (const std::size_t j : candidates_) grid_.move(j, landmark_position(j));
+  for (const std::size_t j : candidates_) rebin(j);
   drift_since_rebuild_ += (x_.head<2>() - position_before).norm();
   if (drift_since_rebuild_ > 0.5 * grid_.cell_size()) {
     rebuild_grid();
@@ -554,18 +554,11 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
 }
 
 void EkfSlam::manage_map() {
-  // Only landmarks predicted well inside the view count as missed: near the edge the sensor's own
-  // noise decides whether they are seen.
-  find_candidates(-association_.view_margin_m, -association_.view_margin_rad);
+  find_candidates(existence_rule_.detection_view());
   doomed_.clear();
   for (const std::size_t j : candidates_) {
     if (j >= seen_.size() || seen_[j]) continue;  // added this scan, or seen
-    Track& track = tracks_[j];
-    ++track.misses;
-    const bool expired = track.confirmed
-                             ? association_.confirmed_max_misses > 0 && track.misses >= association_.confirmed_max_misses
-                             : track.misses >= association_.provisional_max_misses;
-    if (expired) doomed_.push_back(j);
+    if (existence_rule_.missed(existence_[j])) doomed_.push_back(j);
   }
   // Highest index first, so the indices still to remove stay valid.
   for (auto it = doomed_.rbegin(); it != doomed_.rend(); ++it) {

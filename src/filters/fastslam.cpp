@@ -19,8 +19,11 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "slamkit/assoc/association.hpp"
+#include "slamkit/assoc/landmark_existence.hpp"
+#include "slamkit/assoc/landmark_grid.hpp"
+#include "slamkit/assoc/sensor_view.hpp"
 #include "slamkit/core/angles.hpp"
-#include "slamkit/core/chi_square.hpp"
 #include "slamkit/filters/landmark_tree.hpp"
 #include "slamkit/filters/node_pool.hpp"
 
@@ -247,101 +250,6 @@ class Path {
   PathNode* node_ = nullptr;
 };
 
-// ---- Candidate grid ------------------------------------------------------------------------------
-
-/// Landmark indices by position, over every particle's version of every landmark, kept up to date
-/// incrementally: an entry (cell, index) is added when some particle's landmark `index` is created
-/// in the cell or moves into it, so every live version is always listed in the cell of its current
-/// mean. Entries that no particle needs any more (the landmark moved on, was removed, or its
-/// particles were not drawn by resampling) stay until prune() drops them; until then they are only
-/// candidates that filtering rejects. So the grid costs O(changes) per scan, not O(map size).
-///
-/// A cell's entries are a list of nodes from a pool, so entries move between cells without
-/// allocating. A query creates the cells of its box and a ring around it, where the scan's new and
-/// moved landmarks land, so a vehicle revisiting places lists them without allocating.
-/// Calling thread only.
-class CandidateGrid {
- public:
-  explicit CandidateGrid(double cell) : cell_(cell), entries_(sizeof(Entry), 1, kChunkEntries) {}
-
-  std::uint64_t key(const Vector2& p) const {
-    const auto [ix, iy] = cell_of(p);
-    return pack(ix, iy);
-  }
-
-  /// Lists landmark `index` at `p`: a new landmark, or one that has moved there.
-  void insert(const Vector2& p, std::uint32_t index) {
-    const auto [ix, iy] = cell_of(p);
-    Entry*& head = cells_[pack(ix, iy)];
-    for (const Entry* e = head; e != nullptr; e = e->next)
-      if (e->index == index) return;
-    head = new (entries_.allocate()) Entry{index, head};
-  }
-
-  /// Indices of landmarks possibly within `radius` of `centre`, sorted, unique: those of the cells
-  /// touching the disc's bounding box, which the next prune() visits.
-  void query(const Vector2& centre, double radius, std::vector<std::uint32_t>& out) {
-    out.clear();
-    lo_ = cell_of(centre - Vector2::Constant(radius));
-    hi_ = cell_of(centre + Vector2::Constant(radius));
-    for (std::int64_t ix = lo_.first - 1; ix <= hi_.first + 1; ++ix)
-      for (std::int64_t iy = lo_.second - 1; iy <= hi_.second + 1; ++iy) cells_.try_emplace(pack(ix, iy), nullptr);
-    std::size_t n = 0;
-    for_each_cell([&](std::uint64_t, const Entry* head) {
-      for (const Entry* e = head; e != nullptr; e = e->next) ++n;
-    });
-    make_room(out, n);
-    for_each_cell([&](std::uint64_t, const Entry* head) {
-      for (const Entry* e = head; e != nullptr; e = e->next) out.push_back(e->index);
-    });
-    std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
-  }
-
-  /// Drops the entries of the last query's cells for which needed(key, index) is false. Only those
-  /// cells: they are where stale entries cost, and where map management has just been at work.
-  template <class Needed>
-  void prune(Needed&& needed) {
-    for_each_cell([&](std::uint64_t k, Entry*& head) {
-      for (Entry** link = &head; *link != nullptr;) {
-        Entry* e = *link;
-        if (needed(k, e->index)) {
-          link = &e->next;
-          continue;
-        }
-        *link = e->next;
-        entries_.deallocate(e);
-      }
-    });
-  }
-
- private:
-  struct Entry {
-    std::uint32_t index;
-    Entry* next;
-  };
-  static constexpr std::size_t kChunkEntries = 4096;
-
-  std::pair<std::int64_t, std::int64_t> cell_of(const Vector2& p) const {
-    return {static_cast<std::int64_t>(std::floor(p.x() / cell_)), static_cast<std::int64_t>(std::floor(p.y() / cell_))};
-  }
-  static std::uint64_t pack(std::int64_t ix, std::int64_t iy) {
-    return (static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffULL);
-  }
-  /// f(key, head) for each existing cell of the last query's box.
-  template <class F>
-  void for_each_cell(F&& f) {
-    for (std::int64_t ix = lo_.first; ix <= hi_.first; ++ix)
-      for (std::int64_t iy = lo_.second; iy <= hi_.second; ++iy)
-        if (const auto it = cells_.find(pack(ix, iy)); it != cells_.end()) f(it->first, it->second);
-  }
-
-  double cell_;
-  NodePool entries_;
-  std::unordered_map<std::uint64_t, Entry*> cells_;
-  std::pair<std::int64_t, std::int64_t> lo_{0, 0}, hi_{-1, -1};  // the last query's cells; none yet
-};
-
 }  // namespace
 
 // ---- Filter state --------------------------------------------------------------------------------
@@ -387,16 +295,17 @@ struct FastSlam::Impl {
        const FastSlamConfig& cfg);
 
   bool known() const { return config.association.method == AssociationMethod::kKnown; }
-  bool in_view(const Vector2& zhat, double range_margin, double bearing_margin) const {
-    return zhat[0] <= config.sensor.max_range + range_margin &&
-           (config.sensor.fov >= 2.0 * kPi || std::abs(zhat[1]) <= 0.5 * config.sensor.fov + bearing_margin);
-  }
 
   void start(double t);
   void predict_particle(std::size_t i, const ControlEvent& control);
   void plan_known_association(const ScanEvent& scan, std::size_t scan_index);
   void gather_candidates();
   void associate(const Particle& p, Slot& s, const ScanEvent& scan) const;
+  void reject_known_outliers(const Particle& p, Slot& s, const ScanEvent& scan) const;
+  /// The covariance of the innovation of landmark lm as particle p predicts it, and the Jacobians.
+  Matrix2 innovation_covariance(const Particle& p, const LandmarkGaussian& lm, Matrix23& hx, Matrix2& hm) const;
+  /// Whether z lies beyond the new-landmark gate of landmark lm as particle p predicts it.
+  bool beyond_gate(const Particle& p, const LandmarkGaussian& lm, const Vector2& z) const;
   void update_particle(std::size_t i, const ScanEvent& scan);
   double update_landmark(LandmarkGaussian& lm, const Pose2& x, const Vector2& z) const;
   LandmarkGaussian new_landmark(const Pose2& x, const Vector2& z, int id) const;
@@ -416,8 +325,10 @@ struct FastSlam::Impl {
   std::shared_ptr<const MotionModel> motion;
   std::shared_ptr<const ObservationModel> observation;
   Matrix2 r;
-  double accept_gate = 0.0;
-  double new_gate = 0.0;
+  Gates gates;
+  bool gate_known;
+  SensorView association_view;
+  ExistenceRule existence;
   double log_p0 = 0.0;
 
   WorkerPool pool;
@@ -436,7 +347,7 @@ struct FastSlam::Impl {
   std::vector<char> valid;  // per observation of the current scan: finite measurement
   std::vector<Pairing> known_plan;
   std::unordered_map<int, std::uint32_t> known_index;
-  CandidateGrid grid;
+  LandmarkGrid grid;
   std::size_t scans_since_prune = 0;
   std::vector<std::uint32_t> scan_candidates;
 
@@ -463,19 +374,8 @@ void validate(const FastSlamConfig& c) {
     fail(fmt::format("resampling every K scans needs K >= 1, found {}", c.policy.every));
   if (c.policy.kind == ResamplePolicy::Kind::kEss && !(c.policy.ess_fraction > 0.0 && c.policy.ess_fraction <= 1.0))
     fail(fmt::format("the ESS fraction must lie in (0, 1], found {}", c.policy.ess_fraction));
-  const AssociationConfig& a = c.association;
-  if (!(a.accept_probability > 0.0 && a.accept_probability < 1.0))
-    fail(fmt::format("accept_probability must lie in (0, 1), found {}", a.accept_probability));
-  if (!(a.new_landmark_probability >= a.accept_probability && a.new_landmark_probability < 1.0))
-    fail(fmt::format("new_landmark_probability must lie in [accept_probability, 1), found {}",
-                     a.new_landmark_probability));
-  if (a.confirm_after < 1) fail(fmt::format("confirm_after must be >= 1, found {}", a.confirm_after));
-  if (a.provisional_max_misses < 1)
-    fail(fmt::format("provisional_max_misses must be >= 1, found {}", a.provisional_max_misses));
-  if (a.confirmed_max_misses < 0)
-    fail(fmt::format("confirmed_max_misses must be >= 0, found {}", a.confirmed_max_misses));
-  if (!(a.view_margin_m >= 0.0) || !(a.view_margin_rad >= 0.0)) fail("view margins must be >= 0");
-  if (!(c.sensor.max_range > 0.0) || !(c.sensor.fov > 0.0)) fail("sensor range and field of view must be > 0");
+  validate(c.association);
+  validate(c.sensor);
   if (!c.initial_pose.allFinite()) fail("the initial pose must be finite");
 }
 
@@ -492,6 +392,10 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
       path_nodes(sizeof(PathNode), thread_count(cfg.threads), kPathChunkNodes),
       motion(std::move(motion_model)),
       observation(std::move(observation_model)),
+      gates(Gates::from(cfg.association)),
+      gate_known(cfg.association.gate_known.value_or(false)),
+      association_view(slamkit::association_view(cfg.sensor, cfg.association)),
+      existence(cfg.association, cfg.sensor),
       pool(thread_count(cfg.threads)),
       resample_rng(splitmix64(cfg.seed ^ 0x526573616d706c65ULL)),
       grid(std::max(5.0, 0.5 * cfg.sensor.max_range)) {
@@ -501,9 +405,7 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
   double log_det_2r = 0.0;
   if (!invert_spd(2.0 * r, unused, log_det_2r))
     throw std::invalid_argument("FastSLAM needs a positive definite measurement noise R");
-  accept_gate = eval::chi_square_quantile(config.association.accept_probability, 2.0);
-  new_gate = eval::chi_square_quantile(config.association.new_landmark_probability, 2.0);
-  log_p0 = -0.5 * new_gate - kLog2Pi - 0.5 * log_det_2r;
+  log_p0 = -0.5 * gates.new_landmark - kLog2Pi - 0.5 * log_det_2r;
 
   const auto n = static_cast<std::size_t>(config.particles);
   particles.resize(n);
@@ -575,33 +477,55 @@ void FastSlam::Impl::gather_candidates() {
   // sensor lies within spread + 2 * offset of this one (position difference plus the offset turned
   // by any heading difference), and the grid lists every landmark version at its current mean.
   const Vector2 sensor = observation->inverse(centre_pose, Vector2::Zero());
-  const double radius = config.sensor.max_range + config.association.view_margin_m + spread +
-                        2.0 * (sensor - centre_pose.head<2>()).norm();
+  const double radius = association_view.reach() + spread + 2.0 * (sensor - centre_pose.head<2>()).norm();
   grid.query(sensor, radius, scan_candidates);
 }
 
-void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan) const {
-  const AssociationConfig& a = config.association;
-  const std::size_t n_obs = scan.observations.size();
-  // Gating uses the pose as predicted: for FastSLAM 2.0 its covariance enters S, as the proposal's
+Matrix2 FastSlam::Impl::innovation_covariance(const Particle& p, const LandmarkGaussian& lm, Matrix23& hx,
+                                              Matrix2& hm) const {
+  // At the pose as predicted: for FastSLAM 2.0 its covariance enters S, as the proposal's
   // uncertainty should when judging whether an observation fits a landmark.
-  const Pose2& x = p.pose;
+  observation->jacobians(p.pose, lm.mean, hx, hm);
+  Matrix2 cov = hm * lm.covariance * hm.transpose() + r;
+  if (config.version == 2) cov += hx * p.pose_cov * hx.transpose();
+  return cov;
+}
+
+bool FastSlam::Impl::beyond_gate(const Particle& p, const LandmarkGaussian& lm, const Vector2& z) const {
+  Matrix23 hx;
+  Matrix2 hm;
+  Matrix2 inverse;
+  double log_det = 0.0;
+  if (!invert_spd(symmetric(innovation_covariance(p, lm, hx, hm)), inverse, log_det)) return false;
+  const Vector2 nu = observation->residual(z, observation->predict(p.pose, lm.mean));
+  return nu.dot(inverse * nu) > gates.new_landmark;
+}
+
+void FastSlam::Impl::reject_known_outliers(const Particle& p, Slot& s, const ScanEvent& scan) const {
+  for (std::size_t k = 0; k < s.pairings.size(); ++k) {
+    const Pairing& pairing = s.pairings[k];
+    if (pairing.decision == AssociationDecision::kUpdate && pairing.index < p.map.size() &&
+        beyond_gate(p, p.map[pairing.index], scan.observations[k].z))
+      s.pairings[k] = Pairing{};
+  }
+}
+
+void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan) const {
+  const std::size_t n_obs = scan.observations.size();
   s.candidates.clear();
   make_room(s.candidates, scan_candidates.size());
   for (const std::uint32_t index : scan_candidates) {
     if (index >= p.map.size()) break;
     const LandmarkGaussian& lm = p.map[index];
     if (lm.removed) continue;
-    const Vector2 zhat = observation->predict(x, lm.mean);
-    if (!in_view(zhat, a.view_margin_m, a.view_margin_rad)) continue;
+    const Vector2 zhat = observation->predict(p.pose, lm.mean);
+    if (!association_view.contains(zhat)) continue;
     Matrix23 hx;
     Matrix2 hm;
-    observation->jacobians(x, lm.mean, hx, hm);
-    Matrix2 cov = hm * lm.covariance * hm.transpose() + r;
-    if (config.version == 2) cov += hx * p.pose_cov * hx.transpose();
     Matrix2 inverse;
     double log_det = 0.0;
-    if (invert_spd(symmetric(cov), inverse, log_det)) s.candidates.push_back({index, zhat, inverse});
+    if (invert_spd(symmetric(innovation_covariance(p, lm, hx, hm)), inverse, log_det))
+      s.candidates.push_back({index, zhat, inverse});
   }
 
   s.pairs.clear();
@@ -615,7 +539,7 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
       const Vector2 nu = observation->residual(z, s.candidates[c].zhat);
       const double d2 = nu.dot(s.candidates[c].s_inverse * nu);
       s.min_d2[k] = std::min(s.min_d2[k], d2);
-      if (d2 < accept_gate) s.pairs.emplace_back(d2, static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(c));
+      if (d2 < gates.accept) s.pairs.emplace_back(d2, static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(c));
     }
   }
   // Greedy by distance: the most certain pairings first, each observation and landmark once.
@@ -629,7 +553,7 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
   }
   auto next_index = static_cast<std::uint32_t>(p.map.size());
   for (std::size_t k = 0; k < n_obs; ++k)
-    if (valid[k] && s.pairings[k].decision == AssociationDecision::kDiscard && s.min_d2[k] > new_gate)
+    if (valid[k] && s.pairings[k].decision == AssociationDecision::kDiscard && s.min_d2[k] > gates.new_landmark)
       s.pairings[k] = {AssociationDecision::kNew, next_index++};
 }
 
@@ -647,8 +571,7 @@ double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, con
   // Joseph form: stays symmetric positive definite however the gain is rounded.
   const Matrix2 ikh = Matrix2::Identity() - gain * hm;
   lm.covariance = symmetric(ikh * lm.covariance * ikh.transpose() + gain * r * gain.transpose());
-  ++lm.observations;
-  lm.misses = 0;
+  existence.observed(lm.existence);
   return -0.5 * nu.dot(s_inverse * nu) - kLog2Pi - 0.5 * log_det;
 }
 
@@ -660,7 +583,7 @@ LandmarkGaussian FastSlam::Impl::new_landmark(const Pose2& x, const Vector2& z, 
   lm.mean = observation->inverse(x, z);
   lm.covariance = symmetric(gz * r * gz.transpose());
   lm.id = id;
-  lm.observations = 1;
+  lm.existence = known() ? existence.given() : existence.first_observed();
   return lm;
 }
 
@@ -668,7 +591,14 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   Particle& p = particles[i];
   Slot& s = slots[i];
   const std::size_t n_obs = scan.observations.size();
-  if (!known()) associate(p, s, scan);
+  if (known()) {
+    // Every particle starts from the common plan; the outlier gate is each particle's own.
+    make_room(s.pairings, n_obs);
+    s.pairings = known_plan;
+    if (gate_known) reject_known_outliers(p, s, scan);
+  } else {
+    associate(p, s, scan);
+  }
   s.grid_entries.clear();
   make_room(s.grid_entries, n_obs);
   // A landmark update at the particle's final pose; a landmark leaving its grid cell is listed in
@@ -676,12 +606,12 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   auto update_at = [&](std::uint32_t index, const Vector2& z) {
     LandmarkGaussian& lm = p.map.mutate(index);
     if (known()) return update_landmark(lm, p.pose, z);
-    const std::uint64_t before = grid.key(lm.mean);
+    const LandmarkGrid::Cell before = grid.cell_of(lm.mean);
     const double ll = update_landmark(lm, p.pose, z);
-    if (grid.key(lm.mean) != before) s.grid_entries.emplace_back(lm.mean, index);
+    if (grid.cell_of(lm.mean) != before) s.grid_entries.emplace_back(lm.mean, index);
     return ll;
   };
-  const std::vector<Pairing>& pairings = known() ? known_plan : s.pairings;
+  std::vector<Pairing>& pairings = s.pairings;
   const std::size_t old_size = p.map.size();
   auto is_old_update = [&](std::size_t k) {
     return pairings[k].decision == AssociationDecision::kUpdate && pairings[k].index < old_size;
@@ -727,8 +657,12 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   }
   // New landmarks, and repeated observations of landmarks started in this scan, in scan order.
   for (std::size_t k = 0; k < n_obs; ++k) {
-    const Pairing& pairing = pairings[k];
+    Pairing& pairing = pairings[k];
     const Vector2& z = scan.observations[k].z;
+    // A landmark started in this scan and seen again in it meets the outlier gate only now.
+    if (known() && gate_known && pairing.decision == AssociationDecision::kUpdate && !is_old_update(k) &&
+        beyond_gate(p, p.map[pairing.index], z))
+      pairing = Pairing{};
     if (pairing.decision == AssociationDecision::kNew) {
       p.map.push_back(new_landmark(p.pose, z, known() ? scan.observations[k].id : kUnknownId));
       if (!known()) s.grid_entries.emplace_back(p.map[pairing.index].mean, pairing.index);
@@ -744,23 +678,18 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
 }
 
 void FastSlam::Impl::count_misses(Particle& p, Slot& s) const {
-  const AssociationConfig& a = config.association;
   s.observed.clear();
   make_room(s.observed, s.pairings.size());
   for (const Pairing& pairing : s.pairings)
     if (pairing.decision == AssociationDecision::kUpdate) s.observed.push_back(pairing.index);
   std::sort(s.observed.begin(), s.observed.end());
-  // The candidates were chosen with generous margins at the predicted pose, so they include every
-  // landmark inside the shrunk view of the final pose.
+  // The candidates were chosen in the widened view of the predicted pose, so they include every
+  // landmark the existence rule expects to be seen from the final pose.
   for (const Candidate& c : s.candidates) {
     if (std::binary_search(s.observed.begin(), s.observed.end(), c.index)) continue;
-    if (!in_view(observation->predict(p.pose, p.map[c.index].mean), -a.view_margin_m, -a.view_margin_rad)) continue;
+    if (!existence.detection_view().contains(observation->predict(p.pose, p.map[c.index].mean))) continue;
     LandmarkGaussian& lm = p.map.mutate(c.index);
-    ++lm.misses;
-    const bool confirmed = lm.observations >= a.confirm_after;
-    if (confirmed ? a.confirmed_max_misses > 0 && lm.misses >= a.confirmed_max_misses
-                  : lm.misses >= a.provisional_max_misses)
-      lm.removed = true;
+    if (existence.missed(lm.existence)) lm.removed = true;
   }
 }
 
@@ -782,7 +711,7 @@ void FastSlam::Impl::assign_new_ids(std::size_t observations, std::size_t scan_i
 }
 
 void FastSlam::Impl::record_associations(std::size_t slot) {
-  const std::vector<Pairing>& pairings = known() ? known_plan : slots[slot].pairings;
+  const std::vector<Pairing>& pairings = slots[slot].pairings;
   make_room(last_records, pairings.size());
   last_records.assign(pairings.size(), AssociationRecord{});
   for (std::size_t k = 0; k < pairings.size(); ++k)
@@ -819,16 +748,16 @@ void FastSlam::Impl::reweight_and_resample() {
 
 void FastSlam::Impl::index_grid_entries() {
   for (const Slot& s : slots)
-    for (const auto& [mean, index] : s.grid_entries) grid.insert(mean, index);
+    for (const auto& [mean, index] : s.grid_entries) grid.insert(grid.cell_of(mean), index);
 }
 
 void FastSlam::Impl::prune_grid() {
   // An entry is needed while some particle's live version of the landmark has its mean in the cell.
-  grid.prune([&](std::uint64_t key, std::uint32_t index) {
+  grid.prune([&](LandmarkGrid::Cell cell, std::uint32_t index) {
     return std::any_of(particles.begin(), particles.end(), [&](const Particle& p) {
       if (index >= p.map.size()) return false;
       const LandmarkGaussian& lm = p.map[index];
-      return !lm.removed && grid.key(lm.mean) == key;
+      return !lm.removed && grid.cell_of(lm.mean) == cell;
     });
   });
   scans_since_prune = 0;
@@ -976,10 +905,10 @@ void FastSlam::set_initial_map(const std::vector<Landmark>& map) {
     g.mean = lm.position;
     g.covariance = lm.covariance;
     g.id = lm.id;
-    g.observations = s.config.association.confirm_after;
+    g.existence = s.existence.given();
     s.known_index[lm.id] = static_cast<std::uint32_t>(tree.size());
     s.next_id = std::max(s.next_id, lm.id + 1);
-    if (!s.known()) s.grid.insert(g.mean, static_cast<std::uint32_t>(tree.size()));
+    if (!s.known()) s.grid.insert(s.grid.cell_of(g.mean), static_cast<std::uint32_t>(tree.size()));
     tree.push_back(g);
   }
   for (Impl::Particle& p : s.particles) p.map = tree;

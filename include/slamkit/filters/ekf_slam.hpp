@@ -26,7 +26,9 @@
 
 #include "slamkit/assoc/association.hpp"
 #include "slamkit/assoc/association_config.hpp"
+#include "slamkit/assoc/landmark_existence.hpp"
 #include "slamkit/assoc/landmark_grid.hpp"
+#include "slamkit/assoc/sensor_view.hpp"
 #include "slamkit/filters/slam_filter.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
@@ -145,14 +147,15 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   /// Applies the scan's collected updates jointly (joint_scan_update).
   void apply_joint_batch();
   void update_unknown(const ScanEvent& scan);
-  /// Landmarks that can be in view from the current pose (range and field of view plus margins),
-  /// into candidates_.
-  void find_candidates(double range_margin, double angle_margin);
-  /// Counts misses of landmarks predicted well inside the view (not in seen_) and removes those
-  /// past their limit.
+  /// The landmarks predicted in `view` from the current pose, in index order, into candidates_.
+  void find_candidates(const SensorView& view);
+  /// Counts misses of the landmarks expected to be seen (not in seen_) and removes those the
+  /// existence rule gives up.
   void manage_map();
   /// Bins every landmark at its current estimate.
   void rebuild_grid();
+  /// Moves landmark `index` to the cell of its current estimate.
+  void rebin(std::size_t index);
   /// The bookkeeping of a new landmark, shared by both variants.
   std::size_t register_landmark(int id);
 
@@ -209,13 +212,6 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   /// Writes the accumulated update into x and the lower triangle of p (the stored state's layout).
   void merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::MatrixXd> p, MergeWorkspace& ws) const;
 
-  /// Bookkeeping of map management, one per landmark, parallel to ids_.
-  struct Track {
-    int observations = 1;
-    int misses = 0;
-    bool confirmed = false;
-  };
-
   std::shared_ptr<const MotionModel> motion_;
   std::shared_ptr<const ObservationModel> observation_;
 
@@ -229,12 +225,16 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   Eigen::MatrixXd pht_;
   std::vector<int> ids_;
   std::unordered_map<int, std::size_t> index_of_id_;
-  std::vector<Track> tracks_;
+  std::vector<LandmarkExistence> existence_;  // parallel to ids_
   int next_id_ = 0;  // ids of landmarks started without a known identity
   AssociationConfig association_;
   Gates gates_;  // from association_, computed once
+  bool gate_known_;
   SensorLimits sensor_;
+  SensorView association_view_;
+  ExistenceRule existence_rule_;
   LandmarkGrid grid_;
+  std::vector<LandmarkGrid::Cell> binned_;  // per landmark: the cell it is listed in
   double drift_since_rebuild_ = 0.0;  // vehicle corrections since the grid was last rebuilt [m]
   std::vector<AssociationRecord> last_associations_;
   EkfVariant variant_;
@@ -264,9 +264,9 @@ class EkfSlam final : public SlamFilter, public GaussianMapView {
   std::size_t flushes_ = 0;
   // Reused per scan.
   std::vector<std::size_t> new_observations_;
-  std::vector<std::size_t> candidates_, nearby_, doomed_;
+  std::vector<std::size_t> candidates_, doomed_;
+  std::vector<std::uint32_t> nearby_;
   std::vector<bool> seen_;  // per landmark: paired in this scan
-  std::vector<Vector2> positions_;  // for rebuilding the grid
   AssociationWorkspace association_workspace_;
   std::vector<Pairing> pairings_;
   // Statistics.
