@@ -131,7 +131,8 @@ TEST_P(FastSlamAllocation, SecondLapMakesNoHeapAllocation) {
 
 // The mechanism on its own: maps made with a NodeStorage copy paths into recycled nodes.
 TEST(PooledLandmarkTree, ChangesToSharedMapsRecycleNodes) {
-  LandmarkTree::NodeStorage storage(1);
+  const WorkerPool threads(1);
+  LandmarkTree::NodeStorage storage(threads);
   LandmarkTree base(&storage);
   for (int i = 0; i < 1000; ++i) {
     LandmarkGaussian lm;

@@ -4,14 +4,8 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <condition_variable>
-#include <exception>
-#include <functional>
 #include <limits>
-#include <mutex>
-#include <new>
 #include <random>
 #include <stdexcept>
 #include <thread>
@@ -25,7 +19,8 @@
 #include "slamkit/assoc/sensor_view.hpp"
 #include "slamkit/core/angles.hpp"
 #include "slamkit/filters/landmark_tree.hpp"
-#include "slamkit/filters/node_pool.hpp"
+#include "slamkit/filters/particle_path.hpp"
+#include "slamkit/filters/worker_pool.hpp"
 
 namespace slamkit {
 
@@ -43,10 +38,6 @@ constexpr std::size_t kUpdateGrain = 4;
 // The candidate grid drops its stale entries around the vehicle this often [scans]; they cost only
 // filtering in the meantime.
 constexpr std::size_t kGridPruneScans = 5;
-
-// Poses per chunk of path storage: the surviving trajectory grows by one pose per control, so its
-// storage grows once per this many controls at first and ever more rarely as the chunks grow.
-constexpr std::size_t kPathChunkNodes = 8192;
 
 std::uint64_t splitmix64(std::uint64_t x) {
   x += 0x9e3779b97f4a7c15ULL;
@@ -100,156 +91,6 @@ auto origin_lower_bound(Origins& origins, int id) {
   return std::lower_bound(origins.begin(), origins.end(), id, [](const auto& entry, int key) { return entry.first < key; });
 }
 
-// ---- Worker pool ---------------------------------------------------------------------------------
-
-/// Runs a loop body over [0, n) in contiguous chunks on persistent threads plus the calling thread.
-class WorkerPool {
- public:
-  using Body = std::function<void(std::size_t begin, std::size_t end)>;
-
-  explicit WorkerPool(unsigned threads) {
-    // Worker i takes the node pools' free list i; the calling thread keeps list 0.
-    for (unsigned i = 1; i < threads; ++i)
-      workers_.emplace_back([this, i] {
-        pool_thread_slot = i;
-        loop();
-      });
-  }
-  ~WorkerPool() {
-    {
-      const std::lock_guard lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_all();
-    for (std::thread& t : workers_) t.join();
-  }
-  WorkerPool(const WorkerPool&) = delete;
-  WorkerPool& operator=(const WorkerPool&) = delete;
-
-  unsigned size() const { return static_cast<unsigned>(workers_.size()) + 1; }
-
-  /// At most size() chunks of at least `grain` items; one chunk runs inline with no hand-over.
-  /// Rethrows the first exception a chunk threw, after every chunk has finished.
-  void run(std::size_t n, std::size_t grain, const Body& body) {
-    const std::size_t chunks = std::min<std::size_t>(size(), std::max<std::size_t>(1, n / grain));
-    if (chunks <= 1) {
-      if (n > 0) body(0, n);
-      return;
-    }
-    {
-      const std::lock_guard lock(mutex_);
-      body_ = &body;
-      n_ = n;
-      chunks_ = chunks;
-      next_.store(0, std::memory_order_relaxed);
-      busy_ = workers_.size();
-      ++generation_;
-    }
-    wake_.notify_all();
-    work();
-    std::unique_lock lock(mutex_);
-    done_.wait(lock, [this] { return busy_ == 0; });
-    if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
-  }
-
- private:
-  void work() {
-    for (std::size_t c; (c = next_.fetch_add(1, std::memory_order_relaxed)) < chunks_;) {
-      try {
-        (*body_)(c * n_ / chunks_, (c + 1) * n_ / chunks_);
-      } catch (...) {
-        const std::lock_guard lock(mutex_);
-        if (!error_) error_ = std::current_exception();
-      }
-    }
-  }
-  void loop() {
-    std::uint64_t seen = 0;
-    std::unique_lock lock(mutex_);
-    for (;;) {
-      wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
-      if (stop_) return;
-      seen = generation_;
-      lock.unlock();
-      work();
-      lock.lock();
-      if (--busy_ == 0) done_.notify_one();
-    }
-  }
-
-  std::vector<std::thread> workers_;
-  std::mutex mutex_;
-  std::condition_variable wake_, done_;
-  // Set under the mutex before a generation starts and read-only until every worker is done.
-  const Body* body_ = nullptr;
-  std::size_t n_ = 0, chunks_ = 0;
-  std::atomic<std::size_t> next_{0};
-  std::size_t busy_ = 0;
-  std::uint64_t generation_ = 0;
-  bool stop_ = false;
-  std::exception_ptr error_;
-};
-
-// ---- Trajectory history --------------------------------------------------------------------------
-
-/// One pose of a particle's path. Paths share their common past: copying a path copies a pointer.
-struct PathNode {
-  std::atomic<std::size_t> refs{1};
-  double t;
-  Pose2 pose;
-  PathNode* parent;
-};
-
-/// A reference to the newest node of a path, whose nodes come from a filter's NodePool: each step
-/// adds a node per particle and resampling drops the nodes of the paths it does not draw, so the
-/// pool recycles all but the one node per step by which the surviving past grows.
-class Path {
- public:
-  Path() = default;
-  /// A new newest node after `parent`, whose reference it takes over.
-  Path(NodePool& pool, double t, const Pose2& pose, Path&& parent)
-      : pool_(&pool), node_(new (pool.allocate()) PathNode{{1}, t, pose, std::exchange(parent.node_, nullptr)}) {}
-  Path(const Path& other) noexcept : pool_(other.pool_), node_(other.node_) {
-    if (node_ != nullptr) node_->refs.fetch_add(1, std::memory_order_relaxed);
-  }
-  Path(Path&& other) noexcept : pool_(other.pool_), node_(std::exchange(other.node_, nullptr)) {}
-  Path& operator=(Path other) noexcept {
-    std::swap(pool_, other.pool_);
-    std::swap(node_, other.node_);
-    return *this;
-  }
-  // Releases the nodes this path alone keeps alive one at a time: a recursive release would nest
-  // one call per step of a path thousands of steps long.
-  ~Path() {
-    for (PathNode* node = node_; node != nullptr && node->refs.fetch_sub(1, std::memory_order_acq_rel) == 1;) {
-      PathNode* parent = node->parent;
-      node->~PathNode();
-      pool_->deallocate(node);
-      node = parent;
-    }
-  }
-
-  const PathNode* newest() const { return node_; }
-
-  /// Replaces the newest pose (same time): in place when no other path shares the node, which is
-  /// the rule, since resampling shares paths only after a scan and a prediction adds an unshared node.
-  void replace_newest(const Pose2& pose) {
-    if (node_->refs.load(std::memory_order_acquire) == 1) {
-      node_->pose = pose;
-      return;
-    }
-    Path parent;
-    parent.pool_ = pool_;
-    parent.node_ = node_->parent;
-    if (parent.node_ != nullptr) parent.node_->refs.fetch_add(1, std::memory_order_relaxed);
-    *this = Path(*pool_, node_->t, pose, std::move(parent));
-  }
-
- private:
-  NodePool* pool_ = nullptr;
-  PathNode* node_ = nullptr;
-};
-
 }  // namespace
 
 // ---- Filter state --------------------------------------------------------------------------------
@@ -260,7 +101,7 @@ struct FastSlam::Impl {
     Matrix3 pose_cov = Matrix3::Zero();  // FastSLAM 2.0: prediction covariance since the last scan
     double log_weight = 0.0;             // log of the normalised weight
     LandmarkTree map;
-    Path path;
+    ParticlePath path;
   };
 
   /// What one particle does with one observation; `index` is in that particle's map.
@@ -319,9 +160,11 @@ struct FastSlam::Impl {
   const Particle& best_particle() const { return particles[best]; }
 
   FastSlamConfig config;
-  // Node memory first: it must outlive every map and path, i.e. the particles.
+  // The threads first: the node storage serves them. The node storage next: it must outlive every
+  // map and path, i.e. the particles.
+  WorkerPool pool;
   LandmarkTree::NodeStorage map_nodes;
-  NodePool path_nodes;
+  ParticlePath::NodeStorage path_nodes;
   std::shared_ptr<const MotionModel> motion;
   std::shared_ptr<const ObservationModel> observation;
   Matrix2 r;
@@ -331,7 +174,6 @@ struct FastSlam::Impl {
   ExistenceRule existence;
   double log_p0 = 0.0;
 
-  WorkerPool pool;
   std::vector<Particle> particles;
   std::vector<Slot> slots;
   std::vector<double> weights;
@@ -388,15 +230,15 @@ unsigned thread_count(unsigned requested) {
 FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
                      std::shared_ptr<const ObservationModel> observation_model, const FastSlamConfig& cfg)
     : config((validate(cfg), cfg)),
-      map_nodes(thread_count(cfg.threads)),
-      path_nodes(sizeof(PathNode), thread_count(cfg.threads), kPathChunkNodes),
+      pool(thread_count(cfg.threads)),
+      map_nodes(pool),
+      path_nodes(pool),
       motion(std::move(motion_model)),
       observation(std::move(observation_model)),
       gates(Gates::from(cfg.association)),
       gate_known(cfg.association.gate_known.value_or(false)),
       association_view(slamkit::association_view(cfg.sensor, cfg.association)),
       existence(cfg.association, cfg.sensor),
-      pool(thread_count(cfg.threads)),
       resample_rng(splitmix64(cfg.seed ^ 0x526573616d706c65ULL)),
       grid(std::max(5.0, 0.5 * cfg.sensor.max_range)) {
   if (!motion || !observation) throw std::invalid_argument("FastSLAM needs a motion and an observation model");
@@ -423,8 +265,8 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
 }
 
 void FastSlam::Impl::start(double t) {
-  if (particles.front().path.newest() != nullptr) return;
-  const Path root(path_nodes, t, particles.front().pose, Path());
+  if (!particles.front().path.empty()) return;
+  const ParticlePath root(path_nodes, t, particles.front().pose);
   for (Particle& p : particles) p.path = root;
 }
 
@@ -438,7 +280,7 @@ void FastSlam::Impl::predict_particle(std::size_t i, const ControlEvent& c) {
     p.pose_cov = symmetric(f * p.pose_cov * f.transpose() + motion->process_noise(p.pose, c.u, c.dt));
     p.pose = motion->predict(p.pose, c.u, c.dt);
   }
-  p.path = Path(path_nodes, c.t, p.pose, std::move(p.path));
+  p.path.extend(c.t, p.pose);
 }
 
 void FastSlam::Impl::plan_known_association(const ScanEvent& scan, std::size_t scan_index) {
@@ -867,13 +709,7 @@ std::vector<Landmark> FastSlam::landmarks() const {
 
 const std::vector<AssociationRecord>& FastSlam::last_associations() const { return impl_->last_records; }
 
-std::vector<StampedPose> FastSlam::smoothed_trajectory() const {
-  std::vector<StampedPose> out;
-  for (const PathNode* node = impl_->best_particle().path.newest(); node != nullptr; node = node->parent)
-    out.push_back({node->t, node->pose});
-  std::reverse(out.begin(), out.end());
-  return out;
-}
+std::vector<StampedPose> FastSlam::smoothed_trajectory() const { return impl_->best_particle().path.poses(); }
 
 std::vector<WeightedPose> FastSlam::pose_samples() const {
   const Impl& s = *impl_;

@@ -69,10 +69,10 @@ class BasicLandmarkTree {
  public:
   static constexpr int kFanOut = FanOut;
 
-  /// Pools for the nodes of the maps made with it, safe for `threads` thread slots (pool_thread_slot).
+  /// Pools for the nodes of the maps made with it, for the threads of `threads` (see NodePool).
   class NodeStorage {
    public:
-    explicit NodeStorage(unsigned threads)
+    explicit NodeStorage(const WorkerPool& threads)
         : leaves_(sizeof(Leaf), threads, kChunkNodes), inners_(sizeof(Inner), threads, kChunkNodes) {}
 
    private:
