@@ -35,7 +35,8 @@ void validate(const AssociationConfig& c) {
   if (c.confirm_after < 1) fail("confirm_after", ">= 1", c.confirm_after);
   if (c.provisional_max_misses < 1) fail("provisional_max_misses", ">= 1", c.provisional_max_misses);
   if (c.confirmed_max_misses < 0) fail("confirmed_max_misses", ">= 0 (0: never remove)", c.confirmed_max_misses);
-  if (!(std::isfinite(c.view_margin_m) && c.view_margin_m >= 0.0)) fail("view_margin_m", "finite and >= 0", c.view_margin_m);
+  if (!(std::isfinite(c.view_margin_m) && c.view_margin_m >= 0.0))
+    fail("view_margin_m", "finite and >= 0", c.view_margin_m);
   if (!(std::isfinite(c.view_margin_rad) && c.view_margin_rad >= 0.0))
     fail("view_margin_rad", "finite and >= 0", c.view_margin_rad);
   if (c.jcbb_max_nodes < 1) fail("jcbb_max_nodes", ">= 1", c.jcbb_max_nodes);
