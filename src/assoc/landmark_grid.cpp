@@ -1,6 +1,5 @@
 #include "slamkit/assoc/landmark_grid.hpp"
 
-#include <algorithm>
 #include <stdexcept>
 
 namespace slamkit {
@@ -65,20 +64,13 @@ void LandmarkGrid::query(const Vector2& centre, double radius, std::vector<std::
   lo_y_ = column(centre.y() - radius);
   hi_x_ = column(centre.x() + radius);
   hi_y_ = column(centre.y() + radius);
+  // One pass over the square and the ring around it: the ring's cells are only created.
   for (std::int64_t ix = lo_x_ - 1; ix <= hi_x_ + 1; ++ix)
-    for (std::int64_t iy = lo_y_ - 1; iy <= hi_y_ + 1; ++iy) cells_.try_emplace(pack(ix, iy), kNone);
-  std::size_t listed = 0;
-  for_each_queried_cell([&](Cell, std::uint32_t head) {
-    for (std::uint32_t n = head; n != kNone; n = nodes_[n].next) ++listed;
-  });
-  // Twice the room when it must grow, so that a scan a little busier than any before does not
-  // allocate again.
-  if (out.capacity() < listed) out.reserve(2 * listed);
-  for_each_queried_cell([&](Cell, std::uint32_t head) {
-    for (std::uint32_t n = head; n != kNone; n = nodes_[n].next) out.push_back(nodes_[n].index);
-  });
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
+    for (std::int64_t iy = lo_y_ - 1; iy <= hi_y_ + 1; ++iy) {
+      const std::uint32_t head = cells_.try_emplace(pack(ix, iy), kNone).first->second;
+      if (ix < lo_x_ || ix > hi_x_ || iy < lo_y_ || iy > hi_y_) continue;
+      for (std::uint32_t n = head; n != kNone; n = nodes_[n].next) out.push_back(nodes_[n].index);
+    }
 }
 
 }  // namespace slamkit

@@ -203,6 +203,7 @@ void EkfSlam::find_candidates(const SensorView& view) {
   const ObservationModel& model = estimator_->observation_model();
   for (const std::uint32_t j : nearby_)
     if (view.contains(model.predict(xv, estimator_->landmark_position(j)))) candidates_.push_back(j);
+  std::sort(candidates_.begin(), candidates_.end());
 }
 
 const std::vector<Pairing>& EkfSlam::associate_scan(const ScanEvent& scan) {

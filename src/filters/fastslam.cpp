@@ -152,7 +152,10 @@ void FastSlam::Impl::gather_candidates() {
   // by any heading difference), and the grid lists every landmark version at its current mean.
   const Vector2 sensor = observation->inverse(centre_pose, Vector2::Zero());
   const double radius = association_view.reach() + spread + 2.0 * (sensor - centre_pose.head<2>()).norm();
+  // Each landmark once, in index order: a particle's candidates stop at the first index beyond its map.
   grid.query(sensor, radius, scan_candidates);
+  std::sort(scan_candidates.begin(), scan_candidates.end());
+  scan_candidates.erase(std::unique(scan_candidates.begin(), scan_candidates.end()), scan_candidates.end());
 }
 
 void FastSlam::Impl::assign_new_ids(std::size_t observations, std::size_t scan_index) {

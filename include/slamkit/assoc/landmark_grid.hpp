@@ -39,7 +39,8 @@ class LandmarkGrid {
   /// Empties every cell.
   void clear();
   /// Replaces `out` with the landmarks listed in the cells that touch the square around the disc
-  /// (centre, radius), sorted, each once. The next prune() visits those cells.
+  /// (centre, radius), cell by cell: an index listed in several of them comes once per cell. The
+  /// next prune() visits those cells.
   void query(const Vector2& centre, double radius, std::vector<std::uint32_t>& out);
   /// Drops the entries of the last query's cells for which needed(cell, index) is false: they are
   /// where stale entries cost, and where map management has just been at work.
