@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "slamkit/angles.hpp"
+#include "slamkit/core/angles.hpp"
 
 namespace slamkit {
 
