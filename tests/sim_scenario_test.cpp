@@ -472,7 +472,8 @@ TEST(WorldFile, BadRouteLinesAreNamed) {
 
 TEST(Scenario, NamesGiveTheirWorldsAndSettings) {
   EXPECT_EQ(scenario_names(),
-            (std::vector<std::string>{"default", "loop-closure", "cluttered", "loop-closure-cluttered"}));
+            (std::vector<std::string>{"default", "loop-closure", "cluttered", "loop-closure-cluttered", "sparse",
+                                      "sparse-cluttered"}));
   for (const std::string& name : scenario_names()) EXPECT_EQ(scenario(name).name, name);
 
   const Scenario plain = scenario("default");

@@ -302,7 +302,7 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
   const MotionModel& motion = *out.motion;
   const ObservationModel& sensor = *out.observation;
   const Vector2 heading = waypoints[1] - waypoints[0];
-  Pose2 pose(waypoints[0].x(), waypoints[0].y(), std::atan2(heading.y(), heading.x()));
+  Pose2 pose = world.start.value_or(Pose2(waypoints[0].x(), waypoints[0].y(), std::atan2(heading.y(), heading.x())));
   out.initial_pose = pose;
   out.truth.poses_have_heading = true;
   out.truth.landmarks = world.landmarks;
@@ -336,7 +336,8 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
   long deadline = 0;
   double steer = 0.0;
   for (long k = 1;; ++k) {
-    bool arrived = false;
+    // A start away from the first waypoint gets the same patience as each arrival.
+    bool arrived = k == 1;
     while (arrivals < arrivals_to_finish &&
            (waypoints[arrivals % n] - pose.head<2>()).norm() < config.waypoint_tolerance) {
       ++arrivals;
@@ -408,13 +409,16 @@ struct ScenarioEntry {
   World (*world)();
   bool loop;       // one lap: a loop-closure route is driven once
   bool cluttered;  // the detection of the data-association experiments
+  bool forward_sensor;  // the 180 degree field of view of the reference simulator's example
 };
 
 const ScenarioEntry kScenarios[] = {
-    {"default", &default_world, false, false},
-    {"loop-closure", &loop_closure_world, true, false},
-    {"cluttered", &default_world, false, true},
-    {"loop-closure-cluttered", &loop_closure_world, true, true},
+    {"default", &default_world, false, false, false},
+    {"loop-closure", &loop_closure_world, true, false, false},
+    {"cluttered", &default_world, false, true, false},
+    {"loop-closure-cluttered", &loop_closure_world, true, true, false},
+    {"sparse", &sparse_world, false, false, true},
+    {"sparse-cluttered", &sparse_world, false, true, true},
 };
 
 }  // namespace
@@ -427,6 +431,7 @@ Scenario scenario(const std::string& name) {
         fmt::format("unknown scenario '{}'; expected one of: {}", name, fmt::join(scenario_names(), ", ")));
   Scenario s{entry->name, entry->world(), SimulatorConfig{}};
   if (entry->loop) s.config.loops = 1;
+  if (entry->forward_sensor) s.config.fov = deg2rad(180.0);
   if (entry->cluttered) {
     s.config.clutter_rate = 1.0;
     s.config.detection_probability = 0.9;
