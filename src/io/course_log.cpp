@@ -139,6 +139,9 @@ Dataset read_course_log(const std::string& path, const CourseOptions& options) {
   dataset.initial_pose = Pose2::Zero();
   dataset.events = read_sensor_data(sensor_file, options.step_period);
   if (fs::exists(world_file)) dataset.truth.landmarks = read_world(world_file);
+  // The log's ids are the landmarks' identities, numbered as in world.dat: recorded as the truth,
+  // they let the evaluation pair a map built without them with the true one.
+  dataset.truth.observation_ids = observation_ids(dataset.events);
   return dataset;
 }
 

@@ -345,6 +345,9 @@ Dataset read_mrclam(const std::string& dataset_dir, int robot, const MrclamOptio
     truth.poses = std::move(poses);
   }
   stats.truth_poses = truth.poses.size();
+  // The barcodes identify the landmarks, numbered as in the landmark truth: recorded as the truth,
+  // they let the evaluation pair a map built without them with the true one.
+  truth.observation_ids = observation_ids(dataset.events);
   return dataset;
 }
 
