@@ -207,6 +207,16 @@ int main(int argc, char** argv) {
     std::cerr << "slamkit: error: " << e.what() << " (see '" << help << "')\n";
     return kExitUsage;
   }
+  // The filter settings as a whole, by the library's own check (which make_filter repeats), before
+  // any data is read.
+  if (*run_cmd) {
+    try {
+      validate(filter);
+    } catch (const std::invalid_argument& e) {
+      std::cerr << "slamkit: error: " << e.what() << " (see 'slamkit run --help')\n";
+      return kExitUsage;
+    }
+  }
 
   try {
     if (*simulate_cmd) {
@@ -232,7 +242,6 @@ int main(int argc, char** argv) {
       write_world(world_out, generate_world(gen));
       fmt::print("wrote {} ({} landmarks)\n", world_out, gen.landmarks);
     } else if (*run_cmd) {
-      validate(filter);
       if (filter.ekf_variant == EkfVariant::kCompressed && filter.ekf_update == EkfUpdate::kJoint &&
           run_cmd->count("--ekf-update") > 0)
         std::cerr << "slamkit: warning: the compressed EKF updates one observation at a time; --ekf-update joint "
