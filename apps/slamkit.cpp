@@ -2,14 +2,16 @@
 // calls the public API, and reports. Bad input of any kind ends in one line on stderr naming the
 // file, the line and what was expected, and a non-zero exit code.
 #include <CLI/CLI.hpp>
+#include <charconv>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fmt/format.h>
-#include <fstream>
 #include <iostream>
-#include <nlohmann/json.hpp>
+#include <stdexcept>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
 #include "slamkit/eval/evaluation.hpp"
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/io/load_dataset.hpp"
@@ -29,14 +31,51 @@ namespace {
 constexpr int kExitBadInput = 1;
 constexpr int kExitUsage = 2;
 
-SimulatorConfig read_simulator_config(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path, 0, "cannot open file for reading");
-  try {
-    return simulator_config_from_json(nlohmann::json::parse(in), path);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path, 0, std::string("expected a JSON simulator configuration: ") + e.what());
-  }
+// CLI11's own range checks print the limits of a double in full (310 digits); these say the range in
+// words. An integer option is checked here as text, so that "1.5" gets the same message as "0".
+CLI::Validator integer_at_least(unsigned long long min) {
+  const std::string expected = fmt::format("an integer >= {}", min);
+  return CLI::Validator(
+      [=](std::string& text) {
+        unsigned long long v = 0;
+        const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), v);
+        if (error != std::errc() || end != text.data() + text.size() || v < min)
+          return fmt::format("expected {}, found {}", expected, text);
+        return std::string();
+      },
+      "");
+}
+
+CLI::Validator number_where(const std::string& expected, bool (*ok)(double)) {
+  return CLI::Validator(
+      [=](std::string& text) {
+        double v = 0.0;
+        if (!CLI::detail::lexical_cast(text, v) || !ok(v)) return fmt::format("expected {}, found {}", expected, text);
+        return std::string();
+      },
+      "");
+}
+
+/// A setting given by name and parsed by the library (a filter, an association method, a resampling
+/// scheme or policy): a name the parser rejects is a usage error carrying the parser's message,
+/// which lists the accepted names. The help shows the default under its name.
+template <typename T>
+CLI::Option* add_named(CLI::App* cmd, const std::string& flag, T& target, T (*parse)(const std::string&),
+                       const std::string& help) {
+  return cmd
+      ->add_option_function<std::string>(
+          flag, [&target, parse](const std::string& text) { target = parse(text); }, help)
+      ->check(CLI::Validator(
+          [parse](std::string& text) {
+            try {
+              parse(text);
+            } catch (const std::invalid_argument& e) {
+              return std::string(e.what());
+            }
+            return std::string();
+          },
+          ""))
+      ->default_str(to_string(target));
 }
 
 void print_outputs(const std::string& dir, const Metrics& metrics) {
@@ -81,11 +120,14 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   simulate_cmd->add_option("--config", config_path, "Simulator settings (JSON); default: the reference simulator's")
       ->check(CLI::ExistingFile);
-  simulate_cmd->add_option("--seed", sim_seed, "Random seed; the same seed gives the same log")->capture_default_str();
-  simulate_cmd->add_option("--loops", loops, "Laps of the route (overrides the config)")->check(CLI::PositiveNumber);
-  simulate_cmd->add_option("--clutter", clutter, "False detections per scan (Poisson mean)")->check(CLI::NonNegativeNumber);
+  simulate_cmd->add_option("--seed", sim_seed, "Random seed; the same seed gives the same log")
+      ->capture_default_str()
+      ->check(integer_at_least(0));
+  simulate_cmd->add_option("--loops", loops, "Laps of the route (overrides the config)")->check(integer_at_least(1));
+  simulate_cmd->add_option("--clutter", clutter, "False detections per scan (Poisson mean)")
+      ->check(number_where(">= 0", [](double v) { return v >= 0.0 && std::isfinite(v); }));
   simulate_cmd->add_option("--detection-prob", detection, "Probability of detecting a landmark in view")
-      ->check(CLI::Range(0.0, 1.0));
+      ->check(number_where("in [0, 1]", [](double v) { return v >= 0.0 && v <= 1.0; }));
   simulate_cmd->add_flag("--no-ids", no_ids, "Withhold landmark identities from the log (kept in the truth)");
   simulate_cmd->add_option("--out", sim_out, "Output folder for the log and ground truth")->required();
 
@@ -93,42 +135,49 @@ int main(int argc, char** argv) {
   auto* world_cmd = app.add_subcommand("make-world", "Generate a world file (a loop route with landmarks)");
   WorldGenOptions gen;
   std::string world_out;
-  world_cmd->add_option("--landmarks", gen.landmarks, "Number of landmarks")->capture_default_str()->check(CLI::PositiveNumber);
-  world_cmd->add_option("--width", gen.width, "Route width [m]")->capture_default_str()->check(CLI::PositiveNumber);
-  world_cmd->add_option("--height", gen.height, "Route height [m]")->capture_default_str()->check(CLI::PositiveNumber);
+  world_cmd->add_option("--landmarks", gen.landmarks, "Number of landmarks")
+      ->capture_default_str()
+      ->check(integer_at_least(1));
+  const CLI::Validator positive = number_where("> 0", [](double v) { return v > 0.0 && std::isfinite(v); });
+  world_cmd->add_option("--width", gen.width, "Route width [m]")->capture_default_str()->check(positive);
+  world_cmd->add_option("--height", gen.height, "Route height [m]")->capture_default_str()->check(positive);
   world_cmd->add_option("--band", gen.band_outer, "Landmarks lie up to this far from the route [m]")->capture_default_str();
-  world_cmd->add_option("--seed", gen.seed, "Random seed")->capture_default_str();
+  world_cmd->add_option("--seed", gen.seed, "Random seed")->capture_default_str()->check(integer_at_least(0));
   world_cmd->add_option("--out", world_out, "World file to write")->required();
 
   // ---- run ----
+  // Every filter setting is parsed and checked here, before any data is read: a misspelt name or a
+  // value out of range is a usage error.
   auto* run_cmd = app.add_subcommand("run", "Run a SLAM filter on a dataset and evaluate it");
   FilterConfig filter;
-  std::string data_spec, run_out, assoc_name = "known", data_config;
-  run_cmd->add_option("--filter", filter.name, "Filter: ekf, fastslam1, fastslam2")->capture_default_str();
-  run_cmd->add_option("--assoc", assoc_name, "Data association: known (ids from the log), nn, jcbb")
-      ->capture_default_str();
+  std::string data_spec, run_out, data_config;
+  add_named(run_cmd, "--filter", filter.filter, parse_filter_kind, "Filter: ekf, fastslam1, fastslam2");
+  add_named(run_cmd, "--assoc", filter.association.method, parse_association_method,
+            "Data association: known (ids from the log), nn, jcbb");
   run_cmd->add_option("--data", data_spec,
                       "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN, course:DIR")
       ->required();
   run_cmd->add_option("--data-config", data_config,
                       "Dataset settings (JSON: noise, sensor limits); the defaults are config/*.json")
       ->check(CLI::ExistingFile);
-  run_cmd->add_option("--seed", filter.seed, "Random seed for stochastic filters")->capture_default_str();
+  run_cmd->add_option("--seed", filter.seed, "Random seed for stochastic filters")
+      ->capture_default_str()
+      ->check(integer_at_least(0));
   run_cmd->add_option("--particles", filter.particles, "FastSLAM: number of particles")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
-  run_cmd->add_option("--resample", filter.resample, "FastSLAM: multinomial, stratified, systematic or residual")
-      ->capture_default_str();
-  run_cmd->add_option("--resample-when", filter.resample_when,
-                      "FastSLAM: always, every:K (scans) or ess:F (effective sample size below F*N)")
-      ->capture_default_str();
-  run_cmd->add_option("--threads", filter.threads, "FastSLAM: worker threads (0: all cores)")->capture_default_str();
-  run_cmd->add_option("--ekf-update", filter.ekf_update,
-                      "EKF: sequential (one observation after another) or joint (a scan at once)")
-      ->capture_default_str();
-  run_cmd->add_option("--ekf-variant", filter.ekf_variant,
-                      "EKF: full, or compressed (local-area updates, the same result)")
-      ->capture_default_str();
+      ->check(integer_at_least(1));
+  add_named(run_cmd, "--resample", filter.resample, parse_resample_method,
+            "FastSLAM: multinomial, stratified, systematic or residual");
+  add_named(run_cmd, "--resample-when", filter.resample_when, parse_resample_policy,
+            "FastSLAM: always, every:K (scans) or ess:F (effective sample size below F*N)");
+  run_cmd->add_option("--threads", filter.threads, "FastSLAM: worker threads (0: all cores)")
+      ->capture_default_str()
+      ->check(integer_at_least(0));
+  add_named(run_cmd, "--ekf-update", filter.ekf_update, parse_ekf_update,
+            "EKF: joint (a scan at once) or sequential (one observation after another); the compressed "
+            "variant is always sequential");
+  add_named(run_cmd, "--ekf-variant", filter.ekf_variant, parse_ekf_variant,
+            "EKF: full, or compressed (local-area updates, the same result as full with sequential updates)");
   run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots")->required();
 
   // ---- evaluate ----
@@ -158,12 +207,23 @@ int main(int argc, char** argv) {
     std::cerr << "slamkit: error: " << e.what() << " (see '" << help << "')\n";
     return kExitUsage;
   }
+  // The filter settings as a whole, by the library's own check (which make_filter repeats), before
+  // any data is read.
+  if (*run_cmd) {
+    try {
+      validate(filter);
+    } catch (const std::invalid_argument& e) {
+      std::cerr << "slamkit: error: " << e.what() << " (see 'slamkit run --help')\n";
+      return kExitUsage;
+    }
+  }
 
   try {
     if (*simulate_cmd) {
       const Scenario base = scenario(scenario_name);
       const World world = world_path.empty() ? base.world : read_world(world_path);
-      SimulatorConfig config = config_path.empty() ? base.config : read_simulator_config(config_path);
+      SimulatorConfig config =
+          config_path.empty() ? base.config : simulator_config_from_json(read_json_file(config_path), config_path);
       if (simulate_cmd->count("--seed") || config_path.empty()) config.seed = sim_seed;
       if (loops > 0) config.loops = loops;
       if (clutter >= 0.0) config.clutter_rate = clutter;
@@ -182,13 +242,16 @@ int main(int argc, char** argv) {
       write_world(world_out, generate_world(gen));
       fmt::print("wrote {} ({} landmarks)\n", world_out, gen.landmarks);
     } else if (*run_cmd) {
-      filter.association.method = parse_association_method(assoc_name);
+      if (filter.ekf_variant == EkfVariant::kCompressed && filter.ekf_update == EkfUpdate::kJoint &&
+          run_cmd->count("--ekf-update") > 0)
+        std::cerr << "slamkit: warning: the compressed EKF updates one observation at a time; --ekf-update joint "
+                     "is ignored and the run is sequential\n";
       const Dataset dataset = load_dataset(data_spec, data_config);
       if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
         throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
       auto slam = make_filter(filter, dataset);
       RunResult run = run_filter(*slam, dataset);
-      run.association = assoc_name;
+      run.association = to_string(filter.association.method);
       run.dataset_settings = data_config;
       write_run(run_out, run);
       print_outputs(run_out, evaluate_and_report(run_out, run, dataset));

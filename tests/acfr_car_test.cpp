@@ -1,13 +1,10 @@
-// The ACFR car model: Jacobians against central differences, and the kinematics against the exact
-// circular motion of the rear axle that the model is derived from.
+// The ACFR car model: the kinematics against the exact circular motion of the rear axle that the
+// model is derived from (its Jacobians: model_properties_test.cpp).
 #include "slamkit/models/acfr_car.hpp"
 
 #include <gtest/gtest.h>
 
-#include "test_data.hpp"
-
 #include <Eigen/Geometry>
-#include <functional>
 #include <stdexcept>
 
 #include "slamkit/core/angles.hpp"
@@ -15,8 +12,6 @@
 using namespace slamkit;
 
 namespace {
-
-using test_data::numeric_jacobian;
 
 Control control(double speed, double steer) {
   Control u(2);
@@ -30,30 +25,6 @@ Eigen::Vector2d rear_axle(const AcfrCarModel::Params& p, const Pose2& x) {
 }
 
 }  // namespace
-
-TEST(AcfrCarModel, JacobiansMatchNumericDifferentiation) {
-  const AcfrCarModel model;
-  const std::vector<Pose2> poses = {Pose2(0, 0, 0), Pose2(1.5, -2.0, 0.7), Pose2(-3, 4, -2.9),
-                                    Pose2(10, 2, kPi - 1e-3)};
-  for (const Pose2& x : poses) {
-    for (const double steer : {-0.55, -0.1, 0.0, 0.3, 0.56}) {
-      for (const double speed : {0.0, 3.2, -0.05}) {
-        const Control u = control(speed, steer);
-        const double dt = 0.025;
-        const auto fx =
-            numeric_jacobian<3>([&](const Eigen::VectorXd& s) { return model.predict(s, u, dt); }, x, {2});
-        const auto fu =
-            numeric_jacobian<3>([&](const Eigen::VectorXd& c) { return model.predict(x, Control(c), dt); }, u, {2});
-        EXPECT_LT((Eigen::MatrixXd(model.jacobian_state(x, u, dt)) - fx).norm(), 1e-8)
-            << model.jacobian_state(x, u, dt) << "\n"
-            << fx;
-        EXPECT_LT((Eigen::MatrixXd(model.jacobian_control(x, u, dt)) - fu).norm(), 1e-7)
-            << model.jacobian_control(x, u, dt) << "\n"
-            << fu;
-      }
-    }
-  }
-}
 
 TEST(AcfrCarModel, StraightDrivingMovesTheLaserAlongTheHeading) {
   const AcfrCarModel model;

@@ -191,7 +191,9 @@ TEST_F(CourseLog, StepsWithoutSensorLinesHaveNoScanAndStepPeriodSetsTimes) {
   EXPECT_EQ(scan.t, 1.0);
   ASSERT_EQ(scan.observations.size(), 2u);
   EXPECT_NEAR(scan.observations[1].z[1], 7.0 - 2 * kPi, 1e-12);  // bearings are wrapped
-  EXPECT_TRUE(d.truth.empty());  // no world.dat: no truth
+  EXPECT_TRUE(d.truth.empty());  // no world.dat: no truth of poses or landmarks
+  // The ids are the landmarks' identities, and so the truth's observation ids, scan by scan.
+  EXPECT_EQ(d.truth.observation_ids, (std::vector<std::vector<int>>{{2, 1}}));
 }
 
 TEST_F(CourseLog, MalformedSensorDataIsNamed) {

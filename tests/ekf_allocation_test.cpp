@@ -56,8 +56,8 @@ TEST_P(EkfAllocationFree, SecondLapMakesNoHeapAllocation) {
   const Dataset& data = built_in_world(mode.method == AssociationMethod::kKnown);
   FilterConfig config;
   config.association.method = mode.method;
-  config.ekf_update = mode.update;
-  config.ekf_variant = mode.variant;
+  config.ekf_update = parse_ekf_update(mode.update);
+  config.ekf_variant = parse_ekf_variant(mode.variant);
   const std::unique_ptr<SlamFilter> filter = make_filter(config, data);
 
   // Scan i of the stream starts at event scan_events[i]; the truth at each scan time is looked up

@@ -36,9 +36,9 @@ struct VariantPair {
   VariantPair(const Dataset& data, AssociationMethod method) {
     FilterConfig config;
     config.association.method = method;
-    config.ekf_update = "sequential";
+    config.ekf_update = EkfUpdate::kSequential;
     full_filter = make_filter(config, data);
-    config.ekf_variant = "compressed";
+    config.ekf_variant = EkfVariant::kCompressed;
     compressed_filter = make_filter(config, data);
   }
   /// Feeds `event` to both; true when it was a scan.
@@ -233,11 +233,8 @@ TEST(EkfCompressed, RemovalFlushesAndStaysExact) {
 }
 
 TEST(EkfCompressed, FactoryRejectsAnUnknownVariant) {
-  const Dataset data = simulate(default_world(), SimulatorConfig{});
-  FilterConfig config;
-  config.ekf_variant = "sparse";
   try {
-    make_filter(config, data);
+    parse_ekf_variant("sparse");
     FAIL() << "expected std::invalid_argument";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("full, compressed"), std::string::npos) << e.what();

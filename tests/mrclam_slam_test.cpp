@@ -18,7 +18,7 @@ TEST_P(MrclamSlam, SlamBeatsDeadReckoningAgainstMotionCapture) {
   const auto& [filter_name, robot] = GetParam();
   const Dataset data = read_mrclam(dir.string(), robot);
   FilterConfig config;
-  config.name = filter_name;
+  config.filter = parse_filter_kind(filter_name);
   auto filter = make_filter(config, data);
   const Metrics m = evaluate_run(run_filter(*filter, data), data.truth);
   ASSERT_TRUE(m.ate_rmse_m && m.dead_reckoning_ate_rmse_m && m.map_rmse_m);

@@ -354,6 +354,9 @@ TEST_F(SimLog, RejectsBadParams) {
   expect_input_error([&] { read(); }, file("params.json"), 0, "[x, y, theta]");
   write_text(file("params.json"), "{\n  \"format\": \"slamkit-sim\",\n  \"version\": 1,,\n}\n");
   expect_input_error([&] { read(); }, file("params.json"), 3, "invalid JSON");
+  // Beyond a double, which nlohmann reports as out_of_range rather than as a parse error.
+  write_text(file("params.json"), "{\n  \"format\": \"slamkit-sim\",\n  \"version\": 1e400\n}\n");
+  expect_input_error([&] { read(); }, file("params.json"), 3, "number overflow parsing '1e400'");
 }
 
 TEST(SimLogWriter, LeavesOutScansWithoutObservations) {

@@ -56,6 +56,23 @@ Eigen::MatrixXd numeric_jacobian(const std::function<Eigen::Matrix<double, Rows,
   return j;
 }
 
+/// The one tolerance every analytic Jacobian is held to against numeric_jacobian, entry by entry:
+/// |analytic - numeric| <= kJacobianAbsTol + kJacobianRelTol |numeric|. The central difference is
+/// off by about h^2 |f'''| / 6 (~1e-12 here) plus rounding, eps |f| / h (~4e-9 for |f| ~ 20 m), so
+/// the bounds leave a margin over both while catching any wrong term.
+inline constexpr double kJacobianAbsTol = 1e-7;
+inline constexpr double kJacobianRelTol = 1e-6;
+
+inline ::testing::AssertionResult jacobian_matches(const Eigen::MatrixXd& analytic, const Eigen::MatrixXd& numeric) {
+  if (analytic.rows() != numeric.rows() || analytic.cols() != numeric.cols())
+    return ::testing::AssertionFailure() << "analytic " << analytic.rows() << "x" << analytic.cols() << ", numeric "
+                                         << numeric.rows() << "x" << numeric.cols();
+  const Eigen::ArrayXXd excess =
+      (analytic - numeric).array().abs() - (kJacobianAbsTol + kJacobianRelTol * numeric.array().abs());
+  if ((excess <= 0.0).all()) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "analytic\n" << analytic << "\nnumeric\n" << numeric;
+}
+
 /// A directory of the current test's own, removed afterwards.
 class ScratchDir {
  public:

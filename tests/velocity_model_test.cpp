@@ -1,11 +1,8 @@
-// The velocity (unicycle) motion model: Jacobians against central differences, known motions, and the
-// noise scaling that makes the pose uncertainty independent of the control rate.
+// The velocity (unicycle) motion model: known motions, and the noise scaling that makes the pose
+// uncertainty independent of the control rate (its Jacobians: model_properties_test.cpp).
 #include <gtest/gtest.h>
 
-#include "test_data.hpp"
-
 #include <cmath>
-#include <functional>
 #include <vector>
 
 #include "slamkit/core/angles.hpp"
@@ -21,28 +18,7 @@ Control control(double v, double omega) {
   return u;
 }
 
-using test_data::numeric_jacobian;
-
 }  // namespace
-
-TEST(VelocityModel, JacobiansMatchNumericDifferentiation) {
-  const VelocityModel model;
-  const std::vector<Pose2> poses = {Pose2(0, 0, 0), Pose2(1.5, -2.0, 0.7), Pose2(-3, 4, -2.9),
-                                    Pose2(10, 2, kPi - 1e-3)};
-  for (const Pose2& x : poses) {
-    for (const Control& u : {control(0.086, -0.4), control(0.05, 0.0), control(-0.3, 0.57), control(2.0, 3.0)}) {
-      for (const double dt : {0.015, 0.5}) {
-        const Eigen::MatrixXd fx = numeric_jacobian<3>([&](const Eigen::VectorXd& s) { return model.predict(s, u, dt); }, x, {2});
-        const Eigen::MatrixXd fu =
-            numeric_jacobian<3>([&](const Eigen::VectorXd& c) { return model.predict(x, Control(c), dt); }, u, {2});
-        EXPECT_LT((Eigen::MatrixXd(model.jacobian_state(x, u, dt)) - fx).norm(), 1e-8)
-            << model.jacobian_state(x, u, dt) << "\n" << fx;
-        EXPECT_LT((Eigen::MatrixXd(model.jacobian_control(x, u, dt)) - fu).norm(), 1e-8)
-            << model.jacobian_control(x, u, dt) << "\n" << fu;
-      }
-    }
-  }
-}
 
 TEST(VelocityModel, KnownMotions) {
   const VelocityModel model;

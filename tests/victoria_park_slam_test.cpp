@@ -17,7 +17,7 @@ namespace {
 Metrics run_victoria_park(const std::string& filter_name, AssociationMethod method, int particles = 100) {
   const Dataset data = read_victoria_park(test_data::shared_dataset("victoria_park").string());
   FilterConfig config;
-  config.name = filter_name;
+  config.filter = parse_filter_kind(filter_name);
   config.association.method = method;
   config.particles = particles;
   auto filter = make_filter(config, data);

@@ -82,6 +82,15 @@ std::vector<Landmark> relabel_by_origin(const std::vector<Landmark>& map, const 
   return out;
 }
 
+/// The estimated map with the true ids it is paired by (see the header), or nothing when it cannot
+/// be paired: without known association a filter numbers its landmarks itself, and only their
+/// origins link them to the truth.
+std::optional<std::vector<Landmark>> map_with_true_ids(const RunResult& run, const std::optional<OriginTable>& origins) {
+  if (origins) return relabel_by_origin(run.map, *origins);
+  if (run.association == "known") return run.map;
+  return std::nullopt;
+}
+
 }  // namespace
 
 Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const EvaluationOptions& options) {
@@ -97,11 +106,11 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
   m.filter_statistics = run.statistics;
   const std::optional<OriginTable> origins = score_associations(run, truth);
   if (origins) m.association = origins->metrics;
+  const std::optional<std::vector<Landmark>> map = map_with_true_ids(run, origins);
   if (truth.poses.empty()) {
     // A truth of landmarks only (a surveyed map): the map frame is the truth frame, no alignment.
-    if (!truth.landmarks.empty()) {
-      const eval::MapError map_error =
-          eval::map_rmse(origins ? relabel_by_origin(run.map, *origins) : run.map, truth.landmarks, {});
+    if (!truth.landmarks.empty() && map) {
+      const eval::MapError map_error = eval::map_rmse(*map, truth.landmarks, {});
       m.map_rmse_m = map_error.rmse;
       m.map_landmarks_paired = map_error.paired;
     }
@@ -115,9 +124,8 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
     m.ate_rmse_m = ate.rmse;
     m.final_position_error_m = ate.final_error;
     m.alignment = ate.align;
-    if (!truth.landmarks.empty()) {
-      const eval::MapError map_error =
-          eval::map_rmse(origins ? relabel_by_origin(run.map, *origins) : run.map, truth.landmarks, ate.align);
+    if (!truth.landmarks.empty() && map) {
+      const eval::MapError map_error = eval::map_rmse(*map, truth.landmarks, ate.align);
       m.map_rmse_m = map_error.rmse;
       m.map_landmarks_paired = map_error.paired;
     }

@@ -27,27 +27,23 @@ constexpr const char* kWorldFile = "world.dat";
 
 // ---- Options ----------------------------------------------------------------------------------------
 
-
-using namespace option_checks;
+using namespace option_ranges;
+using Real = RealOption<CourseOptions>;
 
 const OptionKey<CourseOptions> kOptionKeys[] = {
-    {"alpha_rot_rot", [](CourseOptions& o) -> double& { return o.motion.alpha_rot_rot; }, false, non_negative,
-     ">= 0"},
-    {"alpha_rot_trans", [](CourseOptions& o) -> double& { return o.motion.alpha_rot_trans; }, false,
-     non_negative, ">= 0"},
-    {"alpha_trans_trans", [](CourseOptions& o) -> double& { return o.motion.alpha_trans_trans; }, false,
-     non_negative, ">= 0"},
-    {"alpha_trans_rot", [](CourseOptions& o) -> double& { return o.motion.alpha_trans_rot; }, false,
-     non_negative, ">= 0"},
+    {"alpha_rot_rot", Real{[](CourseOptions& o) -> double& { return o.motion.alpha_rot_rot; }, kNonNegative}},
+    {"alpha_rot_trans", Real{[](CourseOptions& o) -> double& { return o.motion.alpha_rot_trans; }, kNonNegative}},
+    {"alpha_trans_trans",
+     Real{[](CourseOptions& o) -> double& { return o.motion.alpha_trans_trans; }, kNonNegative}},
+    {"alpha_trans_rot", Real{[](CourseOptions& o) -> double& { return o.motion.alpha_trans_rot; }, kNonNegative}},
     // A floor of zero would leave a robot standing still with a singular control noise.
-    {"min_variance", [](CourseOptions& o) -> double& { return o.motion.min_variance; }, false, positive, "> 0"},
-    {"sigma_range_m", [](CourseOptions& o) -> double& { return o.measurement.sigma_range; }, false, positive,
-     "> 0"},
-    {"sigma_bearing_deg", [](CourseOptions& o) -> double& { return o.measurement.sigma_bearing; }, true,
-     positive, "> 0"},
-    {"max_range_m", [](CourseOptions& o) -> double& { return o.sensor.max_range; }, false, positive, "> 0"},
-    {"fov_deg", [](CourseOptions& o) -> double& { return o.sensor.fov; }, true, field_of_view, "> 0 and <= 360"},
-    {"step_period_s", [](CourseOptions& o) -> double& { return o.step_period; }, false, positive, "> 0"},
+    {"min_variance", Real{[](CourseOptions& o) -> double& { return o.motion.min_variance; }, kPositive}},
+    {"sigma_range_m", Real{[](CourseOptions& o) -> double& { return o.measurement.sigma_range; }, kPositive}},
+    {"sigma_bearing_deg",
+     Real{[](CourseOptions& o) -> double& { return o.measurement.sigma_bearing; }, kPositive, Unit::kDegrees}},
+    {"max_range_m", Real{[](CourseOptions& o) -> double& { return o.sensor.max_range; }, kPositive}},
+    {"fov_deg", Real{[](CourseOptions& o) -> double& { return o.sensor.fov; }, kFieldOfView, Unit::kDegrees}},
+    {"step_period_s", Real{[](CourseOptions& o) -> double& { return o.step_period; }, kPositive}},
 };
 
 void validate(const CourseOptions& options, const std::string& source) {
@@ -122,7 +118,7 @@ std::string label(const fs::path& path) {
 }  // namespace
 
 CourseOptions course_options_from_json(const nlohmann::json& json, const std::string& source) {
-  return options_from_json<CourseOptions>(json, source, "course log options", CourseOptions{}, kOptionKeys);
+  return options_from_json<CourseOptions>(json, source, "the course log options", CourseOptions{}, kOptionKeys);
 }
 
 nlohmann::json to_json(const CourseOptions& options) { return options_to_json<CourseOptions>(options, kOptionKeys); }
@@ -143,6 +139,9 @@ Dataset read_course_log(const std::string& path, const CourseOptions& options) {
   dataset.initial_pose = Pose2::Zero();
   dataset.events = read_sensor_data(sensor_file, options.step_period);
   if (fs::exists(world_file)) dataset.truth.landmarks = read_world(world_file);
+  // The log's ids are the landmarks' identities, numbered as in world.dat: recorded as the truth,
+  // they let the evaluation pair a map built without them with the true one.
+  dataset.truth.observation_ids = observation_ids(dataset.events);
   return dataset;
 }
 

@@ -5,12 +5,12 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <iterator>
 #include <string_view>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
 #include "slamkit/io/course_log.hpp"
 #include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/sim_log.hpp"
@@ -99,16 +99,7 @@ Dataset load_dataset(const std::string& spec, const std::string& settings_path) 
                                    "{}/ or give {}:PATH",
                                    path, match->default_folder, kind));
   }
-  nlohmann::json settings;
-  if (!settings_path.empty()) {
-    std::ifstream in(settings_path);
-    if (!in) throw InputError(settings_path, 0, "cannot open file for reading");
-    try {
-      settings = nlohmann::json::parse(in);
-    } catch (const nlohmann::json::parse_error& e) {
-      throw InputError(settings_path, 0, std::string("expected JSON dataset settings: ") + e.what());
-    }
-  }
+  const nlohmann::json settings = settings_path.empty() ? nlohmann::json() : read_json_file(settings_path);
   Dataset dataset = match->read(path, settings_path.empty() ? nullptr : &settings, settings_path);
   dataset.spec = spec;
   return dataset;

@@ -32,24 +32,20 @@ constexpr int kRobots = 5;
 
 // ---- Options ----------------------------------------------------------------------------------------
 
-
-using namespace option_checks;
+using namespace option_ranges;
+using Real = RealOption<MrclamOptions>;
 
 const OptionKey<MrclamOptions> kOptionKeys[] = {
-    {"q_v_m2_per_s", [](MrclamOptions& o) -> double& { return o.motion.q_v; }, false, non_negative, ">= 0"},
-    {"q_omega_rad2_per_s", [](MrclamOptions& o) -> double& { return o.motion.q_omega; }, false,
-     non_negative, ">= 0"},
-    {"sigma_range_m", [](MrclamOptions& o) -> double& { return o.measurement.sigma_range; }, false, positive,
-     "> 0"},
-    {"sigma_bearing_deg", [](MrclamOptions& o) -> double& { return o.measurement.sigma_bearing; }, true,
-     positive, "> 0"},
-    {"sensor_offset_x_m", [](MrclamOptions& o) -> double& { return o.measurement.offset_x; }, false,
-     any, "finite"},
-    {"sensor_offset_y_m", [](MrclamOptions& o) -> double& { return o.measurement.offset_y; }, false,
-     any, "finite"},
-    {"max_range_m", [](MrclamOptions& o) -> double& { return o.sensor.max_range; }, false, positive, "> 0"},
-    {"fov_deg", [](MrclamOptions& o) -> double& { return o.sensor.fov; }, true, field_of_view, "> 0 and <= 360"},
-    {"scan_window_s", [](MrclamOptions& o) -> double& { return o.scan_window; }, false, non_negative, ">= 0"},
+    {"q_v_m2_per_s", Real{[](MrclamOptions& o) -> double& { return o.motion.q_v; }, kNonNegative}},
+    {"q_omega_rad2_per_s", Real{[](MrclamOptions& o) -> double& { return o.motion.q_omega; }, kNonNegative}},
+    {"sigma_range_m", Real{[](MrclamOptions& o) -> double& { return o.measurement.sigma_range; }, kPositive}},
+    {"sigma_bearing_deg",
+     Real{[](MrclamOptions& o) -> double& { return o.measurement.sigma_bearing; }, kPositive, Unit::kDegrees}},
+    {"sensor_offset_x_m", Real{[](MrclamOptions& o) -> double& { return o.measurement.offset_x; }, kFinite}},
+    {"sensor_offset_y_m", Real{[](MrclamOptions& o) -> double& { return o.measurement.offset_y; }, kFinite}},
+    {"max_range_m", Real{[](MrclamOptions& o) -> double& { return o.sensor.max_range; }, kPositive}},
+    {"fov_deg", Real{[](MrclamOptions& o) -> double& { return o.sensor.fov; }, kFieldOfView, Unit::kDegrees}},
+    {"scan_window_s", Real{[](MrclamOptions& o) -> double& { return o.scan_window; }, kNonNegative}},
 };
 
 void validate(const MrclamOptions& options, const std::string& source) {
@@ -76,7 +72,9 @@ bool parse_time(std::string_view s, UnixTime& out) {
     out.seconds = 0;  // no fraction to split off: any number will do
     return parse_double(s, out.fraction);
   }
-  const std::string fraction = "0" + std::string(s.substr(dot));
+  // Appended rather than concatenated with operator+, over which gcc 12 warns falsely (-Wrestrict).
+  std::string fraction = "0";
+  fraction += s.substr(dot);
   if (!parse_long(s.substr(0, dot), out.seconds) || !parse_double(fraction, out.fraction)) return false;
   if (s.front() == '-') out.fraction = -out.fraction;
   return true;
@@ -296,7 +294,7 @@ std::string last_component(std::string dir) {
 }  // namespace
 
 MrclamOptions mrclam_options_from_json(const nlohmann::json& json, const std::string& source) {
-  return options_from_json<MrclamOptions>(json, source, "MRCLAM options", MrclamOptions{}, kOptionKeys);
+  return options_from_json<MrclamOptions>(json, source, "the MRCLAM options", MrclamOptions{}, kOptionKeys);
 }
 
 nlohmann::json to_json(const MrclamOptions& options) { return options_to_json<MrclamOptions>(options, kOptionKeys); }
@@ -347,6 +345,9 @@ Dataset read_mrclam(const std::string& dataset_dir, int robot, const MrclamOptio
     truth.poses = std::move(poses);
   }
   stats.truth_poses = truth.poses.size();
+  // The barcodes identify the landmarks, numbered as in the landmark truth: recorded as the truth,
+  // they let the evaluation pair a map built without them with the true one.
+  truth.observation_ids = observation_ids(dataset.events);
   return dataset;
 }
 

@@ -6,9 +6,11 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
 #include "slamkit/io/trajectory_io.hpp"
 
@@ -174,9 +176,8 @@ RunResult read_run(const std::string& dir) {
   const std::string info_path = path_in(dir, "run.json");
   std::ifstream in(info_path);
   if (!in) throw InputError(info_path, 0, "cannot open file for reading (is this a slamkit run folder?)");
-  nlohmann::json info;
+  const nlohmann::json info = parse_json(std::string(std::istreambuf_iterator<char>(in), {}), info_path);
   try {
-    info = nlohmann::json::parse(in);
     run.filter = info.at("filter").get<std::string>();
     run.dataset = info.at("dataset").get<std::string>();
     run.steps = info.at("steps").get<std::size_t>();

@@ -10,12 +10,12 @@
 #include <iterator>
 #include <limits>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <stdexcept>
 #include <unordered_map>
 #include <variant>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
 
 namespace slamkit {
@@ -148,21 +148,7 @@ struct Params {
 Params read_params(const fs::path& file) {
   const std::string path = file.string();
   if (!fs::exists(file)) throw InputError(path, 0, "missing file (every simulator log has one)");
-  std::ifstream in(file);
-  if (!in) throw InputError(path, 0, "cannot open file for reading");
-  std::stringstream text;
-  text << in.rdbuf();
-  const std::string content = text.str();
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(content);
-  } catch (const nlohmann::json::parse_error& e) {
-    const auto upto = content.begin() + static_cast<std::ptrdiff_t>(std::min(e.byte, content.size()));
-    const auto line = static_cast<std::size_t>(std::count(content.begin(), upto, '\n')) + 1;
-    // nlohmann prefixes its messages with an exception tag the user has no use for.
-    const std::string what = e.what();
-    throw InputError(path, line, "invalid JSON: " + what.substr(what.find(']') + 2));
-  }
+  const nlohmann::json j = read_json_file(path);
   if (!j.is_object())
     throw InputError(path, 0, fmt::format("expected a JSON object, found {}", j.type_name()));
   for (const auto& [key, value] : j.items())

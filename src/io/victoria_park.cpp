@@ -3,18 +3,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <climits>
 #include <cmath>
 #include <filesystem>
-#include <functional>
-#include <initializer_list>
-#include <iterator>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <span>
 #include <vector>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
 #include "slamkit/models/observation_model.hpp"
 
@@ -31,130 +27,66 @@ constexpr std::size_t kBeams = 361;
 
 // ---- Options ------------------------------------------------------------------------------------
 
-// One real-valued option: its JSON key (unit in the name), where it lives, whether the JSON holds
-// it in degrees, and the range it must lie in (tested on the stored value, so radians for angles).
-struct RealKey {
-  const char* key;
-  double& (*field)(VictoriaParkOptions&);
-  bool degrees;
-  bool (*ok)(double);
-  const char* expected;  // the same range for the user, in the JSON's units
+using namespace option_ranges;
+using Key = OptionKey<VictoriaParkOptions>;
+using Real = RealOption<VictoriaParkOptions>;
+
+const Key kCarKeys[] = {
+    {"wheelbase_m", Real{[](VictoriaParkOptions& o) -> double& { return o.car.wheelbase; }, kPositive}},
+    {"encoder_offset_m", Real{[](VictoriaParkOptions& o) -> double& { return o.car.encoder_offset; }, kNonNegative}},
+    {"laser_forward_m", Real{[](VictoriaParkOptions& o) -> double& { return o.car.laser_forward; }, kFinite}},
+    {"laser_left_m", Real{[](VictoriaParkOptions& o) -> double& { return o.car.laser_left; }, kFinite}},
 };
 
-// NaN fails every one of these, as it fails every comparison.
-constexpr auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
-constexpr auto non_negative = [](double v) { return v >= 0.0 && std::isfinite(v); };
-constexpr auto any_finite = [](double v) { return std::isfinite(v); };
-
-const RealKey kTopKeys[] = {
-    {"max_range_m", [](VictoriaParkOptions& o) -> double& { return o.max_range; }, false, positive, "> 0"},
-    {"sigma_speed_mps", [](VictoriaParkOptions& o) -> double& { return o.car.sigma_speed; }, false,
-     non_negative, ">= 0"},
-    {"sigma_steer_deg", [](VictoriaParkOptions& o) -> double& { return o.car.sigma_steer; }, true,
-     non_negative, ">= 0"},
-    {"sigma_range_m", [](VictoriaParkOptions& o) -> double& { return o.sigma_range; }, false, non_negative,
-     ">= 0"},
-    {"sigma_bearing_deg", [](VictoriaParkOptions& o) -> double& { return o.sigma_bearing; }, true,
-     non_negative, ">= 0"},
-    {"initial_heading_deg", [](VictoriaParkOptions& o) -> double& { return o.initial_heading; }, true,
-     any_finite, "a finite number"},
-    {"start_time_s", [](VictoriaParkOptions& o) -> double& { return o.start_time; }, false, non_negative,
-     ">= 0"},
-    // Unset, it is infinite: no limit.
-    {"end_time_s", [](VictoriaParkOptions& o) -> double& { return o.end_time; }, false,
-     [](double v) { return v >= 0.0; }, ">= 0"},
+const Key kDetectorKeys[] = {
+    {"max_beam_range_m",
+     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.max_beam_range; }, kPositive}},
+    {"segment_range_jump_m",
+     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.segment_range_jump; }, kPositive}},
+    {"segment_angle_gap_deg",
+     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.segment_angle_gap; }, kPositive,
+          Unit::kDegrees}},
+    {"clutter_distance_m",
+     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.clutter_distance; }, kNonNegative}},
+    {"clutter_lookahead", IntegerOption<VictoriaParkOptions, int>{
+                              [](VictoriaParkOptions& o) -> int& { return o.detector.clutter_lookahead; }}},
+    {"occlusion_angle_deg",
+     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.occlusion_angle; }, kNonNegative,
+          Unit::kDegrees}},
+    {"max_extent_m", Real{[](VictoriaParkOptions& o) -> double& { return o.detector.max_extent; }, kPositive}},
+    {"min_range_m", Real{[](VictoriaParkOptions& o) -> double& { return o.detector.min_range; }, kNonNegative}},
+    {"edge_margin_deg",
+     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.edge_margin; }, kNonNegative, Unit::kDegrees}},
+    {"max_depth_ratio",
+     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.max_depth_ratio; }, kPositive}},
 };
 
-const RealKey kCarKeys[] = {
-    {"wheelbase_m", [](VictoriaParkOptions& o) -> double& { return o.car.wheelbase; }, false, positive,
-     "> 0"},
-    {"encoder_offset_m", [](VictoriaParkOptions& o) -> double& { return o.car.encoder_offset; }, false,
-     non_negative, ">= 0"},
-    {"laser_forward_m", [](VictoriaParkOptions& o) -> double& { return o.car.laser_forward; }, false,
-     any_finite, "a finite number"},
-    {"laser_left_m", [](VictoriaParkOptions& o) -> double& { return o.car.laser_left; }, false, any_finite,
-     "a finite number"},
+const Key kOptionKeys[] = {
+    {"max_range_m", Real{[](VictoriaParkOptions& o) -> double& { return o.max_range; }, kPositive}},
+    {"sigma_speed_mps", Real{[](VictoriaParkOptions& o) -> double& { return o.car.sigma_speed; }, kNonNegative}},
+    {"sigma_steer_deg",
+     Real{[](VictoriaParkOptions& o) -> double& { return o.car.sigma_steer; }, kNonNegative, Unit::kDegrees}},
+    {"sigma_range_m", Real{[](VictoriaParkOptions& o) -> double& { return o.sigma_range; }, kNonNegative}},
+    {"sigma_bearing_deg",
+     Real{[](VictoriaParkOptions& o) -> double& { return o.sigma_bearing; }, kNonNegative, Unit::kDegrees}},
+    {"initial_heading_deg",
+     Real{[](VictoriaParkOptions& o) -> double& { return o.initial_heading; }, kFinite, Unit::kDegrees}},
+    {"start_time_s", Real{[](VictoriaParkOptions& o) -> double& { return o.start_time; }, kNonNegative}},
+    {"end_time_s", Real{[](VictoriaParkOptions& o) -> double& { return o.end_time; }, kNonNegativeOrInfinite}},
+    {"car", section(kCarKeys)},
+    {"tree_detector", section(kDetectorKeys)},
 };
 
-const RealKey kDetectorKeys[] = {
-    {"max_beam_range_m", [](VictoriaParkOptions& o) -> double& { return o.detector.max_beam_range; }, false,
-     positive, "> 0"},
-    {"segment_range_jump_m", [](VictoriaParkOptions& o) -> double& { return o.detector.segment_range_jump; },
-     false, positive, "> 0"},
-    {"segment_angle_gap_deg", [](VictoriaParkOptions& o) -> double& { return o.detector.segment_angle_gap; },
-     true, positive, "> 0"},
-    {"clutter_distance_m", [](VictoriaParkOptions& o) -> double& { return o.detector.clutter_distance; },
-     false, non_negative, ">= 0"},
-    {"occlusion_angle_deg", [](VictoriaParkOptions& o) -> double& { return o.detector.occlusion_angle; },
-     true, non_negative, ">= 0"},
-    {"max_extent_m", [](VictoriaParkOptions& o) -> double& { return o.detector.max_extent; }, false, positive,
-     "> 0"},
-    {"min_range_m", [](VictoriaParkOptions& o) -> double& { return o.detector.min_range; }, false,
-     non_negative, ">= 0"},
-    {"edge_margin_deg", [](VictoriaParkOptions& o) -> double& { return o.detector.edge_margin; }, true,
-     non_negative, ">= 0"},
-    {"max_depth_ratio", [](VictoriaParkOptions& o) -> double& { return o.detector.max_depth_ratio; }, false,
-     positive, "> 0"},
-};
-constexpr const char* kClutterLookaheadKey = "clutter_lookahead";
-constexpr const char* kCarKey = "car";
-constexpr const char* kDetectorKey = "tree_detector";
-
-std::string key_names(std::span<const RealKey> keys, std::initializer_list<const char*> others) {
-  std::string names;
-  for (const RealKey& k : keys) names += fmt::format("{}{}", names.empty() ? "" : ", ", k.key);
-  for (const char* k : others) names += fmt::format(", {}", k);
-  return names;
-}
-
-// Handles the keys of an object that are not real numbers; false for a key it does not know.
-using OtherKeys = std::function<bool(const std::string& key, const nlohmann::json& value)>;
-
-// Reads the real-valued keys of one JSON object into `options`, the others through `other`.
-
-void read_object(const nlohmann::json& json, std::span<const RealKey> keys, VictoriaParkOptions& options,
-                 const std::string& source, const std::string& context,
-                 std::initializer_list<const char*> other_names, const OtherKeys& other) {
-  if (!json.is_object())
-    throw InputError(source, 0,
-                     fmt::format("expected {} as a JSON object, found {}", context, json.type_name()));
-  for (const auto& [key, value] : json.items()) {
-    const auto real = std::find_if(keys.begin(), keys.end(), [&](const RealKey& k) { return key == k.key; });
-    if (real != keys.end()) {
-      if (!value.is_number())
-        throw InputError(source, 0, fmt::format("'{}' must be a number, found {}", key, value.dump()));
-      const double v = value.get<double>();
-      real->field(options) = real->degrees ? deg2rad(v) : v;
-    } else if (!other(key, value)) {
-      throw InputError(source, 0,
-                       fmt::format("unknown key '{}' in {}; expected one of: {}", key, context,
-                                   key_names(keys, other_names)));
-    }
-  }
-}
-
-// Takes a copy because the key table reaches the values through mutable references.
-void validate(VictoriaParkOptions options, const std::string& source) {
-  const auto check = [&](std::span<const RealKey> keys) {
-    for (const RealKey& k : keys) {
-      const double v = k.field(options);
-      if (!k.ok(v))
-        throw InputError(
-            source, 0,
-            fmt::format("'{}' must be {}, found {}", k.key, k.expected, k.degrees ? rad2deg(v) : v));
-    }
-  };
-  check(kTopKeys);
-  check(kCarKeys);
-  check(kDetectorKeys);
-  if (options.detector.clutter_lookahead < 0)
-    throw InputError(
-        source, 0,
-        fmt::format("'{}' must be >= 0, found {}", kClutterLookaheadKey, options.detector.clutter_lookahead));
+void check_time_window(const VictoriaParkOptions& options, const std::string& source) {
   if (options.end_time < options.start_time)
     throw InputError(source, 0,
                      fmt::format("'end_time_s' ({}) must not be before 'start_time_s' ({})", options.end_time,
                                  options.start_time));
+}
+
+void validate(const VictoriaParkOptions& options, const std::string& source) {
+  validate_options<VictoriaParkOptions>(options, source, kOptionKeys);
+  check_time_window(options, source);
 }
 
 // ---- Files --------------------------------------------------------------------------------------
@@ -275,29 +207,9 @@ std::vector<Event> merge(const std::vector<DrRow>& dr, std::vector<ScanEvent>& s
 }  // namespace
 
 VictoriaParkOptions victoria_park_options_from_json(const nlohmann::json& json, const std::string& source) {
-  VictoriaParkOptions options;
-  read_object(json, kTopKeys, options, source, "the Victoria Park options", {kCarKey, kDetectorKey},
-              [&](const std::string& key, const nlohmann::json& value) {
-                if (key == kCarKey) {
-                  read_object(value, kCarKeys, options, source, fmt::format("'{}'", kCarKey), {},
-                              [](const std::string&, const nlohmann::json&) { return false; });
-                } else if (key == kDetectorKey) {
-                  read_object(
-                      value, kDetectorKeys, options, source, fmt::format("'{}'", kDetectorKey),
-                      {kClutterLookaheadKey}, [&](const std::string& k, const nlohmann::json& v) {
-                        if (k != kClutterLookaheadKey) return false;
-                        if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() > INT_MAX)
-                          throw InputError(
-                              source, 0, fmt::format("'{}' must be an integer >= 0, found {}", k, v.dump()));
-                        options.detector.clutter_lookahead = v.get<int>();
-                        return true;
-                      });
-                } else {
-                  return false;
-                }
-                return true;
-              });
-  validate(options, source);
+  const VictoriaParkOptions options =
+      options_from_json<VictoriaParkOptions>(json, source, "the Victoria Park options", {}, kOptionKeys);
+  check_time_window(options, source);
   return options;
 }
 

@@ -1,53 +1,90 @@
-#include <stdexcept>
-
-#include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/pipeline/factory.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <iterator>
+#include <stdexcept>
+#include <utility>
+
 #include "slamkit/filters/fastslam.hpp"
 
 namespace slamkit {
-
-std::vector<std::string> filter_names() { return {"ekf", "fastslam1", "fastslam2"}; }
-
 namespace {
 
-EkfVariant parse_ekf_variant(const std::string& name) {
-  if (name == "full") return EkfVariant::kFull;
-  if (name == "compressed") return EkfVariant::kCompressed;
-  throw std::invalid_argument("unknown EKF variant '" + name + "'; expected one of: full, compressed");
+// Each enum's names, in the order help texts list them.
+constexpr std::pair<FilterKind, const char*> kFilterNames[] = {
+    {FilterKind::kEkf, "ekf"}, {FilterKind::kFastSlam1, "fastslam1"}, {FilterKind::kFastSlam2, "fastslam2"}};
+constexpr std::pair<EkfUpdate, const char*> kEkfUpdateNames[] = {{EkfUpdate::kJoint, "joint"},
+                                                                 {EkfUpdate::kSequential, "sequential"}};
+constexpr std::pair<EkfVariant, const char*> kEkfVariantNames[] = {{EkfVariant::kFull, "full"},
+                                                                   {EkfVariant::kCompressed, "compressed"}};
+
+template <typename Enum, std::size_t N>
+Enum parse_name(const std::pair<Enum, const char*> (&names)[N], const std::string& name, const char* what) {
+  const auto match = std::find_if(std::begin(names), std::end(names), [&](const auto& n) { return name == n.second; });
+  if (match != std::end(names)) return match->first;
+  std::string accepted;
+  for (const auto& n : names) accepted += fmt::format("{}{}", accepted.empty() ? "" : ", ", n.second);
+  throw std::invalid_argument(fmt::format("unknown {} '{}'; expected one of: {}", what, name, accepted));
+}
+
+template <typename Enum, std::size_t N>
+std::string name_of(const std::pair<Enum, const char*> (&names)[N], Enum value) {
+  return std::find_if(std::begin(names), std::end(names), [&](const auto& n) { return n.first == value; })->second;
 }
 
 }  // namespace
 
+FilterKind parse_filter_kind(const std::string& name) { return parse_name(kFilterNames, name, "filter"); }
+std::string to_string(FilterKind kind) { return name_of(kFilterNames, kind); }
+EkfUpdate parse_ekf_update(const std::string& name) { return parse_name(kEkfUpdateNames, name, "EKF update"); }
+std::string to_string(EkfUpdate update) { return name_of(kEkfUpdateNames, update); }
+EkfVariant parse_ekf_variant(const std::string& name) { return parse_name(kEkfVariantNames, name, "EKF variant"); }
+std::string to_string(EkfVariant variant) { return name_of(kEkfVariantNames, variant); }
+
+std::vector<std::string> filter_names() {
+  std::vector<std::string> names;
+  for (const auto& n : kFilterNames) names.emplace_back(n.second);
+  return names;
+}
+
+void validate(const FilterConfig& config) {
+  if (config.particles < 1)
+    throw std::invalid_argument(fmt::format("particles must be an integer >= 1, found {}", config.particles));
+  // ASSOCIATION CHECK: the association settings are the association policy's to validate (assoc/,
+  // issue 15 part 2); its check of config.association belongs here, where every filter setting is
+  // checked before any data is read. The filters' constructors check them meanwhile.
+}
+
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset) {
-  if (config.name == "ekf") {
-    EkfSlamOptions options;
-    options.initial_pose = dataset.initial_pose;
-    options.association = config.association;
-    options.sensor = dataset.sensor;
-    options.variant = parse_ekf_variant(config.ekf_variant);
-    if (config.ekf_update != "sequential" && config.ekf_update != "joint")
-      throw std::invalid_argument("unknown EKF update '" + config.ekf_update + "'; expected one of: sequential, joint");
-    // The compressed variant works on a local state one observation at a time; it equals the full
-    // EKF with sequential updates.
-    options.joint_scan_update = config.ekf_update == "joint" && options.variant == EkfVariant::kFull;
-    return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
+  validate(config);
+  switch (config.filter) {
+    case FilterKind::kEkf: {
+      EkfSlamOptions options;
+      options.initial_pose = dataset.initial_pose;
+      options.association = config.association;
+      options.sensor = dataset.sensor;
+      options.variant = config.ekf_variant;
+      options.joint_scan_update = config.ekf_update == EkfUpdate::kJoint && config.ekf_variant == EkfVariant::kFull;
+      return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
+    }
+    case FilterKind::kFastSlam1:
+    case FilterKind::kFastSlam2: {
+      FastSlamConfig fs;
+      fs.version = config.filter == FilterKind::kFastSlam1 ? 1 : 2;
+      fs.particles = config.particles;
+      fs.resample = config.resample;
+      fs.policy = config.resample_when;
+      fs.association = config.association;
+      fs.seed = config.seed;
+      fs.threads = config.threads;
+      fs.initial_pose = dataset.initial_pose;
+      fs.sensor = dataset.sensor;
+      return std::make_unique<FastSlam>(dataset.motion, dataset.observation, fs);
+    }
   }
-  if (config.name == "fastslam1" || config.name == "fastslam2") {
-    FastSlamConfig fs;
-    fs.version = config.name == "fastslam1" ? 1 : 2;
-    fs.particles = config.particles;
-    fs.resample = parse_resample_method(config.resample);
-    fs.policy = parse_resample_policy(config.resample_when);
-    fs.association = config.association;
-    fs.seed = config.seed;
-    fs.threads = config.threads;
-    fs.initial_pose = dataset.initial_pose;
-    fs.sensor = dataset.sensor;
-    return std::make_unique<FastSlam>(dataset.motion, dataset.observation, fs);
-  }
-  std::string names;
-  for (const auto& n : filter_names()) names += (names.empty() ? "" : ", ") + n;
-  throw std::invalid_argument("unknown filter '" + config.name + "'; expected one of: " + names);
+  throw std::invalid_argument("make_filter: unknown filter kind");
 }
 
 }  // namespace slamkit

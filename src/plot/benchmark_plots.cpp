@@ -9,6 +9,7 @@
 #include <regex>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
 #include "slamkit/plot/svg_plot.hpp"
 
 namespace slamkit::plot {
@@ -74,12 +75,7 @@ std::map<std::string, double> read_times(const std::string& path) {
   // Google Benchmark writes NaN and inf bare (e.g. the coefficient of variation of a counter that is
   // always 0), which JSON does not allow; no time is ever one of them, so they are read as null.
   static const std::regex non_finite(R"(:\s*-?(NaN|nan|inf|Infinity)\b)");
-  nlohmann::json json;
-  try {
-    json = nlohmann::json::parse(std::regex_replace(text, non_finite, ": null"));
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path, 0, std::string("expected Google Benchmark JSON output: ") + e.what());
-  }
+  nlohmann::json json = parse_json(std::regex_replace(text, non_finite, ": null"), path);
   if (!json.is_object() || !json.contains("benchmarks") || !json["benchmarks"].is_array())
     throw InputError(path, 0, "expected Google Benchmark JSON output (an object with a 'benchmarks' array)");
   std::map<std::string, double> medians, singles;

@@ -4,7 +4,6 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
-#include <climits>
 #include <cmath>
 #include <cstdlib>
 #include <memory>
@@ -12,6 +11,7 @@
 #include <random>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 
@@ -20,50 +20,37 @@ namespace {
 
 // ---- Config keys ------------------------------------------------------------------------------------
 
-// One real-valued setting: its JSON key (unit in the name), where it lives in the struct, whether
-// the JSON holds it in degrees, and the range it must lie in.
-struct RealKey {
-  const char* key;
-  double SimulatorConfig::*field;
-  bool degrees;
-  bool (*ok)(double);    // tests the struct's value, so radians for angles
-  const char* expected;  // the same range for the user, in the JSON's units
+using namespace option_ranges;
+using Real = RealOption<SimulatorConfig>;
+
+// Beyond 90 degrees the wheels would point backwards.
+constexpr RealRange kSteeringLock{[](double v) { return v > 0.0 && v < kPi / 2.0; }, "> 0 and < 90"};
+constexpr RealRange kProbability{[](double v) { return v > 0.0 && v <= 1.0; }, "> 0 and <= 1"};
+
+const OptionKey<SimulatorConfig> kConfigKeys[] = {
+    {"speed_mps", Real{[](SimulatorConfig& c) -> double& { return c.speed; }, kPositive}},
+    {"wheelbase_m", Real{[](SimulatorConfig& c) -> double& { return c.wheelbase; }, kPositive}},
+    {"max_steer_deg", Real{[](SimulatorConfig& c) -> double& { return c.max_steer; }, kSteeringLock, Unit::kDegrees}},
+    {"max_steer_rate_deg_per_s",
+     Real{[](SimulatorConfig& c) -> double& { return c.max_steer_rate; }, kPositive, Unit::kDegrees}},
+    {"waypoint_tolerance_m", Real{[](SimulatorConfig& c) -> double& { return c.waypoint_tolerance; }, kPositive}},
+    {"loops", IntegerOption<SimulatorConfig, int>{[](SimulatorConfig& c) -> int& { return c.loops; }, 1}},
+    {"sigma_speed_mps", Real{[](SimulatorConfig& c) -> double& { return c.sigma_speed; }, kNonNegative}},
+    {"sigma_steer_deg",
+     Real{[](SimulatorConfig& c) -> double& { return c.sigma_steer; }, kNonNegative, Unit::kDegrees}},
+    {"max_range_m", Real{[](SimulatorConfig& c) -> double& { return c.max_range; }, kPositive}},
+    {"fov_deg", Real{[](SimulatorConfig& c) -> double& { return c.fov; }, kFieldOfView, Unit::kDegrees}},
+    {"sigma_range_m", Real{[](SimulatorConfig& c) -> double& { return c.sigma_range; }, kNonNegative}},
+    {"sigma_bearing_deg",
+     Real{[](SimulatorConfig& c) -> double& { return c.sigma_bearing; }, kNonNegative, Unit::kDegrees}},
+    {"clutter_rate_per_scan", Real{[](SimulatorConfig& c) -> double& { return c.clutter_rate; }, kNonNegative}},
+    {"detection_probability",
+     Real{[](SimulatorConfig& c) -> double& { return c.detection_probability; }, kProbability}},
+    {"provide_ids", FlagOption<SimulatorConfig>{[](SimulatorConfig& c) -> bool& { return c.provide_ids; }}},
+    {"control_period_s", Real{[](SimulatorConfig& c) -> double& { return c.control_period; }, kPositive}},
+    {"observation_period_s", Real{[](SimulatorConfig& c) -> double& { return c.observation_period; }, kPositive}},
+    {"seed", IntegerOption<SimulatorConfig, std::uint64_t>{[](SimulatorConfig& c) -> std::uint64_t& { return c.seed; }}},
 };
-
-constexpr auto positive = [](double v) { return v > 0.0; };
-constexpr auto non_negative = [](double v) { return v >= 0.0; };
-
-const RealKey kRealKeys[] = {
-    {"speed_mps", &SimulatorConfig::speed, false, positive, "> 0"},
-    {"wheelbase_m", &SimulatorConfig::wheelbase, false, positive, "> 0"},
-    {"max_steer_deg", &SimulatorConfig::max_steer, true, [](double v) { return v > 0.0 && v < kPi / 2.0; },
-     "> 0 and < 90"},
-    {"max_steer_rate_deg_per_s", &SimulatorConfig::max_steer_rate, true, positive, "> 0"},
-    {"waypoint_tolerance_m", &SimulatorConfig::waypoint_tolerance, false, positive, "> 0"},
-    {"sigma_speed_mps", &SimulatorConfig::sigma_speed, false, non_negative, ">= 0"},
-    {"sigma_steer_deg", &SimulatorConfig::sigma_steer, true, non_negative, ">= 0"},
-    {"max_range_m", &SimulatorConfig::max_range, false, positive, "> 0"},
-    // Degrees-to-radians rounding may put 360 deg an ulp above 2 pi.
-    {"fov_deg", &SimulatorConfig::fov, true,
-     [](double v) { return v > 0.0 && v <= 2.0 * kPi * (1.0 + 1e-12); }, "> 0 and <= 360"},
-    {"sigma_range_m", &SimulatorConfig::sigma_range, false, non_negative, ">= 0"},
-    {"sigma_bearing_deg", &SimulatorConfig::sigma_bearing, true, non_negative, ">= 0"},
-    {"control_period_s", &SimulatorConfig::control_period, false, positive, "> 0"},
-    {"observation_period_s", &SimulatorConfig::observation_period, false, positive, "> 0"},
-    {"clutter_rate_per_scan", &SimulatorConfig::clutter_rate, false, non_negative, ">= 0"},
-    {"detection_probability", &SimulatorConfig::detection_probability, false,
-     [](double v) { return v > 0.0 && v <= 1.0; }, "> 0 and <= 1"},
-};
-constexpr const char* kLoopsKey = "loops";
-constexpr const char* kSeedKey = "seed";
-constexpr const char* kProvideIdsKey = "provide_ids";
-
-// Rounded to 12 significant digits, so that an angle set in whole degrees prints as such rather
-// than as 3.0000000000000004 after the trip through radians, and reads back as the same radians.
-double json_value(const RealKey& k, const SimulatorConfig& c) {
-  const double v = c.*k.field;
-  return k.degrees ? std::strtod(fmt::format("{:.12g}", rad2deg(v)).c_str(), nullptr) : v;
-}
 
 // How many control periods make one observation period; 0 if it is not a whole number of them.
 long steps_per_observation(const SimulatorConfig& c) {
@@ -72,20 +59,18 @@ long steps_per_observation(const SimulatorConfig& c) {
   return whole >= 1.0 && std::abs(ratio - whole) <= 1e-9 * ratio ? static_cast<long>(whole) : 0;
 }
 
-void validate(const SimulatorConfig& c, const std::string& source) {
-  for (const RealKey& k : kRealKeys) {
-    const double v = c.*k.field;
-    if (!std::isfinite(v) || !k.ok(v))
-      throw InputError(
-          source, 0, fmt::format("'{}' must be {}, found {}", k.key, k.expected, k.degrees ? rad2deg(v) : v));
-  }
-  if (c.loops < 1)
-    throw InputError(source, 0, fmt::format("'{}' must be >= 1, found {}", kLoopsKey, c.loops));
+// The one rule between keys; the keys themselves are checked by their table.
+void check_periods(const SimulatorConfig& c, const std::string& source) {
   if (steps_per_observation(c) == 0)
     throw InputError(
         source, 0,
         fmt::format("'observation_period_s' must be a whole multiple of 'control_period_s' ({}), found {}",
                     c.control_period, c.observation_period));
+}
+
+void validate(const SimulatorConfig& c, const std::string& source) {
+  validate_options<SimulatorConfig>(c, source, kConfigKeys);
+  check_periods(c, source);
 }
 
 // ---- Randomness -------------------------------------------------------------------------------------
@@ -234,58 +219,14 @@ void set_platform(Dataset& dataset, const SimulatorConfig& config) {
 }
 
 nlohmann::json to_json(const SimulatorConfig& config) {
-  nlohmann::json j = nlohmann::json::object();
-  for (const RealKey& k : kRealKeys) j[k.key] = json_value(k, config);
-  j[kLoopsKey] = config.loops;
-  j[kSeedKey] = config.seed;
-  j[kProvideIdsKey] = config.provide_ids;
-  return j;
+  return options_to_json<SimulatorConfig>(config, kConfigKeys);
 }
 
 SimulatorConfig simulator_config_from_json(const nlohmann::json& json, const std::string& source_name) {
-  if (!json.is_object())
-    throw InputError(
-        source_name, 0,
-        fmt::format("expected the simulator config as a JSON object, found {}", json.type_name()));
-  SimulatorConfig c;
-  for (const auto& item : json.items()) {
-    const std::string& key = item.key();
-    const nlohmann::json& value = item.value();
-    const auto real = std::find_if(std::begin(kRealKeys), std::end(kRealKeys),
-                                   [&](const RealKey& k) { return key == k.key; });
-    if (real != std::end(kRealKeys)) {
-      if (!value.is_number())
-        throw InputError(source_name, 0,
-                         fmt::format("'{}' must be a number, found {}", key, value.type_name()));
-      const double v = value.get<double>();
-      c.*real->field = real->degrees ? deg2rad(v) : v;
-    } else if (key == kLoopsKey) {
-      if (!value.is_number_integer() || value.get<long long>() < 1 || value.get<long long>() > INT_MAX)
-        throw InputError(source_name, 0,
-                         fmt::format("'{}' must be an integer >= 1, found {}", key, value.dump()));
-      c.loops = value.get<int>();
-    } else if (key == kSeedKey) {
-      // JSON text parses a non-negative integer as unsigned; a json built in code may hold it signed.
-      if (!value.is_number_unsigned() && !(value.is_number_integer() && value.get<long long>() >= 0))
-        throw InputError(
-            source_name, 0,
-            fmt::format("'{}' must be an integer from 0 to 2^64 - 1, found {}", key, value.dump()));
-      c.seed = value.get<std::uint64_t>();
-    } else if (key == kProvideIdsKey) {
-      if (!value.is_boolean())
-        throw InputError(source_name, 0,
-                         fmt::format("'{}' must be true or false, found {}", key, value.dump()));
-      c.provide_ids = value.get<bool>();
-    } else {
-      std::string known;
-      for (const RealKey& k : kRealKeys) known += fmt::format("{}, ", k.key);
-      throw InputError(source_name, 0,
-                       fmt::format("unknown key '{}' in the simulator config; expected one of: {}{}, {}, {}",
-                                   key, known, kLoopsKey, kSeedKey, kProvideIdsKey));
-    }
-  }
-  validate(c, source_name);
-  return c;
+  const SimulatorConfig config =
+      options_from_json<SimulatorConfig>(json, source_name, "the simulator config", {}, kConfigKeys);
+  check_periods(config, source_name);
+  return config;
 }
 
 Dataset simulate(const World& world, const SimulatorConfig& config) {
@@ -302,7 +243,7 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
   const MotionModel& motion = *out.motion;
   const ObservationModel& sensor = *out.observation;
   const Vector2 heading = waypoints[1] - waypoints[0];
-  Pose2 pose(waypoints[0].x(), waypoints[0].y(), std::atan2(heading.y(), heading.x()));
+  Pose2 pose = world.start.value_or(Pose2(waypoints[0].x(), waypoints[0].y(), std::atan2(heading.y(), heading.x())));
   out.initial_pose = pose;
   out.truth.poses_have_heading = true;
   out.truth.landmarks = world.landmarks;
@@ -336,7 +277,8 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
   long deadline = 0;
   double steer = 0.0;
   for (long k = 1;; ++k) {
-    bool arrived = false;
+    // A start away from the first waypoint gets the same patience as each arrival.
+    bool arrived = k == 1;
     while (arrivals < arrivals_to_finish &&
            (waypoints[arrivals % n] - pose.head<2>()).norm() < config.waypoint_tolerance) {
       ++arrivals;
@@ -408,13 +350,16 @@ struct ScenarioEntry {
   World (*world)();
   bool loop;       // one lap: a loop-closure route is driven once
   bool cluttered;  // the detection of the data-association experiments
+  bool forward_sensor;  // the 180 degree field of view of the reference simulator's example
 };
 
 const ScenarioEntry kScenarios[] = {
-    {"default", &default_world, false, false},
-    {"loop-closure", &loop_closure_world, true, false},
-    {"cluttered", &default_world, false, true},
-    {"loop-closure-cluttered", &loop_closure_world, true, true},
+    {"default", &default_world, false, false, false},
+    {"loop-closure", &loop_closure_world, true, false, false},
+    {"cluttered", &default_world, false, true, false},
+    {"loop-closure-cluttered", &loop_closure_world, true, true, false},
+    {"sparse", &sparse_world, false, false, true},
+    {"sparse-cluttered", &sparse_world, false, true, true},
 };
 
 }  // namespace
@@ -427,6 +372,7 @@ Scenario scenario(const std::string& name) {
         fmt::format("unknown scenario '{}'; expected one of: {}", name, fmt::join(scenario_names(), ", ")));
   Scenario s{entry->name, entry->world(), SimulatorConfig{}};
   if (entry->loop) s.config.loops = 1;
+  if (entry->forward_sensor) s.config.fov = deg2rad(180.0);
   if (entry->cluttered) {
     s.config.clutter_rate = 1.0;
     s.config.detection_probability = 0.9;

@@ -2,11 +2,13 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <climits>
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <random>
 #include <unordered_map>
 
@@ -160,6 +162,49 @@ World loop_closure_world() {
   return world;
 }
 
+World sparse_world() {
+  // An irregular closed loop of straights with turns of 45 to 135 degrees, ~640 m round. The first
+  // waypoint is 10 m ahead of the start, so each lap ends by driving back through the start area.
+  World world;
+  world.waypoints = {{10.0, 0.0},    {120.0, 0.0},   {160.0, 40.0}, {160.0, 120.0}, {100.0, 150.0},
+                     {40.0, 110.0},  {-20.0, 140.0}, {-60.0, 90.0}, {-40.0, 30.0}};
+  world.start = Pose2::Zero();
+  std::vector<double> cumulative{0.0};
+  const std::size_t n = world.waypoints.size();
+  for (std::size_t i = 0; i < n; ++i)
+    cumulative.push_back(cumulative.back() + (world.waypoints[(i + 1) % n] - world.waypoints[i]).norm());
+  auto distance_to_route = [&](const Vector2& p) {
+    double d = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vector2 a = world.waypoints[i], ab = world.waypoints[(i + 1) % n] - a;
+      const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+      d = std::min(d, (a + t * ab - p).norm());
+    }
+    return d;
+  };
+  // Landmarks at uniformly random places along the route, on a random side, 4 to 25 m off it: gaps
+  // of 50 m and more without a landmark occur, as in the reference simulator's sparse example map.
+  constexpr int kLandmarks = 35;
+  constexpr double kMinOffset = 4.0, kMaxOffset = 25.0, kMinSpacing = 8.0;
+  std::mt19937_64 rng(20241123);
+  while (static_cast<int>(world.landmarks.size()) < kLandmarks) {
+    const double s = uniform01(rng) * cumulative.back();
+    const std::size_t i = static_cast<std::size_t>(
+        std::upper_bound(cumulative.begin(), cumulative.end(), s) - cumulative.begin() - 1);
+    const Vector2 a = world.waypoints[i], dir = (world.waypoints[(i + 1) % n] - a).normalized();
+    const double side = uniform01(rng) < 0.5 ? 1.0 : -1.0;
+    const double offset = kMinOffset + (kMaxOffset - kMinOffset) * uniform01(rng);
+    const Vector2 p = a + (s - cumulative[i]) * dir + side * offset * Vector2(-dir.y(), dir.x());
+    if (distance_to_route(p) < kMinOffset) continue;  // too close to another leg of the route
+    const bool crowded = std::any_of(world.landmarks.begin(), world.landmarks.end(), [&](const Landmark& l) {
+      return (l.position - p).norm() < kMinSpacing;
+    });
+    if (crowded) continue;
+    world.landmarks.push_back(Landmark{static_cast<int>(world.landmarks.size()), p, Matrix2::Zero()});
+  }
+  return world;
+}
+
 World generate_world(const WorldGenOptions& o) {
   validate(o);
   const RoundedRectRoute route(o.width, o.height);
@@ -206,7 +251,7 @@ World read_world(const std::string& path) {
   TextReader in(path);
   World world;
   std::unordered_map<long, std::size_t> line_of_id;
-  std::size_t route_line = 0;
+  std::size_t route_line = 0, start_line = 0;
   while (in.next()) {
     const std::string_view keyword = in.field(0);
     if (keyword == "landmark") {
@@ -233,8 +278,15 @@ World read_world(const std::string& path) {
       if (kind != "open" && kind != "closed")
         in.fail(fmt::format("expected 'route open' or 'route closed', found 'route {}'", kind));
       world.closed = kind == "closed";
+    } else if (keyword == "start") {
+      in.expect_fields(4, "start <x> <y> <heading_deg>");
+      if (start_line != 0)
+        in.fail(fmt::format("duplicate start line (first on line {}); expected at most one", start_line));
+      start_line = in.line_number();
+      world.start = Pose2(in.number(1, "start x"), in.number(2, "start y"),
+                          wrap_angle(deg2rad(in.number(3, "start heading in degrees"))));
     } else {
-      in.fail(fmt::format("unknown keyword '{}'; expected 'landmark', 'waypoint' or 'route'", keyword));
+      in.fail(fmt::format("unknown keyword '{}'; expected 'landmark', 'waypoint', 'route' or 'start'", keyword));
     }
   }
   if (world.waypoints.size() < 2)
@@ -250,8 +302,11 @@ void write_world(const std::string& path, const World& world) {
                  "# landmark <id> <x> <y>   point landmark, metres\n"
                  "# waypoint <x> <y>        route point, metres, in driving order\n"
                  "# route open|closed       closed: back to the first waypoint at the end\n"
+                 "# start <x> <y> <deg>     start pose (else at the first waypoint, facing the second)\n"
                  "route {}\n",
                  world.closed ? "closed" : "open");
+  if (world.start)
+    fmt::format_to(it, "start {} {} {}\n", world.start->x(), world.start->y(), rad2deg((*world.start)[2]));
   for (const Landmark& l : world.landmarks)
     fmt::format_to(it, "landmark {} {} {}\n", l.id, l.position.x(), l.position.y());
   for (const Vector2& w : world.waypoints) fmt::format_to(it, "waypoint {} {}\n", w.x(), w.y());

@@ -5,6 +5,7 @@
 // models are only named here: a module that calls them includes slamkit/models.
 #include <memory>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "slamkit/core/types.hpp"
@@ -25,6 +26,19 @@ struct GroundTruth {
 
   bool empty() const { return poses.empty() && landmarks.empty(); }
 };
+
+/// The ids the observations of `events` carry, per ScanEvent, in the form of
+/// GroundTruth::observation_ids: the truth of a log whose ids are the landmarks' true identities.
+inline std::vector<std::vector<int>> observation_ids(const std::vector<Event>& events) {
+  std::vector<std::vector<int>> ids;
+  for (const Event& event : events) {
+    if (const auto* scan = std::get_if<ScanEvent>(&event)) {
+      std::vector<int>& scan_ids = ids.emplace_back();
+      for (const Observation& o : scan->observations) scan_ids.push_back(o.id);
+    }
+  }
+  return ids;
+}
 
 struct Dataset {
   std::string spec;  // how the user named it, e.g. "sim:out/demo/sim"

@@ -4,8 +4,11 @@
 //   ate_rmse_m              RMSE of position over the time-matched truth samples, after the SE(2)
 //                           least-squares alignment of the estimated trajectory onto the truth
 //   final_position_error_m  position error of the last matched sample, same alignment
-//   map_rmse_m              RMSE of landmark position over landmarks paired with the truth by id,
-//                           after the trajectory's alignment
+//   map_rmse_m              RMSE of landmark position over landmarks paired with the truth, after
+//                           the trajectory's alignment. Each landmark is paired by its origin (below)
+//                           where the truth names the landmark of every observation, else by its id
+//                           with known association; without either there is no pairing and no
+//                           map_rmse_m. Of several landmarks with one origin only the first counts.
 //   nees_pose_*             normalised estimation error squared of the pose (3 dof), unaligned (the
 //                           map frame is the truth frame at the start), where the truth has headings
 //   association             where the truth names the landmark of every observation: each filter
@@ -15,7 +18,6 @@
 //                           included); missed when an observation of a true landmark the filter already
 //                           had was not paired (discarded, or started a duplicate). Spurious landmarks
 //                           are final-map landmarks started by clutter or duplicating another's origin.
-//                           With unknown association the map is paired with the truth by origin.
 #include <nlohmann/json_fwd.hpp>
 #include <map>
 #include <optional>

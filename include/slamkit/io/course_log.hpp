@@ -13,7 +13,8 @@
 // becoming a ControlEvent over ((k - 1) step_period, k step_period] and its SENSOR lines one
 // ScanEvent at the same t (no ScanEvent for a step without SENSOR lines). The robot starts at the
 // origin, facing along x, at t = 0. There is no truth for the poses; world.dat, when present, gives
-// the true landmarks.
+// the true landmarks. The SENSOR ids are the landmarks' identities, so they are also the truth's
+// observation ids: a map built without them is paired with world.dat by its landmarks' origins.
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 

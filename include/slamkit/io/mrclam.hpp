@@ -24,7 +24,9 @@
 //   (v_k, omega_k) over (t_k, t_k+1], for the VelocityModel. A row with the same time as the next
 //   row is held for no time at all and is skipped (counted as superseded).
 // - Scans: measurement rows map barcode -> subject through Barcodes.dat; the subject number is the
-//   landmark id, matching Landmark_Groundtruth.dat. Rows seeing another robot, rows with a barcode
+//   landmark id, matching Landmark_Groundtruth.dat, and also the truth's observation id (a map built
+//   without the ids is paired with the true one by its landmarks' origins). Rows seeing another
+//   robot, rows with a barcode
 //   Barcodes.dat does not list (false detections), and rows outside the run are dropped and counted.
 //   One camera frame is logged as rows up to a few milliseconds apart (frames are ~0.23 s apart), so
 //   rows within scan_window of the first row of a group form one ScanEvent at that first row's time.

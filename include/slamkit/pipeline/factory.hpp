@@ -1,35 +1,63 @@
 #pragma once
-// Builds a filter by name for a dataset, so the CLI and tests choose filters the same way.
+// Builds a filter for a dataset from typed settings, so the CLI and tests choose filters the same
+// way. The settings are parsed from their names (here, and in assoc/ and filters/resampling.hpp)
+// before any data is read, so a misspelt name is a usage error; to_string gives the names back for
+// run.json and metrics.json.
 #include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "slamkit/assoc/association_config.hpp"
-#include "slamkit/filters/slam_filter.hpp"
 #include "slamkit/core/dataset.hpp"
+#include "slamkit/filters/ekf_slam.hpp"
+#include "slamkit/filters/resampling.hpp"
+#include "slamkit/filters/slam_filter.hpp"
 
 namespace slamkit {
 
+enum class FilterKind { kEkf, kFastSlam1, kFastSlam2 };
+
+/// How the EKF applies a scan's paired observations.
+enum class EkfUpdate {
+  kJoint,       // all at once: one joint innovation, one pass over the covariance
+  kSequential,  // one after another
+};
+
 struct FilterConfig {
-  std::string name = "ekf";
+  FilterKind filter = FilterKind::kEkf;
   std::uint64_t seed = 1;
   AssociationConfig association;
   // EKF only.
-  std::string ekf_update = "joint";  // joint (a scan's observations at once) | sequential
-  std::string ekf_variant = "full";  // full | compressed (same estimate, local-area updates)
+  EkfUpdate ekf_update = EkfUpdate::kJoint;
+  /// The compressed variant works on its local state one observation at a time, so with it
+  /// ekf_update is always sequential (it then equals the full EKF with sequential updates).
+  EkfVariant ekf_variant = EkfVariant::kFull;
   // Particle filters only.
   int particles = 100;
-  std::string resample = "systematic";  // multinomial | stratified | systematic | residual
-  std::string resample_when = "ess:0.5";  // always | every:K | ess:F
-  unsigned threads = 0;                   // 0: all cores
+  ResampleMethod resample = ResampleMethod::kSystematic;
+  ResamplePolicy resample_when;  // default: when the ESS drops below half the particles
+  unsigned threads = 0;          // 0: all cores
 };
 
-/// The filter names make_filter accepts.
+/// "ekf", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
+FilterKind parse_filter_kind(const std::string& name);
+std::string to_string(FilterKind kind);
+/// "joint" or "sequential"; throws std::invalid_argument naming the accepted values.
+EkfUpdate parse_ekf_update(const std::string& name);
+std::string to_string(EkfUpdate update);
+/// "full" or "compressed"; throws std::invalid_argument naming the accepted values.
+EkfVariant parse_ekf_variant(const std::string& name);
+std::string to_string(EkfVariant variant);
+
+/// The filter names parse_filter_kind accepts.
 std::vector<std::string> filter_names();
 
-/// Throws std::invalid_argument naming the accepted values for an unknown filter name or EKF
-/// variant.
+/// Throws std::invalid_argument, one line naming the setting and its range, for settings no filter
+/// could run with (e.g. fewer than one particle). Needs no data: the CLI calls it before reading any.
+void validate(const FilterConfig& config);
+
+/// Calls validate(config) and builds the filter for the dataset's models, sensor limits and start.
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset);
 
 }  // namespace slamkit

@@ -71,7 +71,8 @@ void set_platform(Dataset& dataset, const SimulatorConfig& config);
 /// random order, so that neither clutter nor identity shows in the position within the scan; else
 /// in the order of world.landmarks. A sweep that yields nothing yields no ScanEvent.
 ///
-/// The vehicle drives the waypoints in order `loops` times, heading from the last back to the first
+/// The vehicle starts at world.start if the world has one, else at the first waypoint facing the
+/// second, and drives the waypoints in order `loops` times, heading from the last back to the first
 /// between laps. A closed route ends back at the first waypoint, an open one at the last.
 ///
 /// Misses, clutter and the order of a scan have random streams of their own, so with the default
@@ -94,6 +95,8 @@ struct Scenario {
 ///   loop-closure            loop_closure_world(), one lap
 ///   cluttered               default_world(), 1 clutter per scan, 90% detection, no ids
 ///   loop-closure-cluttered  loop-closure with the detection of cluttered
+///   sparse                  sparse_world(), a 180 degree field of view, two laps
+///   sparse-cluttered        sparse with the detection of cluttered
 /// Throws InputError for an unknown name, listing the known ones.
 Scenario scenario(const std::string& name);
 

@@ -6,12 +6,15 @@
 //   landmark <id> <x> <y>     a point landmark; id a unique integer >= 0, x and y in metres
 //   waypoint <x> <y>          a point of the route, in driving order
 //   route open|closed         optional, at most once; closed when absent
+//   start <x> <y> <heading>   optional, at most once: the vehicle's start pose (heading in degrees);
+//                             without it the vehicle starts at the first waypoint facing the second
 //
 // Lines may be interleaved; only the order of the waypoint lines matters. A closed route ends where
 // it began: after the last waypoint the vehicle heads back to the first. An open route ends at its
 // last waypoint. At least two waypoints are required, and no waypoint may repeat the one before it.
 // Every number must be finite.
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +26,7 @@ struct World {
   std::vector<Landmark> landmarks;  // covariance zero: this is the truth
   std::vector<Vector2> waypoints;   // driving order; the vehicle starts at the first, facing the second
   bool closed = true;               // false: the route ends at the last waypoint (see simulate())
+  std::optional<Pose2> start;       // where the vehicle starts, if not at the first waypoint
 };
 
 /// Parameters of a generated world: a rounded rectangle of width x height metres (corner radius a
@@ -51,6 +55,13 @@ World default_world();
 /// along the first straight, so that a single loop returns to the start, re-observes the first
 /// landmarks (the loop closure) and goes on a little through the already mapped area.
 World loop_closure_world();
+
+/// The sparse test bed, after the reference simulator's example map: 35 landmarks scattered 4 to 25 m
+/// beside an irregular ~640 m loop with turns of 45 to 135 degrees, the vehicle starting at the
+/// origin 10 m before the first waypoint. With a 180 degree field of view the sensor sees about 1.4
+/// landmarks per scan and none at all over some stretches, so dead reckoning drifts for tens of
+/// metres between sightings and the return to the start is a real loop closure.
+World sparse_world();
 
 /// Throws InputError when an option is out of range (non-positive size, empty band, ...).
 World generate_world(const WorldGenOptions& options);

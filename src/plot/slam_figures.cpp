@@ -1,0 +1,92 @@
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "slamkit/plot/svg_plot.hpp"
+
+namespace slamkit::plot {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+}  // namespace
+
+Figure map_figure(const MapPlotData& data) {
+  Figure fig(960, 800);
+  fig.set_title(data.title);
+  fig.set_subtitle(data.subtitle);
+  fig.set_x_label("x [m]");
+  fig.set_y_label("y [m]");
+  fig.set_equal_aspect(true);
+
+  // Drawing order, bottom to top: reference data first so the estimate stays visible over it, true
+  // landmarks last because a thin '+' does not hide the estimate's dot under it.
+  fig.add_line(data.dead_reckoning, {palette::kGrey, 1.3, Dash::kDashed}, "dead reckoning");
+  fig.add_markers(data.reference_points, {Marker::kCircle, palette::kGreen, 3.0, 1.0, true, 0.6},
+                  "reference fixes");
+  fig.add_line(data.true_trajectory, {palette::kDark, 1.6}, "true trajectory");
+  fig.add_line(data.estimated_trajectory, {palette::kBlue, 1.6}, "estimated trajectory");
+  const EllipseStyle ellipse{{palette::kVermillion, 0.9, Dash::kSolid, 0.8}, 0.08};
+  const std::string ellipse_label = fmt::format("{:g}\u03C3 covariance", data.ellipse_sigma);
+  std::vector<Vector2> estimated, truth;
+  for (const Landmark& l : data.estimated_landmarks) {
+    fig.add_ellipse(l.position, l.covariance, data.ellipse_sigma, ellipse, ellipse_label);
+    estimated.push_back(l.position);
+  }
+  for (const Landmark& l : data.true_landmarks) truth.push_back(l.position);
+  fig.add_markers(estimated, {Marker::kCircle, palette::kVermillion, 4.5}, "estimated landmarks");
+  fig.add_markers(truth, {Marker::kPlus, palette::kBlack, 8.0, 1.3}, "true landmarks");
+  return fig;
+}
+
+void write_map_svg(const std::string& path, const MapPlotData& data) { map_figure(data).save(path); }
+
+Figure landmark_std_figure(const StdPlotData& data) {
+  Figure fig(900, 560);
+  fig.set_title(data.title);
+  fig.set_subtitle(data.subtitle);
+  fig.set_x_label("time [s]");
+  fig.set_y_label("landmark standard deviation, max(\u03C3x, \u03C3y) [m]");
+  fig.set_log_y(data.log_y);
+
+  int lo = std::numeric_limits<int>::max(), hi = std::numeric_limits<int>::min();
+  for (const StdSeries& s : data.series) {
+    if (s.t.size() != s.std_x.size() || s.t.size() != s.std_y.size())
+      throw std::invalid_argument(fmt::format("landmark {}: {} times but {} std_x and {} std_y values", s.id,
+                                              s.t.size(), s.std_x.size(), s.std_y.size()));
+    lo = std::min(lo, s.id);
+    hi = std::max(hi, s.id);
+  }
+  // A few landmarks are told apart by name; many only as a trend, so colour encodes the id.
+  const bool many = data.series.size() > kCategoricalColors;
+  for (std::size_t i = 0; i < data.series.size(); ++i) {
+    const StdSeries& s = data.series[i];
+    std::vector<Vector2> pts;
+    pts.reserve(s.t.size());
+    for (std::size_t k = 0; k < s.t.size(); ++k) {
+      const bool known = std::isfinite(s.std_x[k]) && std::isfinite(s.std_y[k]);
+      pts.emplace_back(s.t[k], known ? std::max(s.std_x[k], s.std_y[k]) : kNaN);
+    }
+    if (many) {
+      const double t = hi > lo ? static_cast<double>(s.id - lo) / (hi - lo) : 0.5;
+      fig.add_line(pts, {sequential_color(t), 0.9, Dash::kSolid, 0.85});
+    } else {
+      fig.add_line(pts, {categorical_color(i), 1.5}, fmt::format("landmark {}", s.id));
+    }
+  }
+  if (many) {
+    fig.add_legend_entry("one line per landmark", LineStyle{sequential_color(0.5), 0.9});
+    fig.set_colorbar("landmark id", lo, hi);
+  }
+  return fig;
+}
+
+void write_landmark_std_svg(const std::string& path, const StdPlotData& data) {
+  landmark_std_figure(data).save(path);
+}
+
+}  // namespace slamkit::plot
