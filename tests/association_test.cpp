@@ -13,6 +13,7 @@
 #include "slamkit/assoc/landmark_existence.hpp"
 #include "slamkit/assoc/landmark_grid.hpp"
 #include "slamkit/assoc/sensor_view.hpp"
+#include "slamkit/pipeline/factory.hpp"
 
 using namespace slamkit;
 
@@ -88,6 +89,18 @@ TEST(AssociationConfig, ValidateNamesTheSettingOutOfRange) {
   AssociationConfig equal_gates;
   equal_gates.new_landmark_probability = equal_gates.accept_probability;
   EXPECT_NO_THROW(validate(equal_gates));
+}
+
+// The front end's check of the filter settings, run before any data is read, is this same check.
+TEST(AssociationConfig, FilterSettingsCheckIncludesIt) {
+  FilterConfig config;
+  config.association.confirm_after = 0;
+  try {
+    validate(config);
+    ADD_FAILURE() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("confirm_after"), std::string::npos) << e.what();
+  }
 }
 
 TEST(SensorView, WidensAndNarrowsTheViewByItsMargins) {
