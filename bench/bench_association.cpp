@@ -7,6 +7,7 @@
 
 #include "slamkit/core/angles.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
+#include "slamkit/filters/joint_gaussian.hpp"
 
 namespace {
 
@@ -24,9 +25,11 @@ Scene make_scene(int n, AssociationMethod method) {
   options.association.method = method;
   options.sensor = SensorLimits{30.0, 2.0 * kPi};
   options.initial_covariance = Eigen::Vector3d(0.05, 0.05, 0.001).asDiagonal();
+  const RangeBearingModel model;
+  auto map = std::make_unique<JointGaussian>(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>(),
+                                             Pose2::Zero(), options.initial_covariance);
+  std::vector<int> ids;
   Scene scene;
-  scene.ekf = std::make_unique<EkfSlam>(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>(), options);
-  const RangeBearingModel& model = static_cast<const RangeBearingModel&>(scene.ekf->observation_model());
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> jitter(-3.0, 3.0);
   int added = 0;
@@ -37,10 +40,12 @@ Scene make_scene(int n, AssociationMethod method) {
         if (std::max(std::abs(i), std::abs(j)) != ring) continue;
         const Vector2 p(12.0 * i + jitter(rng), 12.0 * j + jitter(rng));
         if (p.norm() < 2.0) continue;
-        scene.ekf->add_landmark(model.predict(Pose2::Zero(), p), added++);
+        map->add_landmark(model.predict(Pose2::Zero(), p));
+        ids.push_back(added++);
         if (p.norm() < 28.0) scene.scan.observations.push_back({model.predict(Pose2::Zero(), p), kUnknownId});
       }
   }
+  scene.ekf = std::make_unique<EkfSlam>(std::move(map), ids, options);
   return scene;
 }
 

@@ -16,6 +16,7 @@ namespace {
 
 using namespace slamkit;
 using bench::cached_ekf;
+using bench::cached_joint_gaussian;
 
 constexpr int kMaxLandmarks = 5000;
 
@@ -28,7 +29,7 @@ double lower_triangle_traffic(std::size_t dim) { return 2.0 * (static_cast<doubl
 
 void BM_EkfObservationUpdate(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  EkfSlam& ekf = cached_ekf(n);
+  JointGaussian& ekf = cached_joint_gaussian(n);
   std::size_t index = 0;
   for (auto _ : state) {
     const Vector2 z = ekf.observation_model().predict(ekf.pose(), ekf.landmark_position(index));
@@ -46,7 +47,7 @@ BENCHMARK(BM_EkfObservationUpdate)->Apply(landmark_counts)->Complexity(benchmark
 // controls' Jacobians once, at the next update (part of the observation update's O(n) work).
 void BM_EkfTimeUpdate(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  EkfSlam& ekf = cached_ekf(n);
+  JointGaussian& ekf = cached_joint_gaussian(n);
   const Control u = bench::ekf_control();
   for (auto _ : state) ekf.predict(u, 0.025);
   state.SetComplexityN(n);
@@ -59,11 +60,12 @@ BENCHMARK(BM_EkfTimeUpdate)->Apply(landmark_counts)->Complexity(benchmark::o1);
 void BM_EkfScanUpdate(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
   EkfSlam& ekf = cached_ekf(n);
+  const EkfEstimator& map = ekf.estimator();
   const int seen = std::min(n, 15);
   ScanEvent scan;
   for (int i = n - seen; i < n; ++i) {
     const auto index = static_cast<std::size_t>(ekf.find_landmark(i));
-    const Vector2 z = ekf.observation_model().predict(ekf.pose(), ekf.landmark_position(index));
+    const Vector2 z = map.observation_model().predict(ekf.pose(), map.landmark_position(index));
     scan.observations.push_back({z + Vector2(0.01, 0.001), i});
   }
   for (auto _ : state) ekf.update(scan);

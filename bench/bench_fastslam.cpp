@@ -77,7 +77,7 @@ void BM_ResampleMaps(benchmark::State& state) {
   for (std::size_t i = 0; i < m; ++i) base.push_back(LandmarkGaussian{});
   std::vector<LandmarkTree> maps(n, base);
   for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t k = 0; k < 15; ++k) maps[i].mutate((i * 7919 + k * 104729) % m).misses = 1;
+    for (std::size_t k = 0; k < 15; ++k) maps[i].mutate((i * 7919 + k * 104729) % m).covariance(0, 1) = 1.0;
   std::vector<double> weights(n);
   std::mt19937_64 rng(5);
   std::exponential_distribution<double> exponential(1.0);
@@ -111,7 +111,7 @@ void BM_TreeScanAfterResampling(benchmark::State& state) {
     for (std::size_t k = 0; k < 15; ++k) {
       const std::size_t i = std::min(m - 1, first + (rng() % 40));
       benchmark::DoNotOptimize(mine[i].mean);
-      mine.mutate(i).misses += 1;
+      mine.mutate(i).covariance(0, 1) += 1.0;
     }
     benchmark::DoNotOptimize(mine.size());
   }

@@ -34,7 +34,7 @@ void BM_EkfMemory(benchmark::State& state) {
     ekf = bench::make_ekf(n);
   }
   const auto held = static_cast<double>(bench::heap_bytes_in_use() - before);
-  const auto dim = static_cast<double>(ekf->state_dim());
+  const auto dim = static_cast<double>(ekf->estimator().state_dim());
   state.counters["heap_bytes"] = held;
   state.counters["bytes_per_landmark"] = held / n;
   // The least a dense covariance can take: its lower triangle.

@@ -1,13 +1,19 @@
-// Data association: the gates, nearest neighbour, joint compatibility (JCBB), and the grid that finds
-// the candidates.
+// Data association: the settings check, the gates, nearest neighbour, joint compatibility (JCBB),
+// the view test, the existence rule, and the grid that finds the candidates.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
 #include <random>
 
 #include "slamkit/core/angles.hpp"
 #include "slamkit/assoc/association.hpp"
+#include "slamkit/assoc/landmark_existence.hpp"
 #include "slamkit/assoc/landmark_grid.hpp"
+#include "slamkit/assoc/sensor_view.hpp"
+#include "slamkit/pipeline/factory.hpp"
 
 using namespace slamkit;
 
@@ -52,6 +58,100 @@ TEST(Gates, AreChiSquareQuantilesWithTwoDegreesOfFreedom) {
   EXPECT_THROW(parse_association_method("fuzzy"), std::invalid_argument);
   EXPECT_EQ(parse_association_method("jcbb"), AssociationMethod::kJcbb);
   EXPECT_EQ(to_string(AssociationMethod::kNearestNeighbour), "nn");
+}
+
+// One check of the settings for every filter: each value out of range is named in the error.
+TEST(AssociationConfig, ValidateNamesTheSettingOutOfRange) {
+  EXPECT_NO_THROW(validate(AssociationConfig{}));
+  const std::vector<std::pair<std::string, std::function<void(AssociationConfig&)>>> cases = {
+      {"accept_probability", [](AssociationConfig& c) { c.accept_probability = 1.0; }},
+      {"accept_probability", [](AssociationConfig& c) { c.accept_probability = std::nan(""); }},
+      {"new_landmark_probability", [](AssociationConfig& c) { c.new_landmark_probability = 0.5; }},
+      {"new_landmark_probability", [](AssociationConfig& c) { c.new_landmark_probability = 1.0; }},
+      {"confirm_after", [](AssociationConfig& c) { c.confirm_after = 0; }},
+      {"provisional_max_misses", [](AssociationConfig& c) { c.provisional_max_misses = 0; }},
+      {"confirmed_max_misses", [](AssociationConfig& c) { c.confirmed_max_misses = -1; }},
+      {"view_margin_m", [](AssociationConfig& c) { c.view_margin_m = -0.5; }},
+      {"view_margin_rad", [](AssociationConfig& c) { c.view_margin_rad = std::numeric_limits<double>::infinity(); }},
+      {"jcbb_max_nodes", [](AssociationConfig& c) { c.jcbb_max_nodes = 0; }},
+  };
+  for (const auto& [setting, spoil] : cases) {
+    AssociationConfig c;
+    spoil(c);
+    try {
+      validate(c);
+      ADD_FAILURE() << setting << ": expected std::invalid_argument";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(setting), std::string::npos) << e.what();
+    }
+  }
+  // No band of ambiguity between the gates is a valid choice.
+  AssociationConfig equal_gates;
+  equal_gates.new_landmark_probability = equal_gates.accept_probability;
+  EXPECT_NO_THROW(validate(equal_gates));
+}
+
+// The front end's check of the filter settings, run before any data is read, is this same check.
+TEST(AssociationConfig, FilterSettingsCheckIncludesIt) {
+  FilterConfig config;
+  config.association.confirm_after = 0;
+  try {
+    validate(config);
+    ADD_FAILURE() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("confirm_after"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SensorView, WidensAndNarrowsTheViewByItsMargins) {
+  const SensorLimits forward{20.0, kPi};  // 180 degrees ahead
+  const SensorView exact(forward, 0.0, 0.0), wide(forward, 2.0, 0.1), narrow(forward, -2.0, -0.1);
+  const Vector2 at_edge(20.0, 0.5 * kPi), beyond(21.0, 0.5 * kPi + 0.05), inside(17.0, 0.5 * kPi - 0.2);
+  EXPECT_TRUE(exact.contains(at_edge));
+  EXPECT_FALSE(exact.contains(beyond));
+  EXPECT_TRUE(wide.contains(beyond));
+  EXPECT_FALSE(narrow.contains(at_edge));
+  EXPECT_TRUE(narrow.contains(inside));
+  EXPECT_FALSE(exact.contains(Vector2(5.0, -0.5 * kPi - 0.01)));
+  EXPECT_FALSE(wide.contains(Vector2(std::nan(""), 0.0)));
+  EXPECT_DOUBLE_EQ(narrow.reach(), 18.0);
+  // A full circle, also when 360 degrees comes out a rounding error short of 2 pi, sees behind.
+  const SensorView all_round(SensorLimits{20.0, 2.0 * kPi * (1.0 - 1e-15)}, -2.0, -0.1);
+  EXPECT_TRUE(all_round.contains(Vector2(5.0, kPi)));
+  EXPECT_THROW(validate(SensorLimits{0.0, kPi}), std::invalid_argument);
+  EXPECT_THROW(validate(SensorLimits{10.0, std::nan("")}), std::invalid_argument);
+}
+
+TEST(ExistenceRule, ConfirmsAfterRepeatedObservationsAndRemovesAfterMisses) {
+  AssociationConfig c;
+  c.confirm_after = 3;
+  c.provisional_max_misses = 2;
+  c.confirmed_max_misses = 4;
+  const ExistenceRule rule(c, SensorLimits{});
+
+  LandmarkExistence provisional = rule.first_observed();
+  EXPECT_FALSE(rule.confirmed(provisional));
+  EXPECT_FALSE(rule.missed(provisional));
+  rule.observed(provisional);  // a sighting starts the misses over
+  EXPECT_FALSE(rule.missed(provisional));
+  EXPECT_TRUE(rule.missed(provisional)) << "two misses in a row remove a provisional landmark";
+
+  LandmarkExistence confirmed = rule.first_observed();
+  rule.observed(confirmed);
+  rule.observed(confirmed);
+  EXPECT_TRUE(rule.confirmed(confirmed)) << "the third observation confirms";
+  for (int miss = 1; miss < 4; ++miss) EXPECT_FALSE(rule.missed(confirmed)) << miss;
+  EXPECT_TRUE(rule.missed(confirmed));
+
+  EXPECT_TRUE(rule.confirmed(rule.given()));
+  c.confirmed_max_misses = 0;  // confirmed landmarks stay
+  LandmarkExistence kept = ExistenceRule(c, SensorLimits{}).given();
+  for (int miss = 0; miss < 100; ++miss) EXPECT_FALSE(ExistenceRule(c, SensorLimits{}).missed(kept));
+  c.confirm_after = 1;
+  EXPECT_TRUE(ExistenceRule(c, SensorLimits{}).confirmed(ExistenceRule(c, SensorLimits{}).first_observed()));
+
+  // Misses count only well inside the view: the view narrowed by the margins.
+  EXPECT_DOUBLE_EQ(rule.detection_view().reach(), SensorLimits{}.max_range - c.view_margin_m);
 }
 
 TEST(Association, AmbiguityThatNearestNeighbourGetsWrongAndJcbbGetsRight) {
@@ -147,14 +247,15 @@ TEST(LandmarkGrid, QueryFindsEveryLandmarkInTheDiscAndFewOthers) {
   std::vector<Vector2> points(5000);
   for (auto& p : points) p = Vector2(u(rng), u(rng));
   LandmarkGrid grid(10.0);
-  grid.rebuild(points);
+  for (std::size_t i = 0; i < points.size(); ++i) grid.insert(grid.cell_of(points[i]), static_cast<std::uint32_t>(i));
+  std::vector<std::uint32_t> found;
   for (int trial = 0; trial < 50; ++trial) {
     const Vector2 centre(u(rng), u(rng));
-    std::vector<std::size_t> found;
     grid.query(centre, 30.0, found);
     std::sort(found.begin(), found.end());
+    EXPECT_EQ(std::adjacent_find(found.begin(), found.end()), found.end()) << "each landmark is in one cell";
     std::size_t inside = 0;
-    for (std::size_t i = 0; i < points.size(); ++i) {
+    for (std::uint32_t i = 0; i < points.size(); ++i) {
       if ((points[i] - centre).norm() > 30.0) continue;
       ++inside;
       EXPECT_TRUE(std::binary_search(found.begin(), found.end(), i));
@@ -162,8 +263,42 @@ TEST(LandmarkGrid, QueryFindsEveryLandmarkInTheDiscAndFewOthers) {
     EXPECT_LE(found.size(), 3 * inside + 20) << "the query must stay local";
   }
   // Moving a landmark re-bins it.
-  grid.move(7, Vector2(1000.0, 1000.0));
-  std::vector<std::size_t> found;
+  grid.erase(grid.cell_of(points[7]), 7);
+  grid.insert(grid.cell_of(Vector2(1000.0, 1000.0)), 7);
   grid.query(Vector2(1000.0, 1000.0), 1.0, found);
-  EXPECT_NE(std::find(found.begin(), found.end(), 7u), found.end());
+  EXPECT_EQ(found, std::vector<std::uint32_t>{7});
+  grid.query(points[7], 1.0, found);
+  EXPECT_EQ(std::find(found.begin(), found.end(), 7u), found.end());
+  // Clearing empties every cell.
+  grid.clear();
+  grid.query(Vector2::Zero(), 600.0, found);
+  EXPECT_TRUE(found.empty());
+}
+
+// FastSLAM's use: one landmark listed in several cells (one per particle's version), once per cell,
+// and entries no version needs pruned from the cells the last query visited only.
+TEST(LandmarkGrid, ListsALandmarkInSeveralCellsAndPrunesAroundTheLastQuery) {
+  LandmarkGrid grid(5.0);
+  const LandmarkGrid::Cell a = grid.cell_of(Vector2(1.0, 1.0));
+  const LandmarkGrid::Cell b = grid.cell_of(Vector2(-1.0, 1.0));
+  const LandmarkGrid::Cell far = grid.cell_of(Vector2(100.0, 100.0));
+  ASSERT_NE(a, b);
+  grid.insert(a, 3);
+  grid.insert(a, 3);  // listed once per cell
+  grid.insert(b, 3);
+  grid.insert(b, 4);
+  grid.insert(far, 3);
+  std::vector<std::uint32_t> found;
+  grid.query(Vector2::Zero(), 2.0, found);
+  std::sort(found.begin(), found.end());
+  EXPECT_EQ(found, (std::vector<std::uint32_t>{3, 3, 4}));
+
+  // Only version 3 in cell a is still needed; the entries in the far cell are not visited.
+  grid.prune([&](LandmarkGrid::Cell cell, std::uint32_t index) { return cell == a && index == 3; });
+  grid.query(Vector2(-1.0, 1.0), 0.5, found);
+  EXPECT_TRUE(found.empty());
+  grid.query(Vector2(1.0, 1.0), 0.5, found);
+  EXPECT_EQ(found, std::vector<std::uint32_t>{3});
+  grid.query(Vector2(100.0, 100.0), 0.5, found);
+  EXPECT_EQ(found, std::vector<std::uint32_t>{3});
 }

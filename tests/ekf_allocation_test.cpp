@@ -18,6 +18,7 @@
 #include "allocation_counter.hpp"
 #include "slamkit/core/angles.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
+#include "slamkit/filters/joint_gaussian.hpp"
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
@@ -155,47 +156,52 @@ INSTANTIATE_TEST_SUITE_P(
 class EkfLargeMapAllocationFree : public ::testing::TestWithParam<bool> {};
 
 TEST_P(EkfLargeMapAllocationFree, KnownScansMakeNoHeapAllocation) {
-  EkfSlamOptions options;
-  options.joint_scan_update = GetParam();
-  EkfSlam ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>(), options);
+  auto map = std::make_unique<JointGaussian>(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>());
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> range(2.0, 30.0), bearing(-kPi, kPi);
   Control u(2);
   u << 3.0, 0.05;
   constexpr int kLandmarks = 1500;
+  std::vector<int> ids;
   for (int i = 0; i < kLandmarks; ++i) {
-    ekf.predict(u, 0.025);
-    ekf.add_landmark(Vector2(range(rng), bearing(rng)), i);
+    map->predict(u, 0.025);
+    map->add_landmark(Vector2(range(rng), bearing(rng)));
+    ids.push_back(i);
   }
+  EkfSlamOptions options;
+  options.joint_scan_update = GetParam();
+  EkfSlam ekf(std::move(map), ids, options);
+  const EkfEstimator& g = ekf.estimator();
+  const ControlEvent control{0.0, 0.025, u};
   // The scan re-observes the 15 newest landmarks, a little off their predictions, alternately to
   // either side, so every scan has a real correction to make.
   ScanEvent scan;
   const auto observe = [&](double sign) {
     scan.observations.clear();
     for (int id = kLandmarks - 15; id < kLandmarks; ++id) {
-      const Vector2 z = ekf.observation_model().predict(ekf.pose(), ekf.landmark_position(ekf.find_landmark(id)));
+      const Vector2 z = g.observation_model().predict(ekf.pose(), g.landmark_position(ekf.find_landmark(id)));
       scan.observations.push_back({z + sign * Vector2(0.05, 0.005), id});
     }
   };
   scan.observations.reserve(15);
   for (int warm = 0; warm < 2; ++warm) {
-    for (int k = 0; k < 8; ++k) ekf.predict(u, 0.025);
+    for (int k = 0; k < 8; ++k) ekf.predict(control);
     observe(warm % 2 ? 1.0 : -1.0);
     ekf.update(scan);
   }
   const auto watched = ekf.find_landmark(kLandmarks - 1);
-  const double variance_before = ekf.landmark_covariance(watched).trace();
+  const double variance_before = g.landmark_covariance(watched).trace();
   double vehicle_variance_predicted = 0.0;
   const test::AllocationCount count;
   for (int s = 0; s < 6; ++s) {
-    for (int k = 0; k < 8; ++k) ekf.predict(u, 0.025);
+    for (int k = 0; k < 8; ++k) ekf.predict(control);
     observe(s % 2 ? 1.0 : -1.0);
     vehicle_variance_predicted = ekf.pose_covariance().trace();
     ekf.update(scan);
   }
   EXPECT_EQ(count.count(), 0u);
   EXPECT_EQ(ekf.landmarks().size(), static_cast<std::size_t>(kLandmarks));
-  EXPECT_LT(ekf.landmark_covariance(watched).trace(), variance_before);
+  EXPECT_LT(g.landmark_covariance(watched).trace(), variance_before);
   EXPECT_LT(ekf.pose_covariance().trace(), vehicle_variance_predicted);
 }
 

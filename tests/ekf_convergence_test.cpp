@@ -57,7 +57,7 @@ TEST_F(EkfOnDefaultWorld, MapCovarianceDeterminantAndLandmarkVariancesNeverIncre
     ekf.update(std::get<ScanEvent>(e));
     ++scans;
     for (std::size_t i = 0; i < ekf.num_landmarks(); ++i) {
-      const Eigen::Vector2d v = ekf.landmark_covariance(i).diagonal();
+      const Eigen::Vector2d v = ekf.estimator().landmark_covariance(i).diagonal();
       if (i < last_variance.size()) {
         EXPECT_LE(v[0], last_variance[i][0] * (1 + 1e-9)) << "landmark " << i << " scan " << scans;
         EXPECT_LE(v[1], last_variance[i][1] * (1 + 1e-9)) << "landmark " << i << " scan " << scans;
@@ -69,7 +69,7 @@ TEST_F(EkfOnDefaultWorld, MapCovarianceDeterminantAndLandmarkVariancesNeverIncre
     // Fix the set after a few scans; the marginal covariance of a fixed set can only shrink.
     if (scans == 5) tracked = ekf.num_landmarks();
     if (tracked > 0) {
-      const Eigen::MatrixXd pmm = ekf.covariance().block(3, 3, 2 * tracked, 2 * tracked);
+      const Eigen::MatrixXd pmm = ekf.estimator().covariance().block(3, 3, 2 * tracked, 2 * tracked);
       const double ld = log_det(pmm);
       if (scans > 5) EXPECT_LE(ld, last_log_det + 1e-9) << "scan " << scans;
       last_log_det = ld;
@@ -89,13 +89,14 @@ TEST_F(EkfOnDefaultWorld, RelativeLandmarkUncertaintyIsBelowAbsolute) {
   }
   // For neighbouring landmarks (seen together), the relative position m_i - m_j is known better
   // than either absolute position: the common error from the vehicle cancels.
+  const EkfEstimator& g = ekf.estimator();
   std::size_t pairs = 0, relative_better = 0;
   for (std::size_t i = 0; i < ekf.num_landmarks(); ++i) {
     for (std::size_t j = i + 1; j < ekf.num_landmarks(); ++j) {
-      if ((ekf.landmark_position(i) - ekf.landmark_position(j)).norm() > 20.0) continue;
-      const Matrix2 pij = ekf.landmark_cross_covariance(i, j);
-      const Matrix2 rel = ekf.landmark_covariance(i) + ekf.landmark_covariance(j) - pij - pij.transpose();
-      const double absolute = std::min(ekf.landmark_covariance(i).trace(), ekf.landmark_covariance(j).trace());
+      if ((g.landmark_position(i) - g.landmark_position(j)).norm() > 20.0) continue;
+      const Matrix2 pij = g.landmark_cross_covariance(i, j);
+      const Matrix2 rel = g.landmark_covariance(i) + g.landmark_covariance(j) - pij - pij.transpose();
+      const double absolute = std::min(g.landmark_covariance(i).trace(), g.landmark_covariance(j).trace());
       ++pairs;
       relative_better += rel.trace() < absolute;
     }
@@ -113,7 +114,7 @@ TEST_F(EkfOnDefaultWorld, CovarianceStaysSymmetricPositiveSemiDefinite) {
     else
       ekf.update(std::get<ScanEvent>(e));
   }
-  const Eigen::MatrixXd p = ekf.covariance();
+  const Eigen::MatrixXd p = ekf.estimator().covariance();
   EXPECT_EQ((p - p.transpose()).cwiseAbs().maxCoeff(), 0.0);
   const double min_eig = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(p).eigenvalues().minCoeff();
   EXPECT_GT(min_eig, -1e-10 * p.trace());

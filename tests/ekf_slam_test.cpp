@@ -6,6 +6,7 @@
 
 #include "slamkit/core/angles.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
+#include "slamkit/filters/joint_gaussian.hpp"
 
 using namespace slamkit;
 
@@ -110,7 +111,7 @@ TEST_P(LinearGaussian, EkfSlamEqualsPlainKalmanFilter) {
   for (int step = 0; step < 60; ++step) {
     Control u(3);
     u << 0.5 + 0.1 * n01(rng), 0.2 * n01(rng), 0.01 * n01(rng);
-    ekf.predict(u, 0.1);
+    ekf.predict(ControlEvent{0.1 * step, 0.1, u});
     kf.predict(u, 0.1, motion->control_noise(u, 0.1));
     ScanEvent scan;
     for (int id = 0; id < static_cast<int>(world.size()); ++id) {
@@ -127,9 +128,9 @@ TEST_P(LinearGaussian, EkfSlamEqualsPlainKalmanFilter) {
     for (const Observation& o : scan.observations)
       if (std::find(kf.ids.begin(), kf.ids.end(), o.id) == kf.ids.end()) kf.add(o.z, obs->noise(), o.id);
 
-    ASSERT_EQ(ekf.state_dim(), static_cast<std::size_t>(kf.x.size()));
-    EXPECT_LT((ekf.state() - kf.x).cwiseAbs().maxCoeff(), 1e-9) << "step " << step;
-    EXPECT_LT((ekf.covariance() - kf.p).cwiseAbs().maxCoeff(), 1e-9) << "step " << step;
+    ASSERT_EQ(ekf.estimator().state_dim(), static_cast<std::size_t>(kf.x.size()));
+    EXPECT_LT((ekf.estimator().state() - kf.x).cwiseAbs().maxCoeff(), 1e-9) << "step " << step;
+    EXPECT_LT((ekf.estimator().covariance() - kf.p).cwiseAbs().maxCoeff(), 1e-9) << "step " << step;
   }
   EXPECT_EQ(ekf.num_landmarks(), world.size());
 }
@@ -143,9 +144,9 @@ TEST(EkfSlam, NewLandmarkCarriesFullCrossCovariance) {
   EkfSlam ekf(motion, obs);
   Control u(2);
   u << 3.0, 0.1;
-  for (int i = 0; i < 40; ++i) ekf.predict(u, 0.025);
-  ekf.add_landmark(Vector2(10.0, 0.3), 7);
-  const Eigen::MatrixXd p = ekf.covariance();
+  for (int i = 0; i < 40; ++i) ekf.predict(ControlEvent{0.025 * (i + 1), 0.025, u});
+  ekf.update(ScanEvent{1.0, {Observation{Vector2(10.0, 0.3), 7}}});
+  const Eigen::MatrixXd p = ekf.estimator().covariance();
   // cov(m, v) = Gx Pvv: non-zero, since the landmark inherits the vehicle's uncertainty.
   EXPECT_GT((p.block<2, 3>(3, 0).norm()), 1e-6);
   EXPECT_EQ(ekf.find_landmark(7), 0);
@@ -168,17 +169,17 @@ TEST(EkfSlam, KnownAssociationDiscardsObservationWithoutIdentity) {
   EXPECT_EQ(ekf.statistics().at("discarded_observations"), 1.0);
 }
 
-TEST(EkfSlam, RemovingALandmarkEqualsMarginalisingItOut) {
-  EkfSlam ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>());
+TEST(JointGaussian, RemovingALandmarkEqualsMarginalisingItOut) {
+  JointGaussian ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>());
   Control u(2);
   u << 3.0, 0.1;
   for (int i = 0; i < 6; ++i) {
     ekf.predict(u, 0.2);
-    ekf.add_landmark(Vector2(8.0 + i, wrap_angle(0.9 * i)), 10 + i);
+    EXPECT_EQ(ekf.add_landmark(Vector2(8.0 + i, wrap_angle(0.9 * i))), static_cast<std::size_t>(i));
   }
   ekf.update_landmark(2, Vector2(9.5, wrap_angle(1.7)));
   for (const std::size_t victim : {std::size_t{0}, std::size_t{3}, std::size_t{5}}) {
-    EkfSlam copy = ekf;
+    JointGaussian copy = ekf;
     const Eigen::MatrixXd before = copy.covariance();
     const Eigen::VectorXd x_before = copy.state();
     copy.remove_landmark(victim);
@@ -191,17 +192,41 @@ TEST(EkfSlam, RemovingALandmarkEqualsMarginalisingItOut) {
     EXPECT_EQ(copy.covariance(), expected) << "victim " << victim;
     EXPECT_EQ(copy.state(), x_before(keep));
     EXPECT_EQ(copy.num_landmarks(), 5u);
-    EXPECT_EQ(copy.find_landmark(10 + static_cast<int>(victim)), -1);
-    if (victim < 5) EXPECT_EQ(copy.find_landmark(15), 4);
+    // The landmarks after the victim move down one index.
+    for (std::size_t i = 0; i < 5; ++i)
+      EXPECT_EQ(copy.landmark_position(i), ekf.landmark_position(i < victim ? i : i + 1)) << "victim " << victim;
   }
 }
 
-TEST(EkfSlam, GrowsPastInitialCapacityWithoutLosingState) {
-  EkfSlam ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>());
+// Map management removes a landmark through the estimator and renumbers the rest: the ids still
+// name the right landmarks afterwards.
+TEST(EkfSlam, RemovedLandmarkLeavesTheOthersUnderTheirIds) {
+  EkfSlamOptions options;
+  options.association.method = AssociationMethod::kNearestNeighbour;
+  EkfSlam ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>(), options);
+  const Vector2 a(10.0, 0.0), b(12.0, 1.0), c(8.0, -1.5);
+  ekf.update(ScanEvent{0.0, {Observation{a}, Observation{b}, Observation{c}}});  // ids 0, 1, 2
+  // b is seen no more: it is missed three times while provisional, and removed.
+  for (int scan = 1; scan <= 3; ++scan) ekf.update(ScanEvent{0.1 * scan, {Observation{a}, Observation{c}}});
+  EXPECT_EQ(ekf.statistics().at("landmarks_removed"), 1.0);
+  EXPECT_EQ(ekf.num_landmarks(), 2u);
+  EXPECT_EQ(ekf.find_landmark(1), -1);
+  ASSERT_EQ(ekf.find_landmark(2), 1);
+  const RangeBearingModel model;
+  EXPECT_LT((ekf.estimator().landmark_position(1) - model.inverse(Pose2::Zero(), c)).norm(), 1e-6);
+  // a and c were seen four times: confirmed, and the map under their ids.
+  const std::vector<Landmark> map = ekf.landmarks();
+  ASSERT_EQ(map.size(), 2u);
+  EXPECT_EQ(map[0].id, 0);
+  EXPECT_EQ(map[1].id, 2);
+}
+
+TEST(JointGaussian, GrowsPastInitialCapacityWithoutLosingState) {
+  JointGaussian ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>());
   Control u(2);
   u << 3.0, 0.05;
   ekf.predict(u, 0.5);
-  for (int i = 0; i < 300; ++i) ekf.add_landmark(Vector2(5.0 + i * 0.01, wrap_angle(i * 0.1)), i);
+  for (int i = 0; i < 300; ++i) ekf.add_landmark(Vector2(5.0 + i * 0.01, wrap_angle(i * 0.1)));
   const Eigen::MatrixXd before = ekf.covariance();
   ekf.predict(u, 0.1);
   ekf.update_landmark(150, Vector2(6.5, wrap_angle(150 * 0.1)));

@@ -131,7 +131,8 @@ TEST_P(FastSlamAllocation, SecondLapMakesNoHeapAllocation) {
 
 // The mechanism on its own: maps made with a NodeStorage copy paths into recycled nodes.
 TEST(PooledLandmarkTree, ChangesToSharedMapsRecycleNodes) {
-  LandmarkTree::NodeStorage storage(1);
+  const WorkerPool threads(1);
+  LandmarkTree::NodeStorage storage(threads);
   LandmarkTree base(&storage);
   for (int i = 0; i < 1000; ++i) {
     LandmarkGaussian lm;
@@ -143,7 +144,7 @@ TEST(PooledLandmarkTree, ChangesToSharedMapsRecycleNodes) {
   const auto round = [&](int r) {
     for (std::size_t m = 0; m < maps.size(); ++m) {
       maps[m] = base;
-      for (std::size_t k = 0; k < 15; ++k) maps[m].mutate((m * 97 + k * 61 + r) % 1000).misses = r;
+      for (std::size_t k = 0; k < 15; ++k) maps[m].mutate((m * 97 + k * 61 + r) % 1000).covariance(0, 1) = r;
     }
   };
   round(0);
@@ -151,8 +152,9 @@ TEST(PooledLandmarkTree, ChangesToSharedMapsRecycleNodes) {
   for (int r = 1; r <= 100; ++r) round(r);
   EXPECT_EQ(allocations.count(), 0u);
   for (std::size_t m = 0; m < maps.size(); ++m)
-    for (std::size_t k = 0; k < 15; ++k) EXPECT_EQ(maps[m][(m * 97 + k * 61 + 100) % 1000].misses, 100);
-  EXPECT_EQ(base[999].misses, 0);
+    for (std::size_t k = 0; k < 15; ++k)
+      EXPECT_EQ(maps[m][(m * 97 + k * 61 + 100) % 1000].covariance(0, 1), 100.0);
+  EXPECT_EQ(base[999].covariance(0, 1), 0.0);
   EXPECT_EQ(base[999].id, 999);
 }
 

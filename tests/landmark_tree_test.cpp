@@ -88,9 +88,9 @@ TYPED_TEST(LandmarkTreeTest, CopyIsSharedAndAChangeCopiesOnePath) {
   EXPECT_EQ(b[124].mean, a[124].mean);
 
   // The path is now b's alone: changing a neighbour in the same leaf copies nothing more.
-  b.mutate(122).misses = 5;
+  b.mutate(122).covariance(0, 1) = 5.0;
   EXPECT_EQ(distinct_nodes({&a, &b}), own + static_cast<std::size_t>(a.height()));
-  EXPECT_EQ(a[122].misses, 0);
+  EXPECT_EQ(a[122].covariance(0, 1), 0.0);
 
   // A map shared with nobody changes in place.
   TypeParam c = filled<TypeParam>(300);
@@ -159,8 +159,8 @@ TEST(LandmarkTree, MapsSharingNodesChangeConcurrently) {
         LandmarkTree mine = base;
         for (int k = 0; k < 20; ++k) {
           const std::size_t i = rng() % 2000;
-          mine.mutate(i).misses += 1;
-          if (mine[i].misses < 1) ++failures[static_cast<std::size_t>(t)];
+          mine.mutate(i).covariance(0, 1) += 1.0;
+          if (mine[i].covariance(0, 1) < 1.0) ++failures[static_cast<std::size_t>(t)];
         }
         mine.push_back(make(-1.0));
         LandmarkTree copy = mine;
@@ -171,7 +171,7 @@ TEST(LandmarkTree, MapsSharingNodesChangeConcurrently) {
   for (std::thread& th : threads) th.join();
   for (const int f : failures) EXPECT_EQ(f, 0);
   for (std::size_t i = 0; i < base.size(); ++i) {
-    ASSERT_EQ(base[i].misses, 0) << i;
+    ASSERT_EQ(base[i].covariance(0, 1), 0.0) << i;
     ASSERT_EQ(base[i].id, static_cast<int>(i)) << i;
   }
 }

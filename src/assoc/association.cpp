@@ -10,9 +10,7 @@
 namespace slamkit {
 
 Gates Gates::from(const AssociationConfig& config) {
-  if (!(config.accept_probability > 0.0 && config.accept_probability < config.new_landmark_probability &&
-        config.new_landmark_probability < 1.0))
-    throw std::invalid_argument("association gates need 0 < accept_probability < new_landmark_probability < 1");
+  validate(config);
   return Gates{eval::chi_square_quantile(config.accept_probability, 2.0),
                eval::chi_square_quantile(config.new_landmark_probability, 2.0)};
 }

@@ -1,59 +1,75 @@
 #include "slamkit/assoc/landmark_grid.hpp"
 
-#include <algorithm>
-#include <cmath>
 #include <stdexcept>
 
 namespace slamkit {
 
+namespace {
+// The node pool's first allocation: the entries of a few hundred cells.
+constexpr std::size_t kInitialNodes = 4096;
+}  // namespace
+
 LandmarkGrid::LandmarkGrid(double cell_size) : cell_size_(cell_size) {
   if (!(cell_size > 0.0)) throw std::invalid_argument("LandmarkGrid needs a positive cell size");
+  nodes_.reserve(kInitialNodes);
 }
 
-LandmarkGrid::Key LandmarkGrid::key(std::int64_t cx, std::int64_t cy) {
-  return (static_cast<Key>(static_cast<std::uint32_t>(cx)) << 32) | static_cast<std::uint32_t>(cy);
+std::uint32_t LandmarkGrid::acquire(std::uint32_t index, std::uint32_t next) {
+  if (free_ == kNone) {
+    nodes_.push_back({index, next});
+    return static_cast<std::uint32_t>(nodes_.size() - 1);
+  }
+  const std::uint32_t node = free_;
+  free_ = nodes_[node].next;
+  nodes_[node] = {index, next};
+  return node;
 }
 
-LandmarkGrid::Key LandmarkGrid::key_of(const Vector2& p) const {
-  return key(static_cast<std::int64_t>(std::floor(p.x() / cell_size_)),
-             static_cast<std::int64_t>(std::floor(p.y() / cell_size_)));
+void LandmarkGrid::release(std::uint32_t node) {
+  nodes_[node].next = free_;
+  free_ = node;
 }
 
-void LandmarkGrid::rebuild(const std::vector<Vector2>& positions) {
-  for (auto& [key, cell] : cells_) cell.clear();
-  cell_of_.clear();
-  for (std::size_t i = 0; i < positions.size(); ++i) add(i, positions[i]);
+void LandmarkGrid::insert(Cell cell, std::uint32_t index) {
+  std::uint32_t& head = cells_.try_emplace(cell, kNone).first->second;
+  for (std::uint32_t n = head; n != kNone; n = nodes_[n].next)
+    if (nodes_[n].index == index) return;
+  head = acquire(index, head);
 }
 
-void LandmarkGrid::add(std::size_t index, const Vector2& p) {
-  if (index != cell_of_.size()) throw std::invalid_argument("LandmarkGrid::add: landmarks are added in order");
-  const Key k = key_of(p);
-  cell_of_.push_back(k);
-  cells_[k].push_back(index);
+void LandmarkGrid::erase(Cell cell, std::uint32_t index) {
+  const auto it = cells_.find(cell);
+  if (it == cells_.end()) return;
+  for (std::uint32_t* link = &it->second; *link != kNone; link = &nodes_[*link].next) {
+    if (nodes_[*link].index != index) continue;
+    const std::uint32_t freed = *link;
+    *link = nodes_[freed].next;
+    release(freed);
+    return;
+  }
 }
 
-void LandmarkGrid::erase_from_cell(std::size_t index) {
-  auto& cell = cells_[cell_of_[index]];
-  cell.erase(std::find(cell.begin(), cell.end(), index));
+void LandmarkGrid::clear() {
+  for (auto& [cell, head] : cells_)
+    while (head != kNone) {
+      const std::uint32_t freed = head;
+      head = nodes_[freed].next;
+      release(freed);
+    }
 }
 
-void LandmarkGrid::move(std::size_t index, const Vector2& p) {
-  const Key k = key_of(p);
-  if (k == cell_of_[index]) return;
-  erase_from_cell(index);
-  cell_of_[index] = k;
-  cells_[k].push_back(index);
-}
-
-void LandmarkGrid::query(const Vector2& centre, double radius, std::vector<std::size_t>& out) const {
-  const auto x0 = static_cast<std::int64_t>(std::floor((centre.x() - radius) / cell_size_));
-  const auto x1 = static_cast<std::int64_t>(std::floor((centre.x() + radius) / cell_size_));
-  const auto y0 = static_cast<std::int64_t>(std::floor((centre.y() - radius) / cell_size_));
-  const auto y1 = static_cast<std::int64_t>(std::floor((centre.y() + radius) / cell_size_));
-  for (std::int64_t cx = x0; cx <= x1; ++cx)
-    for (std::int64_t cy = y0; cy <= y1; ++cy) {
-      const auto it = cells_.find(key(cx, cy));
-      if (it != cells_.end()) out.insert(out.end(), it->second.begin(), it->second.end());
+void LandmarkGrid::query(const Vector2& centre, double radius, std::vector<std::uint32_t>& out) {
+  out.clear();
+  lo_x_ = column(centre.x() - radius);
+  lo_y_ = column(centre.y() - radius);
+  hi_x_ = column(centre.x() + radius);
+  hi_y_ = column(centre.y() + radius);
+  // One pass over the square and the ring around it: the ring's cells are only created.
+  for (std::int64_t ix = lo_x_ - 1; ix <= hi_x_ + 1; ++ix)
+    for (std::int64_t iy = lo_y_ - 1; iy <= hi_y_ + 1; ++iy) {
+      const std::uint32_t head = cells_.try_emplace(pack(ix, iy), kNone).first->second;
+      if (ix < lo_x_ || ix > hi_x_ || iy < lo_y_ || iy > hi_y_) continue;
+      for (std::uint32_t n = head; n != kNone; n = nodes_[n].next) out.push_back(nodes_[n].index);
     }
 }
 

@@ -2,34 +2,20 @@
 
 #include <fmt/format.h>
 
-#include <Eigen/Cholesky>
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <condition_variable>
-#include <exception>
-#include <functional>
-#include <limits>
-#include <mutex>
-#include <new>
-#include <random>
 #include <stdexcept>
 #include <thread>
-#include <tuple>
-#include <unordered_map>
 #include <unordered_set>
 
+#include "fastslam_impl.hpp"
 #include "slamkit/core/angles.hpp"
-#include "slamkit/core/chi_square.hpp"
-#include "slamkit/filters/landmark_tree.hpp"
-#include "slamkit/filters/node_pool.hpp"
 
 namespace slamkit {
 
-namespace {
+using namespace fastslam_detail;
 
-constexpr double kLog2Pi = 1.8378770664093454836;
-constexpr double kMinusInf = -std::numeric_limits<double>::infinity();
+namespace {
 
 // Work per task below which handing work to another thread costs more than it saves (a wake-up and
 // a join are some microseconds): a prediction is well under a microsecond per particle, a scan
@@ -41,10 +27,6 @@ constexpr std::size_t kUpdateGrain = 4;
 // filtering in the meantime.
 constexpr std::size_t kGridPruneScans = 5;
 
-// Poses per chunk of path storage: the surviving trajectory grows by one pose per control, so its
-// storage grows once per this many controls at first and ever more rarely as the chunks grow.
-constexpr std::size_t kPathChunkNodes = 8192;
-
 std::uint64_t splitmix64(std::uint64_t x) {
   x += 0x9e3779b97f4a7c15ULL;
   x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
@@ -52,408 +34,11 @@ std::uint64_t splitmix64(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
-/// Inverse and log-determinant of a 2x2 covariance; false if it is not positive definite.
-bool invert_spd(const Matrix2& s, Matrix2& inverse, double& log_det) {
-  const double det = s(0, 0) * s(1, 1) - s(0, 1) * s(1, 0);
-  if (!(det > 0.0) || !(s(0, 0) > 0.0) || !std::isfinite(det)) return false;
-  inverse << s(1, 1), -s(0, 1), -s(1, 0), s(0, 0);
-  inverse /= det;
-  log_det = std::log(det);
-  return true;
-}
-
-/// The symmetric part of a covariance expression: rounding breaks symmetry, and a 2x2 inverse and
-/// an LDLT read both triangles.
-template <class Derived>
-typename Derived::PlainObject symmetric(const Eigen::MatrixBase<Derived>& expression) {
-  const typename Derived::PlainObject m = expression;
-  return 0.5 * (m + m.transpose());
-}
-
-/// A draw from N(mean, cov) for a positive semi-definite cov: the motion noise of a two-entry
-/// control makes a rank-2 pose covariance, which LDLT factors where LLT would fail.
-Pose2 sample_gaussian(const Pose2& mean, const Matrix3& cov, std::mt19937_64& rng) {
-  const Eigen::LDLT<Matrix3> ldlt(cov);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  Eigen::Vector3d e;
-  for (int i = 0; i < 3; ++i) e[i] = normal(rng);
-  const Eigen::Vector3d scaled = ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().cwiseProduct(e);
-  const Eigen::Vector3d correlated = ldlt.matrixL() * scaled;
-  Pose2 x = mean + ldlt.transpositionsP().transpose() * correlated;
-  x[2] = wrap_angle(x[2]);
-  return x;
-}
-
-/// Makes sure a scratch vector can take n elements, growing it to twice that when it must grow:
-/// a scan a little busier than any before then does not allocate again.
-template <class T>
-void make_room(std::vector<T>& v, std::size_t n) {
-  if (v.capacity() < n) v.reserve(2 * n);
-}
-
 /// The first of `origins` (pairs of id and origin, sorted by id) whose id is not below `id`.
 template <class Origins>
 auto origin_lower_bound(Origins& origins, int id) {
   return std::lower_bound(origins.begin(), origins.end(), id, [](const auto& entry, int key) { return entry.first < key; });
 }
-
-// ---- Worker pool ---------------------------------------------------------------------------------
-
-/// Runs a loop body over [0, n) in contiguous chunks on persistent threads plus the calling thread.
-class WorkerPool {
- public:
-  using Body = std::function<void(std::size_t begin, std::size_t end)>;
-
-  explicit WorkerPool(unsigned threads) {
-    // Worker i takes the node pools' free list i; the calling thread keeps list 0.
-    for (unsigned i = 1; i < threads; ++i)
-      workers_.emplace_back([this, i] {
-        pool_thread_slot = i;
-        loop();
-      });
-  }
-  ~WorkerPool() {
-    {
-      const std::lock_guard lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_all();
-    for (std::thread& t : workers_) t.join();
-  }
-  WorkerPool(const WorkerPool&) = delete;
-  WorkerPool& operator=(const WorkerPool&) = delete;
-
-  unsigned size() const { return static_cast<unsigned>(workers_.size()) + 1; }
-
-  /// At most size() chunks of at least `grain` items; one chunk runs inline with no hand-over.
-  /// Rethrows the first exception a chunk threw, after every chunk has finished.
-  void run(std::size_t n, std::size_t grain, const Body& body) {
-    const std::size_t chunks = std::min<std::size_t>(size(), std::max<std::size_t>(1, n / grain));
-    if (chunks <= 1) {
-      if (n > 0) body(0, n);
-      return;
-    }
-    {
-      const std::lock_guard lock(mutex_);
-      body_ = &body;
-      n_ = n;
-      chunks_ = chunks;
-      next_.store(0, std::memory_order_relaxed);
-      busy_ = workers_.size();
-      ++generation_;
-    }
-    wake_.notify_all();
-    work();
-    std::unique_lock lock(mutex_);
-    done_.wait(lock, [this] { return busy_ == 0; });
-    if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
-  }
-
- private:
-  void work() {
-    for (std::size_t c; (c = next_.fetch_add(1, std::memory_order_relaxed)) < chunks_;) {
-      try {
-        (*body_)(c * n_ / chunks_, (c + 1) * n_ / chunks_);
-      } catch (...) {
-        const std::lock_guard lock(mutex_);
-        if (!error_) error_ = std::current_exception();
-      }
-    }
-  }
-  void loop() {
-    std::uint64_t seen = 0;
-    std::unique_lock lock(mutex_);
-    for (;;) {
-      wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
-      if (stop_) return;
-      seen = generation_;
-      lock.unlock();
-      work();
-      lock.lock();
-      if (--busy_ == 0) done_.notify_one();
-    }
-  }
-
-  std::vector<std::thread> workers_;
-  std::mutex mutex_;
-  std::condition_variable wake_, done_;
-  // Set under the mutex before a generation starts and read-only until every worker is done.
-  const Body* body_ = nullptr;
-  std::size_t n_ = 0, chunks_ = 0;
-  std::atomic<std::size_t> next_{0};
-  std::size_t busy_ = 0;
-  std::uint64_t generation_ = 0;
-  bool stop_ = false;
-  std::exception_ptr error_;
-};
-
-// ---- Trajectory history --------------------------------------------------------------------------
-
-/// One pose of a particle's path. Paths share their common past: copying a path copies a pointer.
-struct PathNode {
-  std::atomic<std::size_t> refs{1};
-  double t;
-  Pose2 pose;
-  PathNode* parent;
-};
-
-/// A reference to the newest node of a path, whose nodes come from a filter's NodePool: each step
-/// adds a node per particle and resampling drops the nodes of the paths it does not draw, so the
-/// pool recycles all but the one node per step by which the surviving past grows.
-class Path {
- public:
-  Path() = default;
-  /// A new newest node after `parent`, whose reference it takes over.
-  Path(NodePool& pool, double t, const Pose2& pose, Path&& parent)
-      : pool_(&pool), node_(new (pool.allocate()) PathNode{{1}, t, pose, std::exchange(parent.node_, nullptr)}) {}
-  Path(const Path& other) noexcept : pool_(other.pool_), node_(other.node_) {
-    if (node_ != nullptr) node_->refs.fetch_add(1, std::memory_order_relaxed);
-  }
-  Path(Path&& other) noexcept : pool_(other.pool_), node_(std::exchange(other.node_, nullptr)) {}
-  Path& operator=(Path other) noexcept {
-    std::swap(pool_, other.pool_);
-    std::swap(node_, other.node_);
-    return *this;
-  }
-  // Releases the nodes this path alone keeps alive one at a time: a recursive release would nest
-  // one call per step of a path thousands of steps long.
-  ~Path() {
-    for (PathNode* node = node_; node != nullptr && node->refs.fetch_sub(1, std::memory_order_acq_rel) == 1;) {
-      PathNode* parent = node->parent;
-      node->~PathNode();
-      pool_->deallocate(node);
-      node = parent;
-    }
-  }
-
-  const PathNode* newest() const { return node_; }
-
-  /// Replaces the newest pose (same time): in place when no other path shares the node, which is
-  /// the rule, since resampling shares paths only after a scan and a prediction adds an unshared node.
-  void replace_newest(const Pose2& pose) {
-    if (node_->refs.load(std::memory_order_acquire) == 1) {
-      node_->pose = pose;
-      return;
-    }
-    Path parent;
-    parent.pool_ = pool_;
-    parent.node_ = node_->parent;
-    if (parent.node_ != nullptr) parent.node_->refs.fetch_add(1, std::memory_order_relaxed);
-    *this = Path(*pool_, node_->t, pose, std::move(parent));
-  }
-
- private:
-  NodePool* pool_ = nullptr;
-  PathNode* node_ = nullptr;
-};
-
-// ---- Candidate grid ------------------------------------------------------------------------------
-
-/// Landmark indices by position, over every particle's version of every landmark, kept up to date
-/// incrementally: an entry (cell, index) is added when some particle's landmark `index` is created
-/// in the cell or moves into it, so every live version is always listed in the cell of its current
-/// mean. Entries that no particle needs any more (the landmark moved on, was removed, or its
-/// particles were not drawn by resampling) stay until prune() drops them; until then they are only
-/// candidates that filtering rejects. So the grid costs O(changes) per scan, not O(map size).
-///
-/// A cell's entries are a list of nodes from a pool, so entries move between cells without
-/// allocating. A query creates the cells of its box and a ring around it, where the scan's new and
-/// moved landmarks land, so a vehicle revisiting places lists them without allocating.
-/// Calling thread only.
-class CandidateGrid {
- public:
-  explicit CandidateGrid(double cell) : cell_(cell), entries_(sizeof(Entry), 1, kChunkEntries) {}
-
-  std::uint64_t key(const Vector2& p) const {
-    const auto [ix, iy] = cell_of(p);
-    return pack(ix, iy);
-  }
-
-  /// Lists landmark `index` at `p`: a new landmark, or one that has moved there.
-  void insert(const Vector2& p, std::uint32_t index) {
-    const auto [ix, iy] = cell_of(p);
-    Entry*& head = cells_[pack(ix, iy)];
-    for (const Entry* e = head; e != nullptr; e = e->next)
-      if (e->index == index) return;
-    head = new (entries_.allocate()) Entry{index, head};
-  }
-
-  /// Indices of landmarks possibly within `radius` of `centre`, sorted, unique: those of the cells
-  /// touching the disc's bounding box, which the next prune() visits.
-  void query(const Vector2& centre, double radius, std::vector<std::uint32_t>& out) {
-    out.clear();
-    lo_ = cell_of(centre - Vector2::Constant(radius));
-    hi_ = cell_of(centre + Vector2::Constant(radius));
-    for (std::int64_t ix = lo_.first - 1; ix <= hi_.first + 1; ++ix)
-      for (std::int64_t iy = lo_.second - 1; iy <= hi_.second + 1; ++iy) cells_.try_emplace(pack(ix, iy), nullptr);
-    std::size_t n = 0;
-    for_each_cell([&](std::uint64_t, const Entry* head) {
-      for (const Entry* e = head; e != nullptr; e = e->next) ++n;
-    });
-    make_room(out, n);
-    for_each_cell([&](std::uint64_t, const Entry* head) {
-      for (const Entry* e = head; e != nullptr; e = e->next) out.push_back(e->index);
-    });
-    std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
-  }
-
-  /// Drops the entries of the last query's cells for which needed(key, index) is false. Only those
-  /// cells: they are where stale entries cost, and where map management has just been at work.
-  template <class Needed>
-  void prune(Needed&& needed) {
-    for_each_cell([&](std::uint64_t k, Entry*& head) {
-      for (Entry** link = &head; *link != nullptr;) {
-        Entry* e = *link;
-        if (needed(k, e->index)) {
-          link = &e->next;
-          continue;
-        }
-        *link = e->next;
-        entries_.deallocate(e);
-      }
-    });
-  }
-
- private:
-  struct Entry {
-    std::uint32_t index;
-    Entry* next;
-  };
-  static constexpr std::size_t kChunkEntries = 4096;
-
-  std::pair<std::int64_t, std::int64_t> cell_of(const Vector2& p) const {
-    return {static_cast<std::int64_t>(std::floor(p.x() / cell_)), static_cast<std::int64_t>(std::floor(p.y() / cell_))};
-  }
-  static std::uint64_t pack(std::int64_t ix, std::int64_t iy) {
-    return (static_cast<std::uint64_t>(ix) << 32) ^ (static_cast<std::uint64_t>(iy) & 0xffffffffULL);
-  }
-  /// f(key, head) for each existing cell of the last query's box.
-  template <class F>
-  void for_each_cell(F&& f) {
-    for (std::int64_t ix = lo_.first; ix <= hi_.first; ++ix)
-      for (std::int64_t iy = lo_.second; iy <= hi_.second; ++iy)
-        if (const auto it = cells_.find(pack(ix, iy)); it != cells_.end()) f(it->first, it->second);
-  }
-
-  double cell_;
-  NodePool entries_;
-  std::unordered_map<std::uint64_t, Entry*> cells_;
-  std::pair<std::int64_t, std::int64_t> lo_{0, 0}, hi_{-1, -1};  // the last query's cells; none yet
-};
-
-}  // namespace
-
-// ---- Filter state --------------------------------------------------------------------------------
-
-struct FastSlam::Impl {
-  struct Particle {
-    Pose2 pose = Pose2::Zero();  // FastSLAM 2.0 between scans: the mean of the motion prediction
-    Matrix3 pose_cov = Matrix3::Zero();  // FastSLAM 2.0: prediction covariance since the last scan
-    double log_weight = 0.0;             // log of the normalised weight
-    LandmarkTree map;
-    Path path;
-  };
-
-  /// What one particle does with one observation; `index` is in that particle's map.
-  struct Pairing {
-    AssociationDecision decision = AssociationDecision::kDiscard;
-    std::uint32_t index = 0;
-  };
-
-  /// A landmark in view of a particle, with what gating needs, computed once per scan.
-  struct Candidate {
-    std::uint32_t index;
-    Vector2 zhat;
-    Matrix2 s_inverse;
-    bool taken = false;  // paired with an observation of this scan
-  };
-
-  /// Per particle slot (not per particle: resampling moves particles, slots stay): the random
-  /// stream and the scratch of a scan update.
-  struct Slot {
-    std::mt19937_64 rng;
-    std::vector<Pairing> pairings;
-    std::vector<Candidate> candidates;
-    std::vector<std::tuple<double, std::uint32_t, std::uint32_t>> pairs;  // d2, observation, candidate
-    std::vector<double> min_d2;
-    std::vector<std::uint32_t> observed;
-    // (mean, index) of each landmark this scan created or moved into another grid cell.
-    std::vector<std::pair<Vector2, std::uint32_t>> grid_entries;
-    double log_likelihood = 0.0;
-  };
-
-  Impl(std::shared_ptr<const MotionModel> motion_model, std::shared_ptr<const ObservationModel> observation_model,
-       const FastSlamConfig& cfg);
-
-  bool known() const { return config.association.method == AssociationMethod::kKnown; }
-  bool in_view(const Vector2& zhat, double range_margin, double bearing_margin) const {
-    return zhat[0] <= config.sensor.max_range + range_margin &&
-           (config.sensor.fov >= 2.0 * kPi || std::abs(zhat[1]) <= 0.5 * config.sensor.fov + bearing_margin);
-  }
-
-  void start(double t);
-  void predict_particle(std::size_t i, const ControlEvent& control);
-  void plan_known_association(const ScanEvent& scan, std::size_t scan_index);
-  void gather_candidates();
-  void associate(const Particle& p, Slot& s, const ScanEvent& scan) const;
-  void update_particle(std::size_t i, const ScanEvent& scan);
-  double update_landmark(LandmarkGaussian& lm, const Pose2& x, const Vector2& z) const;
-  LandmarkGaussian new_landmark(const Pose2& x, const Vector2& z, int id) const;
-  void count_misses(Particle& p, Slot& s) const;
-  void assign_new_ids(std::size_t observations, std::size_t scan_index);
-  void record_associations(std::size_t slot);
-  void reweight_and_resample();
-  void index_grid_entries();
-  void prune_grid();
-  void set_origin(int id, const LandmarkOrigin& origin);
-  const Particle& best_particle() const { return particles[best]; }
-
-  FastSlamConfig config;
-  // Node memory first: it must outlive every map and path, i.e. the particles.
-  LandmarkTree::NodeStorage map_nodes;
-  NodePool path_nodes;
-  std::shared_ptr<const MotionModel> motion;
-  std::shared_ptr<const ObservationModel> observation;
-  Matrix2 r;
-  double accept_gate = 0.0;
-  double new_gate = 0.0;
-  double log_p0 = 0.0;
-
-  WorkerPool pool;
-  std::vector<Particle> particles;
-  std::vector<Slot> slots;
-  std::vector<double> weights;
-  std::vector<double> log_weights;  // scratch of reweighting
-  std::mt19937_64 resample_rng;
-  // Scratch of resampling; next_particles is empty between scans (its elements would hold
-  // references that make every node look shared) but keeps its capacity.
-  ResampleScratch resample_scratch;
-  std::vector<std::size_t> parents;
-  std::vector<Particle> next_particles;
-  std::size_t best = 0;
-
-  std::vector<char> valid;  // per observation of the current scan: finite measurement
-  std::vector<Pairing> known_plan;
-  std::unordered_map<int, std::uint32_t> known_index;
-  CandidateGrid grid;
-  std::size_t scans_since_prune = 0;
-  std::vector<std::uint32_t> scan_candidates;
-
-  int next_id = 0;
-  std::vector<int> new_ids;  // per observation of the current scan
-  // Sorted by id. Ids made by update() increase, so they are appended; a vector rather than a hash
-  // map, so that a new id costs an allocation only when the capacity doubles (or not after reserve).
-  std::vector<std::pair<int, LandmarkOrigin>> origins;
-  std::vector<AssociationRecord> last_records;
-
-  std::size_t scans = 0;
-  std::size_t resamples = 0;
-  std::size_t collapses = 0;
-  double ess_sum = 0.0;
-};
-
-namespace {
 
 void validate(const FastSlamConfig& c) {
   auto fail = [](const std::string& what) { throw std::invalid_argument("FastSLAM config: " + what); };
@@ -463,19 +48,8 @@ void validate(const FastSlamConfig& c) {
     fail(fmt::format("resampling every K scans needs K >= 1, found {}", c.policy.every));
   if (c.policy.kind == ResamplePolicy::Kind::kEss && !(c.policy.ess_fraction > 0.0 && c.policy.ess_fraction <= 1.0))
     fail(fmt::format("the ESS fraction must lie in (0, 1], found {}", c.policy.ess_fraction));
-  const AssociationConfig& a = c.association;
-  if (!(a.accept_probability > 0.0 && a.accept_probability < 1.0))
-    fail(fmt::format("accept_probability must lie in (0, 1), found {}", a.accept_probability));
-  if (!(a.new_landmark_probability >= a.accept_probability && a.new_landmark_probability < 1.0))
-    fail(fmt::format("new_landmark_probability must lie in [accept_probability, 1), found {}",
-                     a.new_landmark_probability));
-  if (a.confirm_after < 1) fail(fmt::format("confirm_after must be >= 1, found {}", a.confirm_after));
-  if (a.provisional_max_misses < 1)
-    fail(fmt::format("provisional_max_misses must be >= 1, found {}", a.provisional_max_misses));
-  if (a.confirmed_max_misses < 0)
-    fail(fmt::format("confirmed_max_misses must be >= 0, found {}", a.confirmed_max_misses));
-  if (!(a.view_margin_m >= 0.0) || !(a.view_margin_rad >= 0.0)) fail("view margins must be >= 0");
-  if (!(c.sensor.max_range > 0.0) || !(c.sensor.fov > 0.0)) fail("sensor range and field of view must be > 0");
+  validate(c.association);
+  validate(c.sensor);
   if (!c.initial_pose.allFinite()) fail("the initial pose must be finite");
 }
 
@@ -488,11 +62,15 @@ unsigned thread_count(unsigned requested) {
 FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
                      std::shared_ptr<const ObservationModel> observation_model, const FastSlamConfig& cfg)
     : config((validate(cfg), cfg)),
-      map_nodes(thread_count(cfg.threads)),
-      path_nodes(sizeof(PathNode), thread_count(cfg.threads), kPathChunkNodes),
+      pool(thread_count(cfg.threads)),
+      map_nodes(pool),
+      path_nodes(pool),
       motion(std::move(motion_model)),
       observation(std::move(observation_model)),
-      pool(thread_count(cfg.threads)),
+      gates(Gates::from(cfg.association)),
+      gate_known(cfg.association.gate_known.value_or(false)),
+      association_view(slamkit::association_view(cfg.sensor, cfg.association)),
+      existence(cfg.association, cfg.sensor),
       resample_rng(splitmix64(cfg.seed ^ 0x526573616d706c65ULL)),
       grid(std::max(5.0, 0.5 * cfg.sensor.max_range)) {
   if (!motion || !observation) throw std::invalid_argument("FastSLAM needs a motion and an observation model");
@@ -501,9 +79,7 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
   double log_det_2r = 0.0;
   if (!invert_spd(2.0 * r, unused, log_det_2r))
     throw std::invalid_argument("FastSLAM needs a positive definite measurement noise R");
-  accept_gate = eval::chi_square_quantile(config.association.accept_probability, 2.0);
-  new_gate = eval::chi_square_quantile(config.association.new_landmark_probability, 2.0);
-  log_p0 = -0.5 * new_gate - kLog2Pi - 0.5 * log_det_2r;
+  log_p0 = -0.5 * gates.new_landmark - kLog2Pi - 0.5 * log_det_2r;
 
   const auto n = static_cast<std::size_t>(config.particles);
   particles.resize(n);
@@ -521,8 +97,8 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
 }
 
 void FastSlam::Impl::start(double t) {
-  if (particles.front().path.newest() != nullptr) return;
-  const Path root(path_nodes, t, particles.front().pose, Path());
+  if (!particles.front().path.empty()) return;
+  const ParticlePath root(path_nodes, t, particles.front().pose);
   for (Particle& p : particles) p.path = root;
 }
 
@@ -536,7 +112,7 @@ void FastSlam::Impl::predict_particle(std::size_t i, const ControlEvent& c) {
     p.pose_cov = symmetric(f * p.pose_cov * f.transpose() + motion->process_noise(p.pose, c.u, c.dt));
     p.pose = motion->predict(p.pose, c.u, c.dt);
   }
-  p.path = Path(path_nodes, c.t, p.pose, std::move(p.path));
+  p.path.extend(c.t, p.pose);
 }
 
 void FastSlam::Impl::plan_known_association(const ScanEvent& scan, std::size_t scan_index) {
@@ -575,193 +151,11 @@ void FastSlam::Impl::gather_candidates() {
   // sensor lies within spread + 2 * offset of this one (position difference plus the offset turned
   // by any heading difference), and the grid lists every landmark version at its current mean.
   const Vector2 sensor = observation->inverse(centre_pose, Vector2::Zero());
-  const double radius = config.sensor.max_range + config.association.view_margin_m + spread +
-                        2.0 * (sensor - centre_pose.head<2>()).norm();
+  const double radius = association_view.reach() + spread + 2.0 * (sensor - centre_pose.head<2>()).norm();
+  // Each landmark once, in index order: a particle's candidates stop at the first index beyond its map.
   grid.query(sensor, radius, scan_candidates);
-}
-
-void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan) const {
-  const AssociationConfig& a = config.association;
-  const std::size_t n_obs = scan.observations.size();
-  // Gating uses the pose as predicted: for FastSLAM 2.0 its covariance enters S, as the proposal's
-  // uncertainty should when judging whether an observation fits a landmark.
-  const Pose2& x = p.pose;
-  s.candidates.clear();
-  make_room(s.candidates, scan_candidates.size());
-  for (const std::uint32_t index : scan_candidates) {
-    if (index >= p.map.size()) break;
-    const LandmarkGaussian& lm = p.map[index];
-    if (lm.removed) continue;
-    const Vector2 zhat = observation->predict(x, lm.mean);
-    if (!in_view(zhat, a.view_margin_m, a.view_margin_rad)) continue;
-    Matrix23 hx;
-    Matrix2 hm;
-    observation->jacobians(x, lm.mean, hx, hm);
-    Matrix2 cov = hm * lm.covariance * hm.transpose() + r;
-    if (config.version == 2) cov += hx * p.pose_cov * hx.transpose();
-    Matrix2 inverse;
-    double log_det = 0.0;
-    if (invert_spd(symmetric(cov), inverse, log_det)) s.candidates.push_back({index, zhat, inverse});
-  }
-
-  s.pairs.clear();
-  make_room(s.pairs, n_obs * s.candidates.size());
-  make_room(s.min_d2, n_obs);
-  s.min_d2.assign(n_obs, std::numeric_limits<double>::infinity());
-  for (std::size_t k = 0; k < n_obs; ++k) {
-    if (!valid[k]) continue;
-    const Vector2& z = scan.observations[k].z;
-    for (std::size_t c = 0; c < s.candidates.size(); ++c) {
-      const Vector2 nu = observation->residual(z, s.candidates[c].zhat);
-      const double d2 = nu.dot(s.candidates[c].s_inverse * nu);
-      s.min_d2[k] = std::min(s.min_d2[k], d2);
-      if (d2 < accept_gate) s.pairs.emplace_back(d2, static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(c));
-    }
-  }
-  // Greedy by distance: the most certain pairings first, each observation and landmark once.
-  std::sort(s.pairs.begin(), s.pairs.end());
-  make_room(s.pairings, n_obs);
-  s.pairings.assign(n_obs, Pairing{});
-  for (const auto& [d2, k, c] : s.pairs) {
-    if (s.pairings[k].decision != AssociationDecision::kDiscard || s.candidates[c].taken) continue;
-    s.candidates[c].taken = true;
-    s.pairings[k] = {AssociationDecision::kUpdate, s.candidates[c].index};
-  }
-  auto next_index = static_cast<std::uint32_t>(p.map.size());
-  for (std::size_t k = 0; k < n_obs; ++k)
-    if (valid[k] && s.pairings[k].decision == AssociationDecision::kDiscard && s.min_d2[k] > new_gate)
-      s.pairings[k] = {AssociationDecision::kNew, next_index++};
-}
-
-double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, const Vector2& z) const {
-  Matrix23 hx;
-  Matrix2 hm;
-  observation->jacobians(x, lm.mean, hx, hm);
-  const Vector2 nu = observation->residual(z, observation->predict(x, lm.mean));
-  const Matrix2 pht = lm.covariance * hm.transpose();
-  Matrix2 s_inverse;
-  double log_det = 0.0;
-  if (!nu.allFinite() || !invert_spd(symmetric(hm * pht + r), s_inverse, log_det)) return kMinusInf;
-  const Matrix2 gain = pht * s_inverse;
-  lm.mean += gain * nu;
-  // Joseph form: stays symmetric positive definite however the gain is rounded.
-  const Matrix2 ikh = Matrix2::Identity() - gain * hm;
-  lm.covariance = symmetric(ikh * lm.covariance * ikh.transpose() + gain * r * gain.transpose());
-  ++lm.observations;
-  lm.misses = 0;
-  return -0.5 * nu.dot(s_inverse * nu) - kLog2Pi - 0.5 * log_det;
-}
-
-LandmarkGaussian FastSlam::Impl::new_landmark(const Pose2& x, const Vector2& z, int id) const {
-  Matrix23 gx;
-  Matrix2 gz;
-  observation->inverse_jacobians(x, z, gx, gz);
-  LandmarkGaussian lm;
-  lm.mean = observation->inverse(x, z);
-  lm.covariance = symmetric(gz * r * gz.transpose());
-  lm.id = id;
-  lm.observations = 1;
-  return lm;
-}
-
-void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
-  Particle& p = particles[i];
-  Slot& s = slots[i];
-  const std::size_t n_obs = scan.observations.size();
-  if (!known()) associate(p, s, scan);
-  s.grid_entries.clear();
-  make_room(s.grid_entries, n_obs);
-  // A landmark update at the particle's final pose; a landmark leaving its grid cell is listed in
-  // the new one.
-  auto update_at = [&](std::uint32_t index, const Vector2& z) {
-    LandmarkGaussian& lm = p.map.mutate(index);
-    if (known()) return update_landmark(lm, p.pose, z);
-    const std::uint64_t before = grid.key(lm.mean);
-    const double ll = update_landmark(lm, p.pose, z);
-    if (grid.key(lm.mean) != before) s.grid_entries.emplace_back(lm.mean, index);
-    return ll;
-  };
-  const std::vector<Pairing>& pairings = known() ? known_plan : s.pairings;
-  const std::size_t old_size = p.map.size();
-  auto is_old_update = [&](std::size_t k) {
-    return pairings[k].decision == AssociationDecision::kUpdate && pairings[k].index < old_size;
-  };
-  double log_likelihood = 0.0;
-
-  if (config.version == 2) {
-    // The proposal (eq. 18): the prediction refined by each paired observation in turn.
-    Pose2 mu = p.pose;
-    Matrix3 sigma = p.pose_cov;
-    for (std::size_t k = 0; k < n_obs; ++k) {
-      if (!is_old_update(k)) continue;
-      const LandmarkGaussian& lm = p.map[pairings[k].index];
-      Matrix23 hx;
-      Matrix2 hm;
-      observation->jacobians(mu, lm.mean, hx, hm);
-      const Vector2 nu = observation->residual(scan.observations[k].z, observation->predict(mu, lm.mean));
-      const Matrix2 z_cov = hm * lm.covariance * hm.transpose() + r;
-      const Eigen::Matrix<double, 3, 2> sht = sigma * hx.transpose();
-      Matrix2 s_inverse;
-      double log_det = 0.0;
-      if (!nu.allFinite() || !invert_spd(symmetric(hx * sht + z_cov), s_inverse, log_det)) {
-        log_likelihood = kMinusInf;
-        continue;
-      }
-      log_likelihood += -0.5 * nu.dot(s_inverse * nu) - kLog2Pi - 0.5 * log_det;
-      const Eigen::Matrix<double, 3, 2> gain = sht * s_inverse;
-      mu += gain * nu;
-      mu[2] = wrap_angle(mu[2]);
-      const Matrix3 ikh = Matrix3::Identity() - gain * hx;
-      sigma = symmetric(ikh * sigma * ikh.transpose() + gain * z_cov * gain.transpose());
-    }
-    p.pose = sample_gaussian(mu, sigma, s.rng);
-    p.pose_cov.setZero();
-    p.path.replace_newest(p.pose);
-  }
-
-  // Landmark updates at the particle's final pose; for FastSLAM 1.0 they also give the weight.
-  for (std::size_t k = 0; k < n_obs; ++k) {
-    if (!is_old_update(k)) continue;
-    const double ll = update_at(pairings[k].index, scan.observations[k].z);
-    if (config.version == 1) log_likelihood += ll;
-  }
-  // New landmarks, and repeated observations of landmarks started in this scan, in scan order.
-  for (std::size_t k = 0; k < n_obs; ++k) {
-    const Pairing& pairing = pairings[k];
-    const Vector2& z = scan.observations[k].z;
-    if (pairing.decision == AssociationDecision::kNew) {
-      p.map.push_back(new_landmark(p.pose, z, known() ? scan.observations[k].id : kUnknownId));
-      if (!known()) s.grid_entries.emplace_back(p.map[pairing.index].mean, pairing.index);
-      log_likelihood += log_p0;
-    } else if (pairing.decision == AssociationDecision::kDiscard) {
-      log_likelihood += log_p0;
-    } else if (!is_old_update(k)) {
-      log_likelihood += update_at(pairing.index, z);
-    }
-  }
-  if (!known()) count_misses(p, s);
-  s.log_likelihood = log_likelihood;
-}
-
-void FastSlam::Impl::count_misses(Particle& p, Slot& s) const {
-  const AssociationConfig& a = config.association;
-  s.observed.clear();
-  make_room(s.observed, s.pairings.size());
-  for (const Pairing& pairing : s.pairings)
-    if (pairing.decision == AssociationDecision::kUpdate) s.observed.push_back(pairing.index);
-  std::sort(s.observed.begin(), s.observed.end());
-  // The candidates were chosen with generous margins at the predicted pose, so they include every
-  // landmark inside the shrunk view of the final pose.
-  for (const Candidate& c : s.candidates) {
-    if (std::binary_search(s.observed.begin(), s.observed.end(), c.index)) continue;
-    if (!in_view(observation->predict(p.pose, p.map[c.index].mean), -a.view_margin_m, -a.view_margin_rad)) continue;
-    LandmarkGaussian& lm = p.map.mutate(c.index);
-    ++lm.misses;
-    const bool confirmed = lm.observations >= a.confirm_after;
-    if (confirmed ? a.confirmed_max_misses > 0 && lm.misses >= a.confirmed_max_misses
-                  : lm.misses >= a.provisional_max_misses)
-      lm.removed = true;
-  }
+  std::sort(scan_candidates.begin(), scan_candidates.end());
+  scan_candidates.erase(std::unique(scan_candidates.begin(), scan_candidates.end()), scan_candidates.end());
 }
 
 void FastSlam::Impl::assign_new_ids(std::size_t observations, std::size_t scan_index) {
@@ -782,7 +176,7 @@ void FastSlam::Impl::assign_new_ids(std::size_t observations, std::size_t scan_i
 }
 
 void FastSlam::Impl::record_associations(std::size_t slot) {
-  const std::vector<Pairing>& pairings = known() ? known_plan : slots[slot].pairings;
+  const std::vector<Pairing>& pairings = slots[slot].pairings;
   make_room(last_records, pairings.size());
   last_records.assign(pairings.size(), AssociationRecord{});
   for (std::size_t k = 0; k < pairings.size(); ++k)
@@ -819,16 +213,16 @@ void FastSlam::Impl::reweight_and_resample() {
 
 void FastSlam::Impl::index_grid_entries() {
   for (const Slot& s : slots)
-    for (const auto& [mean, index] : s.grid_entries) grid.insert(mean, index);
+    for (const auto& [mean, index] : s.grid_entries) grid.insert(grid.cell_of(mean), index);
 }
 
 void FastSlam::Impl::prune_grid() {
   // An entry is needed while some particle's live version of the landmark has its mean in the cell.
-  grid.prune([&](std::uint64_t key, std::uint32_t index) {
+  grid.prune([&](LandmarkGrid::Cell cell, std::uint32_t index) {
     return std::any_of(particles.begin(), particles.end(), [&](const Particle& p) {
       if (index >= p.map.size()) return false;
       const LandmarkGaussian& lm = p.map[index];
-      return !lm.removed && grid.key(lm.mean) == key;
+      return !lm.removed && grid.cell_of(lm.mean) == cell;
     });
   });
   scans_since_prune = 0;
@@ -938,13 +332,7 @@ std::vector<Landmark> FastSlam::landmarks() const {
 
 const std::vector<AssociationRecord>& FastSlam::last_associations() const { return impl_->last_records; }
 
-std::vector<StampedPose> FastSlam::smoothed_trajectory() const {
-  std::vector<StampedPose> out;
-  for (const PathNode* node = impl_->best_particle().path.newest(); node != nullptr; node = node->parent)
-    out.push_back({node->t, node->pose});
-  std::reverse(out.begin(), out.end());
-  return out;
-}
+std::vector<StampedPose> FastSlam::smoothed_trajectory() const { return impl_->best_particle().path.poses(); }
 
 std::vector<WeightedPose> FastSlam::pose_samples() const {
   const Impl& s = *impl_;
@@ -976,10 +364,10 @@ void FastSlam::set_initial_map(const std::vector<Landmark>& map) {
     g.mean = lm.position;
     g.covariance = lm.covariance;
     g.id = lm.id;
-    g.observations = s.config.association.confirm_after;
+    g.existence = s.existence.given();
     s.known_index[lm.id] = static_cast<std::uint32_t>(tree.size());
     s.next_id = std::max(s.next_id, lm.id + 1);
-    if (!s.known()) s.grid.insert(g.mean, static_cast<std::uint32_t>(tree.size()));
+    if (!s.known()) s.grid.insert(s.grid.cell_of(g.mean), static_cast<std::uint32_t>(tree.size()));
     tree.push_back(g);
   }
   for (Impl::Particle& p : s.particles) p.map = tree;

@@ -52,9 +52,7 @@ std::vector<std::string> filter_names() {
 void validate(const FilterConfig& config) {
   if (config.particles < 1)
     throw std::invalid_argument(fmt::format("particles must be an integer >= 1, found {}", config.particles));
-  // ASSOCIATION CHECK: the association settings are the association policy's to validate (assoc/,
-  // issue 15 part 2); its check of config.association belongs here, where every filter setting is
-  // checked before any data is read. The filters' constructors check them meanwhile.
+  validate(config.association);
 }
 
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset) {

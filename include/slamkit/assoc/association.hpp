@@ -36,7 +36,8 @@ class GaussianMapView {
   virtual Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const = 0;
 };
 
-/// Squared Mahalanobis distance thresholds derived from the configured probabilities (2 dof).
+/// Squared Mahalanobis distance thresholds derived from the configured probabilities (2 dof), for
+/// every filter. from() validates the whole config first.
 struct Gates {
   double accept = 0.0;
   double new_landmark = 0.0;

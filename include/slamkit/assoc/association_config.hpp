@@ -1,8 +1,10 @@
 #pragma once
 // Settings of data association and map management, shared by every filter: how observations are
 // paired with landmarks (known identities, nearest neighbour, joint compatibility), the chi-square
-// gates, and when provisional landmarks are confirmed or removed.
+// gates, and when provisional landmarks are confirmed or removed. validate() is the one check of
+// these settings: both filters call it, and so may a front end before it reads any data.
 #include <cstddef>
+#include <optional>
 #include <string>
 
 namespace slamkit {
@@ -27,8 +29,10 @@ struct AssociationConfig {
   /// candidate (0.9999 -> 18.4); between the two gates it is ambiguous and discarded.
   double new_landmark_probability = 0.9999;
   /// With known identities, an observation whose innovation lies beyond the new-landmark gate is
-  /// rejected as an outlier: an identity does not make a wild measurement right.
-  bool gate_known = true;
+  /// rejected as an outlier: an identity does not make a wild measurement right. Unset, each filter
+  /// keeps its own default: the EKF gates (one wild update corrupts its single Gaussian for good),
+  /// FastSLAM does not (each particle's weight already judges how well it explains the scan).
+  std::optional<bool> gate_known;
   /// A new landmark is provisional until it has been observed this many times (the first included).
   int confirm_after = 3;
   /// A provisional landmark predicted in view but not seen this many scans in a row is removed.
@@ -45,5 +49,11 @@ struct AssociationConfig {
   /// descent, so the budget degrades JCBB towards NN rather than towards nothing.
   std::size_t jcbb_max_nodes = 20000;
 };
+
+/// Throws std::invalid_argument naming the first setting out of its range and the range:
+/// 0 < accept_probability < 1, accept_probability <= new_landmark_probability < 1,
+/// confirm_after >= 1, provisional_max_misses >= 1, confirmed_max_misses >= 0, finite view margins
+/// >= 0, jcbb_max_nodes >= 1.
+void validate(const AssociationConfig& config);
 
 }  // namespace slamkit

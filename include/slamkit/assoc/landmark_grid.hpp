@@ -1,10 +1,19 @@
 #pragma once
-// A uniform grid over landmark positions, so the landmarks that can be in view are found by looking
-// at the cells near the vehicle instead of scanning the whole map. Landmarks are binned at the
-// position they had when last (re)binned; callers re-bin the landmarks they touch and rebuild the
-// grid after large corrections (a loop closure), and query with a margin that covers the drift
-// in between. Cells keep their storage once created (a rebuild empties them), so re-binning and
-// rebuilding over ground already mapped do not allocate.
+// A uniform grid of landmark indices by position, so that the landmarks that can be in view are
+// found by looking at the cells near the vehicle instead of scanning the whole map.
+//
+// A cell lists landmark indices, each at most once; an index may be listed in several cells. The
+// EKF lists each landmark once, in the cell of the position it was last binned at, re-bins the
+// landmarks a scan moved and starts over after a large correction (a loop closure). FastSLAM lists
+// every particle's version of a landmark in the cell of its mean, adding an entry when a version is
+// created in a cell or moves into it and pruning the entries no version needs any more, so the
+// grid costs O(changes) per scan, not O(map size).
+//
+// Entries are linked lists through one pool of nodes that only grows, and a query creates the cells
+// of its square and a ring around it (where a scan's new and moved landmarks land), so listing,
+// moving and clearing over ground already seen do not allocate. Not thread-safe; cell_of may be
+// called concurrently with itself.
+#include <cmath>
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
@@ -15,29 +24,68 @@ namespace slamkit {
 
 class LandmarkGrid {
  public:
-  explicit LandmarkGrid(double cell_size = 10.0);
+  using Cell = std::uint64_t;
 
-  /// Drops everything and bins landmarks 0..n-1 at `positions`.
-  void rebuild(const std::vector<Vector2>& positions);
-  /// Bins landmark `index` (the next index: landmarks are added in order) at p.
-  void add(std::size_t index, const Vector2& p);
-  /// Moves landmark `index` to the cell of p if it is not there already.
-  void move(std::size_t index, const Vector2& p);
-  /// Appends to `out` every landmark binned in a cell that intersects the disc (centre, radius).
-  void query(const Vector2& centre, double radius, std::vector<std::size_t>& out) const;
+  /// Throws std::invalid_argument unless cell_size > 0.
+  explicit LandmarkGrid(double cell_size);
 
-  std::size_t size() const { return cell_of_.size(); }
   double cell_size() const { return cell_size_; }
+  Cell cell_of(const Vector2& p) const { return pack(column(p.x()), column(p.y())); }
+
+  /// Lists landmark `index` in `cell`, unless it is listed there already.
+  void insert(Cell cell, std::uint32_t index);
+  /// Stops listing landmark `index` in `cell`; nothing happens if it is not listed there.
+  void erase(Cell cell, std::uint32_t index);
+  /// Empties every cell.
+  void clear();
+  /// Replaces `out` with the landmarks listed in the cells that touch the square around the disc
+  /// (centre, radius), cell by cell: an index listed in several of them comes once per cell. The
+  /// next prune() visits those cells.
+  void query(const Vector2& centre, double radius, std::vector<std::uint32_t>& out);
+  /// Drops the entries of the last query's cells for which needed(cell, index) is false: they are
+  /// where stale entries cost, and where map management has just been at work.
+  template <class Needed>
+  void prune(Needed&& needed) {
+    for_each_queried_cell([&](Cell cell, std::uint32_t& head) {
+      for (std::uint32_t* link = &head; *link != kNone;) {
+        Node& node = nodes_[*link];
+        if (needed(cell, node.index)) {
+          link = &node.next;
+          continue;
+        }
+        const std::uint32_t freed = *link;
+        *link = node.next;
+        release(freed);
+      }
+    });
+  }
 
  private:
-  using Key = std::uint64_t;
-  Key key_of(const Vector2& p) const;
-  static Key key(std::int64_t cx, std::int64_t cy);
-  void erase_from_cell(std::size_t index);
+  struct Node {
+    std::uint32_t index;
+    std::uint32_t next;
+  };
+  static constexpr std::uint32_t kNone = 0xffffffffU;
+
+  std::int64_t column(double v) const { return static_cast<std::int64_t>(std::floor(v / cell_size_)); }
+  static Cell pack(std::int64_t ix, std::int64_t iy) {
+    return (static_cast<Cell>(static_cast<std::uint32_t>(ix)) << 32) | static_cast<std::uint32_t>(iy);
+  }
+  std::uint32_t acquire(std::uint32_t index, std::uint32_t next);
+  void release(std::uint32_t node);
+  /// f(cell, head) for each existing cell of the last query's square.
+  template <class F>
+  void for_each_queried_cell(F&& f) {
+    for (std::int64_t ix = lo_x_; ix <= hi_x_; ++ix)
+      for (std::int64_t iy = lo_y_; iy <= hi_y_; ++iy)
+        if (const auto it = cells_.find(pack(ix, iy)); it != cells_.end()) f(it->first, it->second);
+  }
 
   double cell_size_;
-  std::unordered_map<Key, std::vector<std::size_t>> cells_;
-  std::vector<Key> cell_of_;
+  std::unordered_map<Cell, std::uint32_t> cells_;  // the head of each cell's list
+  std::vector<Node> nodes_;
+  std::uint32_t free_ = kNone;  // the list of unused nodes
+  std::int64_t lo_x_ = 0, lo_y_ = 0, hi_x_ = -1, hi_y_ = -1;  // the last query's cells; none yet
 };
 
 }  // namespace slamkit

@@ -31,8 +31,10 @@
 // landmarks are not favoured over particles that recognise them.
 //
 // Data association (AssociationConfig), decided per particle:
-//   kKnown: the observation id names the landmark; an observation without an id is discarded.
-//     Identities are certain, so landmarks are confirmed at once and never removed.
+//   kKnown: the observation id names the landmark; an observation without an id is discarded, and
+//     so is one beyond the new-landmark gate of its landmark in that particle when
+//     AssociationConfig::gate_known is set (unset: not gated). Identities are certain, so
+//     landmarks are confirmed at once and never removed.
 //   kNearestNeighbour, kJcbb: maximum likelihood per particle. Given a particle's path its landmarks
 //     are independent, so the joint compatibility of a hypothesis is the product of individual
 //     compatibilities and JCBB reduces to individual compatibility; both use the same rule.
@@ -40,21 +42,21 @@
 //     (1.0) or plus Hx Sigma Hx^T (2.0, Sigma the predicted pose covariance); pairs inside the accept
 //     gate are taken greedily in order of d2, each landmark at most once per scan; an unpaired
 //     observation starts a landmark if it is outside the new-landmark gate of every candidate and is
-//     discarded otherwise. Provisional landmarks and miss counts follow AssociationConfig exactly;
-//     removal is a tombstone in the particle's map.
-//   Candidates come from a per-filter uniform grid of landmark indices over every particle's version
-//   of every landmark, kept up to date as the particles change their maps: a landmark is listed in
-//   its cell when a particle creates it and again when an update moves it into another cell, so
-//   every live version is always listed where its mean is; entries no particle needs any more are
-//   dropped around the vehicle every few scans. A scan's query covers the sensor disc around the
-//   mean pose, widened by the particle spread. So a particle checks the O(landmarks in view)
-//   candidates, not its whole map, and the grid costs O(changes) per scan, not O(map size)
-//   (bench/bench_fastslam.cpp). View tests read a measurement as (range, bearing), the terms in
-//   which SensorLimits are given.
+//     discarded otherwise. Whether a landmark is provisional, confirmed or removed is decided per
+//     particle by the ExistenceRule both filters share (assoc/landmark_existence.hpp); removal is a
+//     tombstone in the particle's map.
+//   Candidates come from a per-filter LandmarkGrid (assoc/landmark_grid.hpp) over every particle's
+//   version of every landmark, kept up to date as the particles change their maps: a landmark is
+//   listed in its cell when a particle creates it and again when an update moves it into another
+//   cell, so every live version is always listed where its mean is; entries no particle needs any
+//   more are dropped around the vehicle every few scans. A scan's query covers the sensor disc
+//   around the mean pose, widened by the particle spread. So a particle checks the O(landmarks in
+//   view) candidates, not its whole map, and the grid costs O(changes) per scan, not O(map size)
+//   (bench/bench_fastslam.cpp). The view tests are the shared SensorView's.
 //
-// Memory: the nodes of the landmark trees and of the particles' paths, and the grid's entries, come
-// from pools the filter owns (NodePool), and per-scan scratch is kept between scans, so once the
-// pools have grown to the working set (a lap of a route) predict() and update() make no heap
+// Memory: the nodes of the landmark trees and of the particles' paths come from pools the filter
+// owns (NodePool), the grid recycles its entries, and per-scan scratch is kept between scans, so
+// once the pools have grown to the working set (a lap of a route) predict() and update() make no heap
 // allocation (tests/fastslam_allocation_test.cpp). What grows for good is the map and the surviving
 // path, one pose per predict(); their storage grows in large chunks, and reserve() takes it ahead.
 //

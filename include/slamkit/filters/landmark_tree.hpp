@@ -47,8 +47,9 @@
 #include <unordered_set>
 #include <utility>
 
-#include "slamkit/filters/node_pool.hpp"
+#include "slamkit/assoc/landmark_existence.hpp"
 #include "slamkit/core/types.hpp"
+#include "slamkit/filters/node_pool.hpp"
 
 namespace slamkit {
 
@@ -56,9 +57,8 @@ namespace slamkit {
 struct LandmarkGaussian {
   Vector2 mean = Vector2::Zero();
   Matrix2 covariance = Matrix2::Zero();
-  int id = kUnknownId;   // the map id the filter reports
-  int observations = 0;  // times paired with an observation, the first (creation) included
-  int misses = 0;        // consecutive scans predicted in view but not observed
+  int id = kUnknownId;  // the map id the filter reports
+  LandmarkExistence existence;
   bool removed = false;  // tombstone
 };
 
@@ -69,10 +69,10 @@ class BasicLandmarkTree {
  public:
   static constexpr int kFanOut = FanOut;
 
-  /// Pools for the nodes of the maps made with it, safe for `threads` thread slots (pool_thread_slot).
+  /// Pools for the nodes of the maps made with it, for the threads of `threads` (see NodePool).
   class NodeStorage {
    public:
-    explicit NodeStorage(unsigned threads)
+    explicit NodeStorage(const WorkerPool& threads)
         : leaves_(sizeof(Leaf), threads, kChunkNodes), inners_(sizeof(Inner), threads, kChunkNodes) {}
 
    private:

@@ -9,54 +9,43 @@
 // least half the capacity so far, and at least `min_chunk_blocks`), so a structure that keeps
 // growing, such as the surviving trajectory, allocates once per large chunk.
 //
-// Thread safety: allocate and deallocate may be called concurrently from any threads. Each thread
-// slot (pool_thread_slot, set by the thread running the work; 0 for any other thread) has its own
-// free list that needs no lock; a slot's list hands surplus blocks to a shared list, and an empty
-// one refills from it, in batches under a mutex, so the lock is taken once per kBatch blocks. A slot
-// beyond the pool's thread count uses the shared list directly. Two threads must not use the same
-// slot of one pool at the same time.
+// Thread safety: a pool serves the threads of one WorkerPool, given when it is made: its workers and
+// the one thread that calls WorkerPool::run (index 0, as is any thread outside the pool, so at most
+// one of those may use the pool at a time). allocate and deallocate may be called concurrently from
+// those threads. Each thread index has its own free list that needs no lock; a list hands surplus
+// blocks to a shared list, and an empty one refills from it, in batches under a mutex, so the lock
+// is taken once per kBatch blocks.
 #include <algorithm>
 #include <cstddef>
 #include <memory>
 #include <mutex>
 #include <vector>
 
-namespace slamkit {
+#include "slamkit/filters/worker_pool.hpp"
 
-/// The free list of the pools this thread uses: worker threads set it once to their index.
-inline thread_local unsigned pool_thread_slot = 0;
+namespace slamkit {
 
 class NodePool {
  public:
   /// Blocks of `block_size` bytes, aligned as operator new aligns (enough for Eigen's fixed-size
-  /// types); `threads` slots with their own free lists.
-  NodePool(std::size_t block_size, unsigned threads, std::size_t min_chunk_blocks)
+  /// types), for the threads of `threads`, which must outlive the pool.
+  NodePool(std::size_t block_size, const WorkerPool& threads, std::size_t min_chunk_blocks)
       : block_size_(round_up(std::max(block_size, sizeof(FreeBlock)))),
         min_chunk_(std::max<std::size_t>(min_chunk_blocks, kBatch)),
-        slots_(std::make_unique<Slot[]>(std::max(1u, threads))),
-        slot_count_(std::max(1u, threads)) {}
+        threads_(&threads),
+        slots_(std::make_unique<Slot[]>(threads.size())) {}
   NodePool(const NodePool&) = delete;
   NodePool& operator=(const NodePool&) = delete;
 
   void* allocate() {
-    if (pool_thread_slot >= slot_count_) {
-      const std::lock_guard lock(mutex_);
-      if (shared_ == nullptr) grow(0);
-      return pop(shared_, shared_count_);
-    }
-    Slot& slot = slots_[pool_thread_slot];
+    Slot& slot = slots_[threads_->thread_index()];
     if (slot.head == nullptr) refill(slot);
     return pop(slot.head, slot.count);
   }
 
   void deallocate(void* block) noexcept {
     auto* free = static_cast<FreeBlock*>(block);
-    if (pool_thread_slot >= slot_count_) {
-      const std::lock_guard lock(mutex_);
-      push(shared_, shared_count_, free);
-      return;
-    }
-    Slot& slot = slots_[pool_thread_slot];
+    Slot& slot = slots_[threads_->thread_index()];
     push(slot.head, slot.count, free);
     if (slot.count >= 2 * kBatch) spill(slot);
   }
@@ -122,8 +111,8 @@ class NodePool {
 
   const std::size_t block_size_;
   const std::size_t min_chunk_;
+  const WorkerPool* const threads_;
   const std::unique_ptr<Slot[]> slots_;
-  const unsigned slot_count_;
   std::mutex mutex_;
   FreeBlock* shared_ = nullptr;
   std::size_t shared_count_ = 0;

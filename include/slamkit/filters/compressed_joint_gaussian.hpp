@@ -1,0 +1,116 @@
+#pragma once
+// The compressed EKF (Guivant and Nebot 2001): the same estimate as JointGaussian, with the cost of a
+// step independent of the map's size while the vehicle stays inside a local area. Only the active
+// part A (the vehicle and the landmarks near the area) is updated, through a dense local
+// covariance; the effect on the rest B is accumulated in matrices of A's size (phi, psi, theta) and
+// applied to the whole map once, when the vehicle leaves the area: an exact reorganisation of the
+// same products (see src/filters/compressed_joint_gaussian.cpp for the derivation). Accessors answer
+// for B on the fly, so reading never flushes. Observations are applied one at a time.
+#include <vector>
+
+#include "slamkit/filters/ekf_estimator.hpp"
+
+namespace slamkit {
+
+class CompressedJointGaussian final : public EkfEstimator {
+ public:
+  /// The local area is a square of side `area_side` [m] (0: 2 x sensor_range) centred on the vehicle
+  /// when it opens; its active landmarks are those within `sensor_range` of the square, i.e. every
+  /// landmark the vehicle can see from inside it. Leaving the square is checked at begin_scan().
+  CompressedJointGaussian(std::shared_ptr<const MotionModel> motion,
+                          std::shared_ptr<const ObservationModel> observation, double sensor_range,
+                          double area_side = 0.0, const Pose2& initial_pose = Pose2::Zero(),
+                          const Matrix3& initial_covariance = Matrix3::Zero());
+
+  Matrix3 pose_covariance() const override;
+  Vector2 landmark_position(std::size_t index) const override;
+  Matrix2 landmark_covariance(std::size_t index) const override;
+  Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override;
+  Matrix23 landmark_pose_covariance(std::size_t index) const override;
+  Eigen::VectorXd state() const override;
+  Eigen::MatrixXd covariance() const override;
+
+  void predict(const Control& u, double dt) override;
+  bool update_landmark(std::size_t index, const Vector2& z) override;
+  bool update_landmarks(std::span<const LandmarkObservation> batch) override;
+  std::size_t add_landmark(const Vector2& z) override;
+  /// Flushes first: removal renumbers the state, and the area's bookkeeping is by stored offset.
+  void remove_landmark(std::size_t index) override;
+  /// Flushes when the vehicle has left the local area.
+  void begin_scan() override;
+  /// "local_area_flushes".
+  void add_statistics(std::map<std::string, double>& statistics) const override;
+
+  /// Applies the update accumulated in the current local area to the whole map, O(n_B^2 n_A); the
+  /// next operation starts a new area around the vehicle. Every accessor already answers as if this
+  /// had been done, so this only decides when the cost is paid.
+  void flush_local_area();
+
+ private:
+  bool in_area() const { return !area_offsets_.empty(); }
+  /// Offset of landmark `index` in the local state; -1 when it is in B or no area is open.
+  long local_offset(std::size_t index) const;
+  /// Starts an area centred on the vehicle with `must_include` (if a landmark index) active.
+  void begin_area(long must_include = -1);
+  /// Makes landmark `index` active, flushing and starting a new area if it is not.
+  void activate(std::size_t index);
+  void predict_local(const Matrix3& f, const Matrix3& q);
+  bool update_local(std::size_t index, const Vector2& z);
+  void add_local(const Matrix23& gx, const Matrix2& pnew);
+  /// Makes room for a local state of dimension d, keeping the open area's matrices.
+  void reserve_area(Eigen::Index d);
+  // The open area's matrices: views of buffers with room to grow.
+  auto pa() { return pa_.topLeftCorner(d_, d_); }
+  auto pa() const { return pa_.topLeftCorner(d_, d_); }
+  auto phi() { return phi_.topLeftCorner(d_, a0_); }
+  auto phi() const { return phi_.topLeftCorner(d_, a0_); }
+  auto psi() { return psi_.topLeftCorner(a0_, a0_); }
+  auto psi() const { return psi_.topLeftCorner(a0_, a0_); }
+  auto theta() { return theta_.head(a0_); }
+  auto theta() const { return theta_.head(a0_); }
+  /// Column c of U = P_BA(0) for landmark `index` in B: its cross-covariance with A0's c-th variable
+  /// when the area began (B's rows and A0's columns are not written while the area is open).
+  Vector2 start_cross(std::size_t index, Eigen::Index c) const {
+    const std::size_t l = landmark_offset(index), a = area_offsets_[static_cast<std::size_t>(c)];
+    return {stored_entry(l, a), stored_entry(l + 1, a)};
+  }
+  /// m U^T for landmark `index` in B and m with a0_ columns, summed column by column: the accessors'
+  /// products with U, without gathering U.
+  template <typename Derived>
+  Eigen::Matrix<double, Derived::RowsAtCompileTime, 2> times_start_cross_t(const Eigen::MatrixBase<Derived>& m,
+                                                                           std::size_t index) const;
+  /// U_i psi U_j^T for landmarks i and j in B.
+  Matrix2 start_cross_quadratic(std::size_t i, std::size_t j) const;
+  /// Reused by merge_area; a flush makes room in it once and then reuses it.
+  struct MergeWorkspace {
+    std::vector<char> active;          // per stored offset: in A
+    std::vector<std::size_t> outside;  // stored offsets of B, ascending
+    Eigen::MatrixXd u_b;               // P_BA(0): B's rows, A0's columns
+    Eigen::MatrixXd u;                 // u_b spread over all rows (zero in A's): n x a0
+    Eigen::MatrixXd psi_ut;            // psi u^T
+    Eigen::MatrixXd p_ba;              // u_b phi^T: the new P_BA
+  };
+  /// Writes the accumulated update into x and the lower triangle of p (the stored state's layout).
+  void merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::MatrixXd> p, MergeWorkspace& ws) const;
+
+  double sensor_range_;
+  double area_half_side_;
+  // The local area, empty when none is open. The local state is [vehicle | A0's landmarks |
+  // landmarks added since], in which order area_offsets_ lists the stored offsets; pa() is its full
+  // symmetric covariance. x_ holds the local state in place. pa_, phi_, psi_ and theta_ are buffers
+  // of a capacity that only grows; pa() etc. view them.
+  Vector2 area_centre_ = Vector2::Zero();
+  std::vector<std::size_t> area_offsets_;
+  std::vector<long> local_of_;  // per landmark: local offset, or -1
+  Eigen::MatrixXd pa_;
+  Eigen::Index d_ = 0;     // dim(A)
+  Eigen::Index a0_ = 0;    // dim(A0), the active part when the area began
+  Eigen::MatrixXd phi_;    // dim(A) x dim(A0): P_BA = P_BA(0) phi^T
+  Eigen::MatrixXd psi_;    // dim(A0) square:   P_BB = P_BB(0) - P_BA(0) psi P_AB(0)
+  Eigen::VectorXd theta_;  // dim(A0):          x_B  = x_B(0) + P_BA(0) theta
+  Eigen::Matrix<double, 2, Eigen::Dynamic> h_phi_;  // H_A phi of the current local update
+  MergeWorkspace merge_;
+  std::size_t flushes_ = 0;
+};
+
+}  // namespace slamkit

@@ -1,0 +1,106 @@
+#pragma once
+// The joint Gaussian over the vehicle pose and every landmark that EKF-SLAM keeps (eqs. 6-11 of the
+// tutorial), as an interface with two implementations that give the same estimate: JointGaussian
+// updates the whole covariance at every step, CompressedJointGaussian confines the updates to a
+// local area and applies them to the rest of the map when the vehicle leaves it. EkfSlam runs its
+// association and map management over either; tests and benchmarks drive them directly.
+//
+// Storage, shared by both: the state is [x y theta | m1x m1y | m2x m2y | ...]; the covariance is
+// kept in one dense column-major buffer of which only the LOWER triangle is meaningful. Symmetry
+// therefore holds by construction (no symmetrisation pass), and every update touches half the
+// matrix. Buffers grow by a quarter of their size, so adding a landmark does not reallocate each
+// time (and the square buffer is at most 1.56x the covariance). Every temporary of a step lives in
+// a member workspace that only grows, so once the map stops growing a step allocates nothing
+// (tests/ekf_allocation_test.cpp).
+#include <Eigen/Core>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+
+#include "slamkit/assoc/association.hpp"
+#include "slamkit/models/motion_model.hpp"
+#include "slamkit/models/observation_model.hpp"
+
+namespace slamkit {
+
+/// One observation of the landmark at a map index.
+struct LandmarkObservation {
+  std::size_t index = 0;
+  Vector2 z = Vector2::Zero();
+};
+
+class EkfEstimator : public GaussianMapView {
+ public:
+  Pose2 pose() const final { return x_.head<3>(); }  // the vehicle's estimate is always current
+  std::size_t state_dim() const { return dim_; }
+  std::size_t num_landmarks() const { return (dim_ - 3) / 2; }
+  virtual Matrix2 landmark_covariance(std::size_t index) const = 0;
+  /// The whole state vector (a copy).
+  virtual Eigen::VectorXd state() const = 0;
+  /// The full symmetric covariance (a copy: O(n^2); for tests and exports, not for the hot path).
+  virtual Eigen::MatrixXd covariance() const = 0;
+  /// Predicted measurement and innovation covariance S of landmark `index` (for gating).
+  void innovation(std::size_t index, Vector2& zhat, Matrix2& s) const;
+
+  /// Eqs. (8)-(9): the time update with control u over dt.
+  virtual void predict(const Control& u, double dt) = 0;
+  /// Eqs. (10)-(11) for one observation z of the landmark at map index `index`. Returns false (and
+  /// changes nothing) if the innovation covariance is not positive definite.
+  virtual bool update_landmark(std::size_t index, const Vector2& z) = 0;
+  /// Eqs. (10)-(11) for observations of distinct landmarks: JointGaussian stacks them into one
+  /// innovation, CompressedJointGaussian applies them one by one. Returns false if an innovation
+  /// covariance is not positive definite (JointGaussian then changes nothing).
+  virtual bool update_landmarks(std::span<const LandmarkObservation> batch) = 0;
+  /// Appends the landmark seen as z from the current pose, with its full cross-covariances; returns
+  /// its map index.
+  virtual std::size_t add_landmark(const Vector2& z) = 0;
+  /// Takes landmark `index` out of the state: its rows and columns leave the covariance, and the
+  /// landmarks after it move down one index. O(n^2).
+  virtual void remove_landmark(std::size_t index) = 0;
+  /// Called before each scan's updates (CompressedJointGaussian: a new local area when the vehicle
+  /// has left the last one).
+  virtual void begin_scan() {}
+  /// Adds the implementation's own figures to a filter's statistics.
+  virtual void add_statistics(std::map<std::string, double>& /*statistics*/) const {}
+
+  const MotionModel& motion_model() const { return *motion_; }
+  const ObservationModel& observation_model() const { return *observation_; }
+
+ protected:
+  /// Throws std::invalid_argument for a missing model.
+  EkfEstimator(std::shared_ptr<const MotionModel> motion, std::shared_ptr<const ObservationModel> observation,
+               const Pose2& initial_pose, const Matrix3& initial_covariance);
+
+  static std::size_t landmark_offset(std::size_t index) { return 3 + 2 * index; }
+  /// Makes room for a state of dimension `dim`, growing the buffers by a quarter at least.
+  void reserve(std::size_t dim);
+  /// Symmetric 2x2 or 3x3 diagonal block from the lower triangle.
+  template <int N>
+  Eigen::Matrix<double, N, N> diagonal_block(std::size_t offset) const {
+    const auto o = static_cast<Eigen::Index>(offset);
+    return p_.block<N, N>(o, o).template selfadjointView<Eigen::Lower>();
+  }
+  /// Stored covariance entry (i, j), read from the lower triangle.
+  double stored_entry(std::size_t i, std::size_t j) const {
+    return i > j ? p_(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j))
+                 : p_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i));
+  }
+  /// The new landmark's mean g(x_v, z), written at the end of the state (whose room the caller has
+  /// reserved), its Jacobian gx with respect to the vehicle, and Gz R Gz^T. The caller adds its
+  /// covariance and then the 2 to dim_.
+  Matrix2 place_new_landmark(const Vector2& z, Matrix23& gx);
+  /// Squeezes landmark `index` out of the stored state and lower triangle, in place.
+  void remove_stored_landmark(std::size_t index);
+
+  std::shared_ptr<const MotionModel> motion_;
+  std::shared_ptr<const ObservationModel> observation_;
+  std::size_t dim_ = 3;
+  Eigen::VectorXd x_;
+  Eigen::MatrixXd p_;  // capacity x capacity; lower triangle of the leading dim_ x dim_ block is P
+  Eigen::Matrix<double, Eigen::Dynamic, 3> scratch3_;  // capacity x 3, reused by the time updates
+  // capacity x 2 per observation of the largest joint update so far: P H^T of the current update.
+  Eigen::MatrixXd pht_;
+};
+
+}  // namespace slamkit

@@ -1,0 +1,333 @@
+#include "slamkit/filters/compressed_joint_gaussian.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+
+#include "slamkit/core/angles.hpp"
+
+namespace slamkit {
+
+// Partition the state into A (vehicle + active landmarks) and B (the rest). While every operation
+// involves A only, B's blocks follow from their values when the area began (index 0):
+//
+//   time update, F_A = diag(F, I):   P_AA <- F_A P_AA F_A^T + Q_A,  P_BA <- P_BA F_A^T
+//   observation, H = [H_A 0]:        S = H_A P_AA H_A^T + R,  W_A = P_AA H_A^T S^-1
+//                                    P_BA <- P_BA (I - W_A H_A)^T
+//                                    P_BB <- P_BB - P_BA H_A^T S^-1 H_A P_AB
+//                                    x_B  <- x_B + P_BA H_A^T S^-1 nu
+//   new landmark m = g(x_v, z):      P_{B,m} = P_Bv Gx^T
+//
+// Every step multiplies P_BA on the right, so P_BA = P_BA(0) phi^T with phi <- F_A phi,
+// phi <- (I - W_A H_A) phi, and for a new landmark phi gains the rows Gx phi_v. Substituting into the
+// other two: P_BB = P_BB(0) - P_BA(0) psi P_AB(0) with psi += (H_A phi)^T S^-1 (H_A phi), and
+// x_B = x_B(0) + P_BA(0) theta with theta += (H_A phi)^T S^-1 nu. phi is dim(A) x dim(A0), psi and
+// theta dim(A0): a step costs O(dim(A)^2) whatever the map's size. Applying them to B (a flush) is
+// O(n_B^2 dim(A0)), once per area. A and A0 differ only by the landmarks added in the area, which
+// come last in the local order.
+
+CompressedJointGaussian::CompressedJointGaussian(std::shared_ptr<const MotionModel> motion,
+                                                 std::shared_ptr<const ObservationModel> observation,
+                                                 double sensor_range, double area_side, const Pose2& initial_pose,
+                                                 const Matrix3& initial_covariance)
+    : EkfEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance),
+      sensor_range_(sensor_range),
+      area_half_side_(0.5 * (area_side > 0.0 ? area_side : 2.0 * sensor_range)) {}
+
+// In an open local area the accessors answer from the local state for active landmarks and apply
+// the accumulated update on the fly for the others: O(dim(A0)^2) at most.
+
+template <typename Derived>
+Eigen::Matrix<double, Derived::RowsAtCompileTime, 2> CompressedJointGaussian::times_start_cross_t(
+    const Eigen::MatrixBase<Derived>& m, std::size_t index) const {
+  using Result = Eigen::Matrix<double, Derived::RowsAtCompileTime, 2>;
+  Result out = Result::Zero();
+  for (Eigen::Index c = 0; c < a0_; ++c) out.noalias() += m.col(c) * start_cross(index, c).transpose();
+  return out;
+}
+
+Matrix2 CompressedJointGaussian::start_cross_quadratic(std::size_t i, std::size_t j) const {
+  Matrix2 out = Matrix2::Zero();
+  for (Eigen::Index c = 0; c < a0_; ++c) out.noalias() += start_cross(i, c) * times_start_cross_t(psi().row(c), j);
+  return out;
+}
+
+Matrix3 CompressedJointGaussian::pose_covariance() const {
+  return in_area() ? Matrix3(pa_.topLeftCorner<3, 3>()) : diagonal_block<3>(0);
+}
+
+Vector2 CompressedJointGaussian::landmark_position(std::size_t index) const {
+  const auto l = static_cast<Eigen::Index>(landmark_offset(index));
+  if (!in_area() || local_offset(index) >= 0) return x_.segment<2>(l);
+  return x_.segment<2>(l) + times_start_cross_t(theta().transpose(), index).transpose();
+}
+
+Matrix2 CompressedJointGaussian::landmark_covariance(std::size_t index) const {
+  if (!in_area()) return diagonal_block<2>(landmark_offset(index));
+  if (const long a = local_offset(index); a >= 0) return pa_.block<2, 2>(a, a);
+  return diagonal_block<2>(landmark_offset(index)) - start_cross_quadratic(index, index);
+}
+
+Matrix2 CompressedJointGaussian::landmark_cross_covariance(std::size_t i, std::size_t j) const {
+  if (i == j) return landmark_covariance(i);
+  const auto a = static_cast<Eigen::Index>(landmark_offset(i));
+  const auto b = static_cast<Eigen::Index>(landmark_offset(j));
+  // Only the lower triangle is stored: the block with the larger row offset holds the pair.
+  const Matrix2 stored = a > b ? Matrix2(p_.block<2, 2>(a, b)) : Matrix2(p_.block<2, 2>(b, a).transpose());
+  if (!in_area()) return stored;
+  const long li = local_offset(i), lj = local_offset(j);
+  if (li >= 0 && lj >= 0) return pa_.block<2, 2>(li, lj);
+  if (li >= 0) return times_start_cross_t(phi().middleRows<2>(li), j);  // P(A,B) = phi P_AB(0)
+  if (lj >= 0) return times_start_cross_t(phi().middleRows<2>(lj), i).transpose();
+  return stored - start_cross_quadratic(i, j);
+}
+
+Matrix23 CompressedJointGaussian::landmark_pose_covariance(std::size_t index) const {
+  if (!in_area()) return p_.block<2, 3>(static_cast<Eigen::Index>(landmark_offset(index)), 0);
+  if (const long a = local_offset(index); a >= 0) return pa_.block<2, 3>(a, 0);
+  return times_start_cross_t(phi().topRows<3>(), index).transpose();
+}
+
+Eigen::VectorXd CompressedJointGaussian::state() const {
+  Eigen::VectorXd x = x_.head(static_cast<Eigen::Index>(dim_));
+  if (in_area())
+    for (std::size_t i = 0; i < num_landmarks(); ++i)
+      if (local_offset(i) < 0) x.segment<2>(static_cast<Eigen::Index>(landmark_offset(i))) = landmark_position(i);
+  return x;
+}
+
+Eigen::MatrixXd CompressedJointGaussian::covariance() const {
+  const auto n = static_cast<Eigen::Index>(dim_);
+  Eigen::MatrixXd lower = p_.topLeftCorner(n, n);
+  if (in_area()) {
+    Eigen::VectorXd x = x_.head(n);
+    MergeWorkspace ws;
+    merge_area(x, lower, ws);
+  }
+  return lower.selfadjointView<Eigen::Lower>();
+}
+
+void CompressedJointGaussian::predict(const Control& u, double dt) {
+  const Pose2 xv = x_.head<3>();
+  const Matrix3 f = motion_->jacobian_state(xv, u, dt);
+  const Matrix3 q = motion_->process_noise(xv, u, dt);
+  x_.head<3>() = motion_->predict(xv, u, dt);
+  if (!in_area()) begin_area();
+  predict_local(f, q);
+}
+
+bool CompressedJointGaussian::update_landmark(std::size_t index, const Vector2& z) {
+  activate(index);
+  return update_local(index, z);
+}
+
+bool CompressedJointGaussian::update_landmarks(std::span<const LandmarkObservation> batch) {
+  bool all = true;
+  for (const LandmarkObservation& o : batch) all = update_landmark(o.index, o.z) && all;
+  return all;
+}
+
+std::size_t CompressedJointGaussian::add_landmark(const Vector2& z) {
+  reserve(dim_ + 2);
+  if (!in_area()) begin_area();
+  Matrix23 gx;
+  const Matrix2 added = place_new_landmark(z, gx);
+  add_local(gx, added);
+  dim_ += 2;
+  return num_landmarks() - 1;
+}
+
+void CompressedJointGaussian::remove_landmark(std::size_t index) {
+  flush_local_area();
+  remove_stored_landmark(index);
+}
+
+void CompressedJointGaussian::begin_scan() {
+  if (in_area() && (x_.head<2>() - area_centre_).lpNorm<Eigen::Infinity>() > area_half_side_) flush_local_area();
+}
+
+void CompressedJointGaussian::add_statistics(std::map<std::string, double>& statistics) const {
+  statistics["local_area_flushes"] = static_cast<double>(flushes_);
+}
+
+long CompressedJointGaussian::local_offset(std::size_t index) const { return in_area() ? local_of_[index] : -1; }
+
+void CompressedJointGaussian::reserve_area(Eigen::Index d) {
+  if (d <= pa_.rows()) return;
+  // Doubling: an area larger than every one before is rare once the map is built, and an area is
+  // small next to the stored state (which grows by a quarter). The open area's part is kept.
+  const Eigen::Index capacity = std::max(d, 2 * pa_.rows());
+  auto grow = [&](Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
+    Eigen::MatrixXd grown(capacity, capacity);
+    grown.topLeftCorner(rows, cols) = m.topLeftCorner(rows, cols);
+    m.swap(grown);
+  };
+  grow(pa_, d_, d_);
+  grow(phi_, d_, a0_);
+  grow(psi_, a0_, a0_);
+  Eigen::VectorXd theta(capacity);
+  theta.head(a0_) = theta_.head(a0_);
+  theta_.swap(theta);
+  h_phi_.resize(2, capacity);
+}
+
+void CompressedJointGaussian::begin_area(long must_include) {
+  area_centre_ = x_.head<2>();
+  // Every landmark the vehicle can see from inside the square is active, so observations made
+  // before it leaves the square involve A only.
+  const double reach = area_half_side_ + sensor_range_;
+  area_offsets_ = {0, 1, 2};
+  local_of_.assign(num_landmarks(), -1);
+  for (std::size_t i = 0; i < num_landmarks(); ++i) {
+    const std::size_t l = landmark_offset(i);
+    const Vector2 offset = x_.segment<2>(static_cast<Eigen::Index>(l)) - area_centre_;
+    const bool near = offset.lpNorm<Eigen::Infinity>() <= reach;
+    if (!near && static_cast<long>(i) != must_include) continue;
+    local_of_[i] = static_cast<long>(area_offsets_.size());
+    area_offsets_.push_back(l);
+    area_offsets_.push_back(l + 1);
+  }
+  const auto a0 = static_cast<Eigen::Index>(area_offsets_.size());
+  reserve_area(a0);
+  a0_ = d_ = a0;
+  auto pa = this->pa();
+  for (std::size_t c = 0; c < area_offsets_.size(); ++c)
+    for (std::size_t r = c; r < area_offsets_.size(); ++r) {
+      const auto i = static_cast<Eigen::Index>(r), j = static_cast<Eigen::Index>(c);
+      pa(i, j) = pa(j, i) = stored_entry(area_offsets_[r], area_offsets_[c]);
+    }
+  phi().setIdentity();
+  psi().setZero();
+  theta().setZero();
+}
+
+void CompressedJointGaussian::activate(std::size_t index) {
+  if (local_offset(index) >= 0) return;
+  flush_local_area();
+  begin_area(static_cast<long>(index));
+}
+
+void CompressedJointGaussian::flush_local_area() {
+  if (!in_area()) return;
+  const auto n = static_cast<Eigen::Index>(dim_);
+  merge_area(x_.head(n), p_.topLeftCorner(n, n), merge_);
+  area_offsets_.clear();
+  local_of_.clear();
+  ++flushes_;
+}
+
+void CompressedJointGaussian::predict_local(const Matrix3& f, const Matrix3& q) {
+  auto pa = this->pa();
+  const Eigen::Index rest = d_ - 3;
+  const Matrix3 pvv = f * pa.topLeftCorner<3, 3>() * f.transpose() + q;
+  // P_Av <- P_Av F^T and phi_v <- F phi_v through scratch3_ (at least dim_ x 3), as products that
+  // overwrite their own operand would go through a temporary.
+  auto pav = scratch3_.topRows(rest);
+  pav.noalias() = pa.bottomLeftCorner(rest, 3) * f.transpose();
+  pa.bottomLeftCorner(rest, 3) = pav;
+  pa.topRightCorner(3, rest) = pav.transpose();
+  pa.topLeftCorner<3, 3>() = pvv;
+  auto phi_v = scratch3_.topRows(a0_);
+  phi_v.noalias() = phi().topRows<3>().transpose() * f.transpose();
+  phi().topRows<3>() = phi_v.transpose();
+}
+
+bool CompressedJointGaussian::update_local(std::size_t index, const Vector2& z) {
+  const auto l = static_cast<Eigen::Index>(local_of_[index]);
+  const Eigen::Index d = d_;
+  auto pa = this->pa();
+  auto phi = this->phi();
+  const Pose2 xv = x_.head<3>();
+  const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
+  Matrix23 hx;
+  Matrix2 hm;
+  observation_->jacobians(xv, m, hx, hm);
+  const Vector2 nu = observation_->residual(z, observation_->predict(xv, m));
+
+  auto pht = pht_.leftCols<2>().topRows(d);
+  pht.noalias() = pa.leftCols<3>() * hx.transpose();
+  pht.noalias() += pa.middleCols<2>(l) * hm.transpose();
+  Matrix2 s = hx * pht.topRows<3>() + hm * pht.middleRows<2>(l) + observation_->noise();
+  s(0, 1) = s(1, 0) = 0.5 * (s(0, 1) + s(1, 0));
+  const Eigen::LLT<Matrix2> llt(s);
+  if (llt.info() != Eigen::Success) return false;
+
+  const Vector2 s_inv_nu = llt.solve(nu);
+  for (Eigen::Index r = 0; r < d; ++r) x_[static_cast<Eigen::Index>(area_offsets_[r])] += pht.row(r).dot(s_inv_nu);
+  x_[2] = wrap_angle(x_[2]);
+
+  // With g = L^-1 H_A phi (S = L L^T): theta += (H_A phi)^T S^-1 nu, psi += g^T g and
+  // phi -= W_A H_A phi = P H^T L^-T g, all through one 2 x dim(A0) buffer.
+  auto h_phi = h_phi_.leftCols(a0_);
+  h_phi.noalias() = hx * phi.topRows<3>();
+  h_phi.noalias() += hm * phi.middleRows<2>(l);
+  theta().noalias() += h_phi.transpose() * s_inv_nu;
+  llt.matrixL().solveInPlace(h_phi);
+  psi().noalias() += h_phi.transpose() * h_phi;
+  llt.matrixU().solveInPlace(h_phi);
+  phi.noalias() -= pht * h_phi;
+
+  llt.matrixL().solveInPlace(pht.transpose());  // now C = P H^T L^-T
+  pa.noalias() -= pht * pht.transpose();         // W_A S W_A^T = C C^T
+  return true;
+}
+
+void CompressedJointGaussian::add_local(const Matrix23& gx, const Matrix2& pnew) {
+  const Eigen::Index d = d_;
+  const std::size_t l = dim_;
+  reserve_area(d + 2);
+  d_ = d + 2;
+  auto pa = this->pa();
+  pa.bottomLeftCorner(2, d).noalias() = gx * pa.topLeftCorner(3, d);
+  pa.topRightCorner(d, 2) = pa.bottomLeftCorner(2, d).transpose();
+  pa.bottomRightCorner<2, 2>().noalias() = gx * pa.block<3, 2>(0, d) + pnew;
+  phi().bottomRows<2>().noalias() = gx * phi().topRows<3>();
+  local_of_.push_back(static_cast<long>(d));
+  area_offsets_.push_back(l);
+  area_offsets_.push_back(l + 1);
+}
+
+void CompressedJointGaussian::merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::MatrixXd> p, MergeWorkspace& ws) const {
+  const Eigen::Index n = x.size(), d = d_;
+  ws.active.assign(dim_, 0);
+  for (const std::size_t a : area_offsets_) ws.active[a] = 1;
+  ws.outside.clear();
+  for (std::size_t i = 0; i < dim_; ++i)
+    if (!ws.active[i]) ws.outside.push_back(i);
+  const auto n_b = static_cast<Eigen::Index>(ws.outside.size());
+  auto fit = [](Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
+    if (m.rows() < rows || m.cols() < cols) m.resize(std::max(rows, m.rows()), std::max(cols, m.cols()));
+    return m.topLeftCorner(rows, cols);
+  };
+  auto u_b = fit(ws.u_b, n_b, a0_);
+  for (Eigen::Index c = 0; c < a0_; ++c) {
+    const std::size_t a = area_offsets_[static_cast<std::size_t>(c)];
+    for (Eigen::Index r = 0; r < n_b; ++r) u_b(r, c) = stored_entry(ws.outside[static_cast<std::size_t>(r)], a);
+  }
+  // P_BA(0) spread over all n rows, zero in A's: the P_BB downdate is then one triangular product
+  // on the stored layout, leaving A's rows untouched.
+  auto u = fit(ws.u, n, a0_);
+  u.setZero();
+  for (Eigen::Index r = 0; r < n_b; ++r)
+    u.row(static_cast<Eigen::Index>(ws.outside[static_cast<std::size_t>(r)])) = u_b.row(r);
+
+  x.noalias() += u * theta();
+  auto psi_ut = fit(ws.psi_ut, a0_, n);
+  psi_ut.noalias() = psi() * u.transpose();
+  p.triangularView<Eigen::Lower>() -= u * psi_ut;
+  auto p_ba = fit(ws.p_ba, n_b, d);
+  p_ba.noalias() = u_b * phi().transpose();
+  auto pa = this->pa();
+  for (Eigen::Index c = 0; c < d; ++c) {
+    const auto a = static_cast<Eigen::Index>(area_offsets_[c]);
+    for (Eigen::Index r = 0; r < n_b; ++r) {
+      const auto b = static_cast<Eigen::Index>(ws.outside[static_cast<std::size_t>(r)]);
+      (b > a ? p(b, a) : p(a, b)) = p_ba(r, c);
+    }
+    for (Eigen::Index r = 0; r < d; ++r) {
+      const auto b = static_cast<Eigen::Index>(area_offsets_[r]);
+      if (b >= a) p(b, a) = pa(r, c);
+    }
+  }
+}
+
+}  // namespace slamkit

@@ -1,0 +1,169 @@
+#pragma once
+// FastSLAM's private state, shared by fastslam.cpp (the filter: particles, threads, candidates,
+// resampling, map ids, the public interface) and fastslam_particle.cpp (one particle's scan:
+// association, the proposal and the landmark updates, eqs. 15-18).
+#include <Eigen/Core>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <tuple>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "slamkit/assoc/association.hpp"
+#include "slamkit/assoc/landmark_existence.hpp"
+#include "slamkit/assoc/landmark_grid.hpp"
+#include "slamkit/assoc/sensor_view.hpp"
+#include "slamkit/filters/fastslam.hpp"
+#include "slamkit/filters/landmark_tree.hpp"
+#include "slamkit/filters/particle_path.hpp"
+#include "slamkit/filters/worker_pool.hpp"
+
+namespace slamkit {
+
+namespace fastslam_detail {
+
+constexpr double kLog2Pi = 1.8378770664093454836;
+constexpr double kMinusInf = -std::numeric_limits<double>::infinity();
+
+/// Inverse and log-determinant of a 2x2 covariance; false if it is not positive definite.
+inline bool invert_spd(const Matrix2& s, Matrix2& inverse, double& log_det) {
+  const double det = s(0, 0) * s(1, 1) - s(0, 1) * s(1, 0);
+  if (!(det > 0.0) || !(s(0, 0) > 0.0) || !std::isfinite(det)) return false;
+  inverse << s(1, 1), -s(0, 1), -s(1, 0), s(0, 0);
+  inverse /= det;
+  log_det = std::log(det);
+  return true;
+}
+
+/// The symmetric part of a covariance expression: rounding breaks symmetry, and a 2x2 inverse and
+/// an LDLT read both triangles.
+template <class Derived>
+typename Derived::PlainObject symmetric(const Eigen::MatrixBase<Derived>& expression) {
+  const typename Derived::PlainObject m = expression;
+  return 0.5 * (m + m.transpose());
+}
+
+/// Makes sure a scratch vector can take n elements, growing it to twice that when it must grow:
+/// a scan a little busier than any before then does not allocate again.
+template <class T>
+void make_room(std::vector<T>& v, std::size_t n) {
+  if (v.capacity() < n) v.reserve(2 * n);
+}
+
+}  // namespace fastslam_detail
+
+struct FastSlam::Impl {
+  struct Particle {
+    Pose2 pose = Pose2::Zero();  // FastSLAM 2.0 between scans: the mean of the motion prediction
+    Matrix3 pose_cov = Matrix3::Zero();  // FastSLAM 2.0: prediction covariance since the last scan
+    double log_weight = 0.0;             // log of the normalised weight
+    LandmarkTree map;
+    ParticlePath path;
+  };
+
+  /// What one particle does with one observation; `index` is in that particle's map.
+  struct Pairing {
+    AssociationDecision decision = AssociationDecision::kDiscard;
+    std::uint32_t index = 0;
+  };
+
+  /// A landmark in view of a particle, with what gating needs, computed once per scan.
+  struct Candidate {
+    std::uint32_t index;
+    Vector2 zhat;
+    Matrix2 s_inverse;
+    bool taken = false;  // paired with an observation of this scan
+  };
+
+  /// Per particle slot (not per particle: resampling moves particles, slots stay): the random
+  /// stream and the scratch of a scan update.
+  struct Slot {
+    std::mt19937_64 rng;
+    std::vector<Pairing> pairings;
+    std::vector<Candidate> candidates;
+    std::vector<std::tuple<double, std::uint32_t, std::uint32_t>> pairs;  // d2, observation, candidate
+    std::vector<double> min_d2;
+    std::vector<std::uint32_t> observed;
+    // (mean, index) of each landmark this scan created or moved into another grid cell.
+    std::vector<std::pair<Vector2, std::uint32_t>> grid_entries;
+    double log_likelihood = 0.0;
+  };
+
+  Impl(std::shared_ptr<const MotionModel> motion_model, std::shared_ptr<const ObservationModel> observation_model,
+       const FastSlamConfig& cfg);
+
+  bool known() const { return config.association.method == AssociationMethod::kKnown; }
+
+  void start(double t);
+  void predict_particle(std::size_t i, const ControlEvent& control);
+  void plan_known_association(const ScanEvent& scan, std::size_t scan_index);
+  void gather_candidates();
+  void associate(const Particle& p, Slot& s, const ScanEvent& scan) const;
+  void reject_known_outliers(const Particle& p, Slot& s, const ScanEvent& scan) const;
+  /// The covariance of the innovation of landmark lm as particle p predicts it, and the Jacobians.
+  Matrix2 innovation_covariance(const Particle& p, const LandmarkGaussian& lm, Matrix23& hx, Matrix2& hm) const;
+  /// Whether z lies beyond the new-landmark gate of landmark lm as particle p predicts it.
+  bool beyond_gate(const Particle& p, const LandmarkGaussian& lm, const Vector2& z) const;
+  void update_particle(std::size_t i, const ScanEvent& scan);
+  double update_landmark(LandmarkGaussian& lm, const Pose2& x, const Vector2& z) const;
+  LandmarkGaussian new_landmark(const Pose2& x, const Vector2& z, int id) const;
+  void count_misses(Particle& p, Slot& s) const;
+  void assign_new_ids(std::size_t observations, std::size_t scan_index);
+  void record_associations(std::size_t slot);
+  void reweight_and_resample();
+  void index_grid_entries();
+  void prune_grid();
+  void set_origin(int id, const LandmarkOrigin& origin);
+  const Particle& best_particle() const { return particles[best]; }
+
+  FastSlamConfig config;
+  // The threads first: the node storage serves them. The node storage next: it must outlive every
+  // map and path, i.e. the particles.
+  WorkerPool pool;
+  LandmarkTree::NodeStorage map_nodes;
+  ParticlePath::NodeStorage path_nodes;
+  std::shared_ptr<const MotionModel> motion;
+  std::shared_ptr<const ObservationModel> observation;
+  Matrix2 r;
+  Gates gates;
+  bool gate_known;
+  SensorView association_view;
+  ExistenceRule existence;
+  double log_p0 = 0.0;
+
+  std::vector<Particle> particles;
+  std::vector<Slot> slots;
+  std::vector<double> weights;
+  std::vector<double> log_weights;  // scratch of reweighting
+  std::mt19937_64 resample_rng;
+  // Scratch of resampling; next_particles is empty between scans (its elements would hold
+  // references that make every node look shared) but keeps its capacity.
+  ResampleScratch resample_scratch;
+  std::vector<std::size_t> parents;
+  std::vector<Particle> next_particles;
+  std::size_t best = 0;
+
+  std::vector<char> valid;  // per observation of the current scan: finite measurement
+  std::vector<Pairing> known_plan;
+  std::unordered_map<int, std::uint32_t> known_index;
+  LandmarkGrid grid;
+  std::size_t scans_since_prune = 0;
+  std::vector<std::uint32_t> scan_candidates;
+
+  int next_id = 0;
+  std::vector<int> new_ids;  // per observation of the current scan
+  // Sorted by id. Ids made by update() increase, so they are appended; a vector rather than a hash
+  // map, so that a new id costs an allocation only when the capacity doubles (or not after reserve).
+  std::vector<std::pair<int, LandmarkOrigin>> origins;
+  std::vector<AssociationRecord> last_records;
+
+  std::size_t scans = 0;
+  std::size_t resamples = 0;
+  std::size_t collapses = 0;
+  double ess_sum = 0.0;
+};
+
+}  // namespace slamkit

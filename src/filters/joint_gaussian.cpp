@@ -1,0 +1,215 @@
+#include "slamkit/filters/joint_gaussian.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+
+#include "slamkit/core/angles.hpp"
+
+namespace slamkit {
+
+namespace {
+// Eigen's matrix-product kernels pack their operands into buffers that live on the stack up to
+// EIGEN_STACK_ALLOCATION_LIMIT (128 KB) and come from the heap above it. A product over the whole
+// covariance (a tall n x k operand) passes that limit once the map has a few hundred landmarks, so
+// the two products that span it are cut into row tiles whose packed operands stay below it.
+constexpr Eigen::Index kPackedBytes = 96 * 1024;
+Eigen::Index tile_rows(Eigen::Index depth) {
+  return std::clamp<Eigen::Index>(kPackedBytes / (static_cast<Eigen::Index>(sizeof(double)) * std::max<Eigen::Index>(depth, 1)),
+                                  16, 512);
+}
+
+// The lower triangle of P -= C C^T, tile by tile: still one pass over P, each tile read and written
+// once, with C's few columns re-read from cache.
+void downdate_lower(Eigen::Ref<Eigen::MatrixXd> p, const Eigen::Ref<const Eigen::MatrixXd>& c) {
+  const Eigen::Index n = p.rows();
+  const Eigen::Index tile = tile_rows(c.cols());
+  for (Eigen::Index j = 0; j < n; j += tile) {
+    const Eigen::Index w = std::min(tile, n - j);
+    p.block(j, j, w, w).selfadjointView<Eigen::Lower>().rankUpdate(c.middleRows(j, w), -1.0);
+    for (Eigen::Index i = j + w; i < n; i += tile) {
+      const Eigen::Index h = std::min(tile, n - i);
+      p.block(i, j, h, w).noalias() -= c.middleRows(i, h) * c.middleRows(j, w).transpose();
+    }
+  }
+}
+}  // namespace
+
+JointGaussian::JointGaussian(std::shared_ptr<const MotionModel> motion,
+                             std::shared_ptr<const ObservationModel> observation, const Pose2& initial_pose,
+                             const Matrix3& initial_covariance)
+    : EkfEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance) {}
+
+Vector2 JointGaussian::landmark_position(std::size_t index) const {
+  return x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
+}
+
+Matrix2 JointGaussian::landmark_covariance(std::size_t index) const {
+  return diagonal_block<2>(landmark_offset(index));
+}
+
+Matrix2 JointGaussian::landmark_cross_covariance(std::size_t i, std::size_t j) const {
+  if (i == j) return landmark_covariance(i);
+  const auto a = static_cast<Eigen::Index>(landmark_offset(i));
+  const auto b = static_cast<Eigen::Index>(landmark_offset(j));
+  // Only the lower triangle is stored: the block with the larger row offset holds the pair.
+  return a > b ? Matrix2(p_.block<2, 2>(a, b)) : Matrix2(p_.block<2, 2>(b, a).transpose());
+}
+
+Matrix23 JointGaussian::landmark_pose_covariance(std::size_t index) const {
+  return p_.block<2, 3>(static_cast<Eigen::Index>(landmark_offset(index)), 0) * pending_motion_.transpose();
+}
+
+Eigen::VectorXd JointGaussian::state() const { return x_.head(static_cast<Eigen::Index>(dim_)); }
+
+Eigen::MatrixXd JointGaussian::covariance() const {
+  const auto n = static_cast<Eigen::Index>(dim_);
+  Eigen::MatrixXd full = p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>();
+  full.block(3, 0, n - 3, 3) = full.block(3, 0, n - 3, 3) * pending_motion_.transpose();
+  full.block(0, 3, 3, n - 3) = full.block(3, 0, n - 3, 3).transpose();
+  return full;
+}
+
+void JointGaussian::apply_pending_motion() {
+  const auto m = static_cast<Eigen::Index>(dim_) - 3;
+  if (pending_motion_.isIdentity(0.0) || m == 0) {
+    pending_motion_.setIdentity();
+    return;
+  }
+  auto pmv = p_.block(3, 0, m, 3);
+  scratch3_.topRows(m).noalias() = pmv * pending_motion_.transpose();
+  pmv = scratch3_.topRows(m);
+  pending_motion_.setIdentity();
+}
+
+void JointGaussian::predict(const Control& u, double dt) {
+  const Pose2 xv = x_.head<3>();
+  const Matrix3 f = motion_->jacobian_state(xv, u, dt);
+  const Matrix3 q = motion_->process_noise(xv, u, dt);
+  x_.head<3>() = motion_->predict(xv, u, dt);
+  p_.topLeftCorner<3, 3>() = f * diagonal_block<3>(0) * f.transpose() + q;
+  // Landmarks are static: only the map-vehicle cross-covariance P_mv changes, to P_mv F^T. The Fs of
+  // the controls between two scans are multiplied together and applied to P_mv once, when it is
+  // next needed: the same product, O(1) per control instead of O(n).
+  pending_motion_ = f * pending_motion_;
+}
+
+void JointGaussian::covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm,
+                                              Eigen::Ref<Eigen::MatrixX2d> out) const {
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const auto l = static_cast<Eigen::Index>(lm_offset);
+  // H = [hx 0 .. 0 hm 0 .. 0], so P H^T = P(:, vehicle) hx^T + P(:, landmark) hm^T, each column block
+  // read from the lower triangle: rows above a block come from the transposed row block.
+  out.topRows<3>().noalias() = diagonal_block<3>(0) * hx.transpose();
+  out.bottomRows(n - 3).noalias() = p_.block(3, 0, n - 3, 3) * hx.transpose();
+  out.topRows(l).noalias() += p_.block(l, 0, 2, l).transpose() * hm.transpose();
+  out.middleRows<2>(l).noalias() += diagonal_block<2>(lm_offset) * hm.transpose();
+  out.bottomRows(n - l - 2).noalias() += p_.block(l + 2, l, n - l - 2, 2) * hm.transpose();
+}
+
+bool JointGaussian::update_landmark(std::size_t index, const Vector2& z) {
+  apply_pending_motion();
+  const std::size_t l = landmark_offset(index);
+  const auto li = static_cast<Eigen::Index>(l);
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const Pose2 xv = x_.head<3>();
+  const Vector2 m = x_.segment<2>(li);
+  Matrix23 hx;
+  Matrix2 hm;
+  observation_->jacobians(xv, m, hx, hm);
+  const Vector2 nu = observation_->residual(z, observation_->predict(xv, m));
+
+  auto pht = pht_.leftCols<2>().topRows(n);  // two columns known at compile time: 2x2 products stay fixed-size
+  covariance_times_jacobian(l, hx, hm, pht);
+  Matrix2 s = hx * pht.topRows<3>() + hm * pht.middleRows<2>(li) + observation_->noise();
+  s(0, 1) = s(1, 0) = 0.5 * (s(0, 1) + s(1, 0));
+  const Eigen::LLT<Matrix2> llt(s);
+  if (llt.info() != Eigen::Success) return false;
+
+  // Eq. (10): x += W nu with W = P H^T S^-1.
+  x_.head(n).noalias() += pht * llt.solve(nu);
+  x_[2] = wrap_angle(x_[2]);
+
+  // Eq. (11): P -= W S W^T = C C^T with C = P H^T L^-T (S = L L^T). L^-T is upper triangular, so C
+  // is formed in place, column 1 first because it still needs the old column 0.
+  const Matrix2 lower = llt.matrixL();
+  const double a00 = 1.0 / lower(0, 0), a11 = 1.0 / lower(1, 1);
+  const double a01 = -lower(1, 0) * a00 * a11;
+  auto c0 = pht.col(0);
+  auto c1 = pht.col(1);
+  c1 = a01 * c0 + a11 * c1;
+  c0 *= a00;
+  downdate_lower(p_.topLeftCorner(n, n), pht);
+  return true;
+}
+
+bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch) {
+  if (batch.size() == 1) return update_landmark(batch[0].index, batch[0].z);
+  if (batch.empty()) return true;
+  apply_pending_motion();
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const auto k = static_cast<Eigen::Index>(2 * batch.size());
+  const Pose2 xv = x_.head<3>();
+  if (pht_.cols() < k) pht_.resize(pht_.rows(), std::max(k, 2 * pht_.cols()));
+  if (batch_s_.rows() < k) {
+    batch_s_.resize(pht_.cols(), pht_.cols());
+    batch_nu_.resize(pht_.cols());
+  }
+  batch_hx_.resize(batch.size());
+  batch_hm_.resize(batch.size());
+  // W = P H^T, two columns per observation, each pair from the two column blocks its row of H touches.
+  auto pht = pht_.topLeftCorner(n, k);
+  auto nu = batch_nu_.head(k);
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const auto l = landmark_offset(batch[i].index);
+    const auto r = 2 * static_cast<Eigen::Index>(i);
+    const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(l));
+    observation_->jacobians(xv, m, batch_hx_[i], batch_hm_[i]);
+    nu.segment<2>(r) = observation_->residual(batch[i].z, observation_->predict(xv, m));
+    covariance_times_jacobian(l, batch_hx_[i], batch_hm_[i], pht.middleCols<2>(r));
+  }
+  // S = H P H^T + R, block (i, j) = H_i (P H_j^T).
+  auto s = batch_s_.topLeftCorner(k, k);
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const auto l = static_cast<Eigen::Index>(landmark_offset(batch[i].index));
+    const auto r = 2 * static_cast<Eigen::Index>(i);
+    s.middleRows<2>(r).noalias() = batch_hx_[i] * pht.topRows<3>() + batch_hm_[i] * pht.middleRows<2>(l);
+    s.block<2, 2>(r, r) += observation_->noise();
+  }
+  // The factorisation reads the lower triangle only, so symmetrising it is enough; in place, as an
+  // LLT of a Ref, so that it needs no storage of its own.
+  s.triangularView<Eigen::StrictlyLower>() = 0.5 * (s + s.transpose());
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(s);
+  if (llt.info() != Eigen::Success) return false;
+  llt.solveInPlace(nu);
+  x_.head(n).noalias() += pht * nu;
+  x_[2] = wrap_angle(x_[2]);
+  // P -= W S^-1 W^T = C C^T with C = W L^-T: one pass over the lower triangle for the scan.
+  // Row by row independent (C L^T = W), so solved in row tiles for the same reason as the downdate.
+  for (Eigen::Index r = 0, tile = tile_rows(k); r < n; r += tile)
+    llt.matrixU().solveInPlace<Eigen::OnTheRight>(pht.middleRows(r, std::min(tile, n - r)));
+  downdate_lower(p_.topLeftCorner(n, n), pht);
+  return true;
+}
+
+std::size_t JointGaussian::add_landmark(const Vector2& z) {
+  reserve(dim_ + 2);
+  apply_pending_motion();
+  const auto l = static_cast<Eigen::Index>(dim_);
+  Matrix23 gx;
+  const Matrix2 added = place_new_landmark(z, gx);
+  // The new landmark inherits the vehicle's uncertainty, so it is correlated with everything the
+  // vehicle is correlated with: P(m_new, :) = Gx P(v, :).
+  const Matrix3 pvv = diagonal_block<3>(0);
+  p_.block<2, 3>(l, 0).noalias() = gx * pvv;
+  if (l > 3) p_.block(l, 3, 2, l - 3).noalias() = gx * p_.block(3, 0, l - 3, 3).transpose();
+  p_.block<2, 2>(l, l).noalias() = gx * pvv * gx.transpose() + added;
+  dim_ += 2;
+  return num_landmarks() - 1;
+}
+
+void JointGaussian::remove_landmark(std::size_t index) {
+  apply_pending_motion();
+  remove_stored_landmark(index);
+}
+
+}  // namespace slamkit
