@@ -37,8 +37,10 @@ filter_args() {
   esac
 }
 
-one_seed() {  # simulate seed $1, run every filter on it, drop the log
-  local seed=$1 sim="$out/sim-$1"
+one_seed() {  # simulate seed $1 and run every filter on it; a seed already done is kept
+  local seed=$1 sim="$out/sim-$1" f done=1
+  for f in $filters; do [[ -f $out/$f-$seed/metrics.json ]] || done=0; done
+  [[ $done == 1 ]] && return 0
   "$slamkit" simulate "${source_args[@]}" --seed "$seed" --out "$sim" >/dev/null
   for f in $filters; do
     # shellcheck disable=SC2046

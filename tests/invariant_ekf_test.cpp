@@ -4,7 +4,7 @@
 // compare.
 #include <gtest/gtest.h>
 
-#include <Eigen/Cholesky>
+#include <Eigen/LU>
 
 #include "slamkit/filters/joint_gaussian.hpp"
 
@@ -49,7 +49,7 @@ struct Fixture {
   std::shared_ptr<AckermannModel> motion = std::make_shared<AckermannModel>();
   std::shared_ptr<RangeBearingModel> observation = std::make_shared<RangeBearingModel>(
       RangeBearingModel::Params{.sigma_range = 0.1, .sigma_bearing = deg2rad(1.0), .offset_x = 1.5, .offset_y = 0.2});
-  JointGaussian filter{motion, observation, Pose2(3.0, -1.0, 2.9), Vector3(0.3, 0.2, 0.02).asDiagonal().toDenseMatrix(),
+  JointGaussian filter{motion, observation, Pose2(3.0, -1.0, 2.9), Eigen::Vector3d(0.3, 0.2, 0.02).asDiagonal().toDenseMatrix(),
                        Linearisation::kInvariant};
   Control u = (Control(2) << 3.0, 0.2).finished();
   Fixture() {

@@ -87,7 +87,7 @@ TEST_P(UkfOnLinearGaussianSystem, EqualsTheKalmanFilter) {
 
 // The start pose known exactly (the default, whose covariance is singular) and uncertain.
 INSTANTIATE_TEST_SUITE_P(StartCovariance, UkfOnLinearGaussianSystem,
-                         ::testing::Values(Matrix3::Zero(), Vector3(0.1, 0.2, 0.01).asDiagonal().toDenseMatrix()));
+                         ::testing::Values(Matrix3::Zero(), Eigen::Vector3d(0.1, 0.2, 0.01).asDiagonal().toDenseMatrix()));
 
 namespace {
 
@@ -102,7 +102,7 @@ double largest_difference(double scale, double& covariance_difference) {
   op.sigma_bearing *= scale;
   auto motion = std::make_shared<AckermannModel>(mp);
   auto observation = std::make_shared<RangeBearingModel>(op);
-  const Matrix3 start = scale * scale * Vector3(0.04, 0.04, 0.001).asDiagonal().toDenseMatrix();
+  const Matrix3 start = scale * scale * Eigen::Vector3d(0.04, 0.04, 0.001).asDiagonal().toDenseMatrix();
   JointGaussian ekf(motion, observation, Pose2::Zero(), start);
   UnscentedJointGaussian ukf(motion, observation, Pose2::Zero(), start);
   const Vector2 landmarks[] = {{30.0, 8.0}, {25.0, -12.0}, {40.0, 3.0}};

@@ -9,21 +9,30 @@ namespace slamkit {
 
 namespace {
 
-// Offsets o_j = sqrt(r lambda_j) v_j of the symmetric sigma-point set of a Gaussian with covariance
-// `cov`: points mean +- o_j, each of weight 1/(2r). Directions of (numerically) zero variance carry
-// no uncertainty and get no points.
-Eigen::MatrixXd sigma_offsets(const Eigen::MatrixXd& cov) {
+// The symmetric sigma-point set of a Gaussian with covariance `cov`: points mean +- o_j with
+// o_j = c sqrt(lambda_j) v_j over the r eigen-directions (lambda_j, v_j) of non-zero variance, each
+// point of weight 1/(2 c^2), the mean itself taking the rest. The spread c^2 = min(r, 3): 3 matches
+// the Gaussian's fourth moment along each direction (Julier and Uhlmann's kappa = 3 - r); below
+// r = 3 that would give the mean a negative weight, so c^2 = r there (the mean's weight is 0).
+// Directions of (numerically) zero variance carry no uncertainty and get no points.
+struct SigmaPoints {
+  Eigen::MatrixXd offsets;  // the o_j as columns
+  double weight = 0.0;      // of each of the 2r points
+};
+
+SigmaPoints sigma_points(const Eigen::MatrixXd& cov) {
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(cov);
   const Eigen::VectorXd& lambda = eigen.eigenvalues();
   const double floor = 1e-12 * std::max(lambda.maxCoeff(), 0.0);
   std::vector<Eigen::Index> kept;
   for (Eigen::Index j = 0; j < lambda.size(); ++j)
     if (lambda[j] > floor && lambda[j] > 0.0) kept.push_back(j);
-  const auto r = static_cast<double>(kept.size());
-  Eigen::MatrixXd offsets(cov.rows(), static_cast<Eigen::Index>(kept.size()));
+  const double spread = std::min(static_cast<double>(kept.size()), 3.0);
+  SigmaPoints points{Eigen::MatrixXd(cov.rows(), static_cast<Eigen::Index>(kept.size())), 0.5 / std::max(spread, 1.0)};
   for (std::size_t j = 0; j < kept.size(); ++j)
-    offsets.col(static_cast<Eigen::Index>(j)) = std::sqrt(r * lambda[kept[j]]) * eigen.eigenvectors().col(kept[j]);
-  return offsets;
+    points.offsets.col(static_cast<Eigen::Index>(j)) =
+        std::sqrt(spread * lambda[kept[j]]) * eigen.eigenvectors().col(kept[j]);
+  return points;
 }
 
 struct Transformed {
@@ -37,7 +46,8 @@ struct Transformed {
 // entries wrapped, so that sigma points straddling +-pi average correctly.
 template <class Function, class Difference>
 Transformed unscented(const Eigen::VectorXd& mean, const Eigen::MatrixXd& cov, Function f, Difference difference) {
-  const Eigen::MatrixXd offsets = sigma_offsets(cov);
+  const SigmaPoints points = sigma_points(cov);
+  const Eigen::MatrixXd& offsets = points.offsets;
   const Eigen::Index r = offsets.cols();
   const Eigen::VectorXd centre = f(mean);
   const Eigen::Index m = centre.size();
@@ -48,16 +58,17 @@ Transformed unscented(const Eigen::VectorXd& mean, const Eigen::MatrixXd& cov, F
     plus.col(j) = difference(f(mean + offsets.col(j)), centre);
     minus.col(j) = difference(f(mean - offsets.col(j)), centre);
   }
-  const double w = 0.5 / static_cast<double>(r);
+  const double w = points.weight;
   const Eigen::VectorXd shift = w * (plus.rowwise().sum() + minus.rowwise().sum());
   t.mean += shift;
   // Central differences along each offset: the regression coefficient of y on s.
   for (Eigen::Index j = 0; j < r; ++j)
     t.linearisation.noalias() += (plus.col(j) - minus.col(j)) * (0.5 / offsets.col(j).squaredNorm()) *
                                  offsets.col(j).transpose();
-  plus.colwise() -= shift;
-  minus.colwise() -= shift;
+  // The weighted scatter about the new mean, the centre point's term included, is this sum less
+  // shift shift^T (the weights add up to one).
   t.covariance.noalias() = w * (plus * plus.transpose() + minus * minus.transpose());
+  t.covariance.noalias() -= shift * shift.transpose();
   return t;
 }
 

@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <filesystem>
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <stdexcept>
@@ -121,21 +122,22 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
 
 void write_monte_carlo_nees(const std::string& path, const std::vector<Metrics>& runs, const std::string& title) {
   if (runs.empty()) throw std::invalid_argument("Monte Carlo NEES: no runs");
-  const std::vector<Vector2>& first = runs.front().nees_pose_series;
-  std::vector<Vector2> mean(first.size(), Vector2::Zero());
+  // Runs of one world step at the same times, but need not have a NEES at each (a start pose known
+  // exactly has none; a log may end a step earlier): the times all runs have are averaged.
+  std::map<long long, std::pair<Vector2, std::size_t>> by_time;  // microseconds -> (t, sum), runs
   for (std::size_t r = 0; r < runs.size(); ++r) {
-    const std::vector<Vector2>& series = runs[r].nees_pose_series;
-    if (series.empty()) throw std::invalid_argument(fmt::format("Monte Carlo NEES: run {} has no pose NEES", r + 1));
-    if (series.size() != first.size())
-      throw std::invalid_argument(fmt::format("Monte Carlo NEES: run {} has {} NEES steps, run 1 has {}", r + 1,
-                                              series.size(), first.size()));
-    for (std::size_t k = 0; k < series.size(); ++k) {
-      if (std::abs(series[k].x() - first[k].x()) > 1e-6)
-        throw std::invalid_argument(fmt::format("Monte Carlo NEES: step {} of run {} is at t = {} s, of run 1 at {} s",
-                                                k + 1, r + 1, series[k].x(), first[k].x()));
-      mean[k] += Vector2(series[k].x(), series[k].y()) / static_cast<double>(runs.size());
+    if (runs[r].nees_pose_series.empty())
+      throw std::invalid_argument(fmt::format("Monte Carlo NEES: run {} has no pose NEES", r + 1));
+    for (const Vector2& p : runs[r].nees_pose_series) {
+      auto& [sum, count] = by_time[std::llround(p.x() * 1e6)];
+      sum = Vector2(p.x(), sum.y() + p.y());
+      ++count;
     }
   }
+  std::vector<Vector2> mean;
+  for (const auto& [key, entry] : by_time)
+    if (entry.second == runs.size()) mean.emplace_back(entry.first.x(), entry.first.y() / static_cast<double>(runs.size()));
+  if (mean.empty()) throw std::invalid_argument("Monte Carlo NEES: the runs have no step time in common");
   const int n = static_cast<int>(runs.size());
   const eval::Interval band = eval::averaged_nees_interval(0.95, 3, n);
   std::size_t inside = 0;

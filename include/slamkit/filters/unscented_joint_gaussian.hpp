@@ -14,10 +14,9 @@
 //    update (one rank-2k downdate), as in JointGaussian;
 //  * new landmarks: sigma points over the vehicle and the measurement noise, through the inverse
 //    observation model.
-// The sigma points are the symmetric set of 2r points at +-sqrt(r) standard deviations along the r
-// eigen-directions of the covariance (kappa = 0, equal positive weights): every transformed
-// covariance is positive semidefinite, and a covariance that is singular (the start pose is known
-// exactly) needs no special case.
+// The sigma points are the symmetric set of 2r points at +-sqrt(min(r, 3)) standard deviations
+// along the r eigen-directions of the covariance, so that a covariance that is singular (the start
+// pose is known exactly) needs no special case.
 #include "slamkit/filters/joint_gaussian.hpp"
 
 namespace slamkit {

@@ -19,8 +19,8 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
 
 /// The Monte Carlo picture of consistency: the pose NEES of `runs` (the evaluations of one filter on
 /// logs that differ only in their noise seed) averaged step by step, with the 95% interval of an
-/// N-run mean, written to `path`. Throws std::invalid_argument if a run has no NEES series or the
-/// runs' steps differ in their times.
+/// N-run mean, written to `path`, over the step times all runs have. Throws std::invalid_argument if
+/// a run has no NEES series or the runs have no step time in common.
 void write_monte_carlo_nees(const std::string& path, const std::vector<Metrics>& runs, const std::string& title);
 
 }  // namespace slamkit
