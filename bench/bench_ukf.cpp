@@ -57,7 +57,7 @@ void BM_Step(benchmark::State& state) {
   state.counters["observations"] = seen;
 }
 
-BENCHMARK(BM_Step<JointGaussian>)->Name("BM_EkfStep")->Apply(landmark_counts)->Complexity(benchmark::oNSquared)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_Step<UnscentedJointGaussian>)->Name("BM_UkfStep")->Apply(landmark_counts)->Complexity(benchmark::oNSquared)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Step<JointGaussian>)->Name("BM_GaussianStep/ekf")->Apply(landmark_counts)->Complexity(benchmark::oNSquared)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Step<UnscentedJointGaussian>)->Name("BM_GaussianStep/ukf")->Apply(landmark_counts)->Complexity(benchmark::oNSquared)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

@@ -129,7 +129,7 @@ void write_monte_carlo_nees(const std::string& path, const std::vector<Metrics>&
     if (runs[r].nees_pose_series.empty())
       throw std::invalid_argument(fmt::format("Monte Carlo NEES: run {} has no pose NEES", r + 1));
     for (const Vector2& p : runs[r].nees_pose_series) {
-      auto& [sum, count] = by_time[std::llround(p.x() * 1e6)];
+      auto& [sum, count] = by_time.try_emplace(std::llround(p.x() * 1e6), Vector2::Zero(), 0).first->second;
       sum = Vector2(p.x(), sum.y() + p.y());
       ++count;
     }
