@@ -1,5 +1,6 @@
 #include "slamkit/filters/unscented_joint_gaussian.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 
@@ -9,29 +10,46 @@ namespace slamkit {
 
 namespace {
 
-// The symmetric sigma-point set of a Gaussian with covariance `cov`: points mean +- o_j with
-// o_j = c sqrt(lambda_j) v_j over the r eigen-directions (lambda_j, v_j) of non-zero variance, each
-// point of weight 1/(2 c^2), the mean itself taking the rest. The spread c^2 = min(r, 3): 3 matches
-// the Gaussian's fourth moment along each direction (Julier and Uhlmann's kappa = 3 - r); below
-// r = 3 that would give the mean a negative weight, so c^2 = r there (the mean's weight is 0).
-// Directions of (numerically) zero variance carry no uncertainty and get no points.
+// The symmetric sigma-point set of a Gaussian with covariance `cov`: points mean +- o_j, o_j = c a_j
+// for the r columns a_j of a square root A (A A^T = cov), each point of weight 1/(2 c^2), the mean
+// itself taking the rest. The spread c^2 = min(r, 3): 3 matches the Gaussian's fourth moment along
+// each direction (Julier and Uhlmann's kappa = 3 - r); below r = 3 that would give the mean a
+// negative weight, so c^2 = r there (the mean's weight is 0). A is the Cholesky factor when the
+// covariance is well conditioned (cheap); otherwise the eigen-directions of non-zero variance, so
+// that a singular covariance (the start pose is known exactly) gives points only where there is
+// uncertainty.
 struct SigmaPoints {
-  Eigen::MatrixXd offsets;  // the o_j as columns
-  double weight = 0.0;      // of each of the 2r points
+  Eigen::MatrixXd offsets;          // the o_j as columns (d x r)
+  Eigen::MatrixXd inverse_offsets;  // their pseudo-inverse (r x d)
+  double weight = 0.0;              // of each of the 2r points
 };
 
 SigmaPoints sigma_points(const Eigen::MatrixXd& cov) {
+  const Eigen::Index d = cov.rows();
+  const Eigen::LLT<Eigen::MatrixXd> llt(cov);
+  if (llt.info() == Eigen::Success &&
+      llt.matrixLLT().diagonal().array().square().minCoeff() > 1e-12 * cov.diagonal().maxCoeff()) {
+    const double spread = std::min(static_cast<double>(d), 3.0);
+    const double c = std::sqrt(spread);
+    SigmaPoints points{c * Eigen::MatrixXd(llt.matrixL()), Eigen::MatrixXd::Identity(d, d) / c, 0.5 / spread};
+    llt.matrixL().solveInPlace(points.inverse_offsets);
+    return points;
+  }
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(cov);
   const Eigen::VectorXd& lambda = eigen.eigenvalues();
   const double floor = 1e-12 * std::max(lambda.maxCoeff(), 0.0);
   std::vector<Eigen::Index> kept;
   for (Eigen::Index j = 0; j < lambda.size(); ++j)
     if (lambda[j] > floor && lambda[j] > 0.0) kept.push_back(j);
-  const double spread = std::min(static_cast<double>(kept.size()), 3.0);
-  SigmaPoints points{Eigen::MatrixXd(cov.rows(), static_cast<Eigen::Index>(kept.size())), 0.5 / std::max(spread, 1.0)};
-  for (std::size_t j = 0; j < kept.size(); ++j)
-    points.offsets.col(static_cast<Eigen::Index>(j)) =
-        std::sqrt(spread * lambda[kept[j]]) * eigen.eigenvectors().col(kept[j]);
+  const auto r = static_cast<Eigen::Index>(kept.size());
+  const double spread = std::min(static_cast<double>(r), 3.0);
+  SigmaPoints points{Eigen::MatrixXd(d, r), Eigen::MatrixXd(r, d), 0.5 / std::max(spread, 1.0)};
+  for (Eigen::Index j = 0; j < r; ++j) {
+    const double length = std::sqrt(spread * lambda[kept[static_cast<std::size_t>(j)]]);
+    const auto v = eigen.eigenvectors().col(kept[static_cast<std::size_t>(j)]);
+    points.offsets.col(j) = length * v;
+    points.inverse_offsets.row(j) = v.transpose() / length;  // orthogonal columns
+  }
   return points;
 }
 
@@ -61,10 +79,9 @@ Transformed unscented(const Eigen::VectorXd& mean, const Eigen::MatrixXd& cov, F
   const double w = points.weight;
   const Eigen::VectorXd shift = w * (plus.rowwise().sum() + minus.rowwise().sum());
   t.mean += shift;
-  // Central differences along each offset: the regression coefficient of y on s.
-  for (Eigen::Index j = 0; j < r; ++j)
-    t.linearisation.noalias() += (plus.col(j) - minus.col(j)) * (0.5 / offsets.col(j).squaredNorm()) *
-                                 offsets.col(j).transpose();
+  // Central differences along the offsets, (y+ - y-) / 2 = J o_j for a linear f, so J = that times
+  // the offsets' pseudo-inverse: the regression coefficient of y on s.
+  t.linearisation.noalias() = 0.5 * (plus - minus) * points.inverse_offsets;
   // The weighted scatter about the new mean, the centre point's term included, is this sum less
   // shift shift^T (the weights add up to one).
   t.covariance.noalias() = w * (plus * plus.transpose() + minus * minus.transpose());
