@@ -14,9 +14,9 @@
 //    update (one rank-2k downdate), as in JointGaussian;
 //  * new landmarks: sigma points over the vehicle and the measurement noise, through the inverse
 //    observation model.
-// The sigma points are the symmetric set of 2r points at +-sqrt(min(r, 3)) standard deviations
-// along the r eigen-directions of the covariance, so that a covariance that is singular (the start
-// pose is known exactly) needs no special case.
+// The sigma points are the symmetric set of 2r points at +-sqrt(min(r, 3)) times the columns of a
+// square root of the covariance: its Cholesky factor, or for a singular covariance (the start pose
+// is known exactly) its r eigen-directions of non-zero variance.
 #include "slamkit/filters/joint_gaussian.hpp"
 
 namespace slamkit {
