@@ -80,7 +80,7 @@ CLI::Option* add_named(CLI::App* cmd, const std::string& flag, T& target, T (*pa
 
 void print_outputs(const std::string& dir, const Metrics& metrics) {
   fmt::print("{}\n", headline(metrics));
-  fmt::print("results in {}/: metrics.json, map.svg, landmark_std.svg, trajectory.tum, map.txt\n", dir);
+  fmt::print("results in {}/: metrics.json, map.svg, landmark_std.svg, trajectory.tum, map.txt (nees.svg where the truth has headings)\n", dir);
 }
 
 bool has_landmark_ids(const Dataset& dataset) {
@@ -151,7 +151,7 @@ int main(int argc, char** argv) {
   auto* run_cmd = app.add_subcommand("run", "Run a SLAM filter on a dataset and evaluate it");
   FilterConfig filter;
   std::string data_spec, run_out, data_config;
-  add_named(run_cmd, "--filter", filter.filter, parse_filter_kind, "Filter: ekf, fastslam1, fastslam2");
+  add_named(run_cmd, "--filter", filter.filter, parse_filter_kind, "Filter: ekf, ukf, fastslam1, fastslam2");
   add_named(run_cmd, "--assoc", filter.association.method, parse_association_method,
             "Data association: known (ids from the log), nn, jcbb");
   run_cmd->add_option("--data", data_spec,
@@ -174,10 +174,12 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(integer_at_least(0));
   add_named(run_cmd, "--ekf-update", filter.ekf_update, parse_ekf_update,
-            "EKF: joint (a scan at once) or sequential (one observation after another); the compressed "
-            "variant is always sequential");
+            "EKF and UKF: joint (a scan at once) or sequential (one observation after another); the "
+            "compressed variant is always sequential");
   add_named(run_cmd, "--ekf-variant", filter.ekf_variant, parse_ekf_variant,
-            "EKF: full, or compressed (local-area updates, the same result as full with sequential updates)");
+            "EKF: full, compressed (local-area updates, the same result as full with sequential updates), "
+            "fej (first-estimates Jacobians) or invariant (right-invariant error); fej and invariant keep "
+            "the EKF consistent");
   run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots")->required();
 
   // ---- evaluate ----
@@ -186,6 +188,17 @@ int main(int argc, char** argv) {
   eval_cmd->add_option("dir", eval_dir, "Run folder written by 'slamkit run'")->required()->check(CLI::ExistingDirectory);
 
   // ---- plot-bench ----
+  auto* nees_cmd = app.add_subcommand(
+      "plot-nees", "Draw the pose NEES of Monte Carlo runs (one filter, logs differing only in their seed) averaged "
+                   "over the runs, with the 95% interval of the mean");
+  std::vector<std::string> nees_dirs;
+  std::string nees_out, nees_title = "Pose NEES over Monte Carlo runs";
+  nees_cmd->add_option("dirs", nees_dirs, "Run folders written by 'slamkit run'")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  nees_cmd->add_option("--out", nees_out, "SVG file to write")->required();
+  nees_cmd->add_option("--title", nees_title, "Figure title")->capture_default_str();
+
   auto* bench_cmd =
       app.add_subcommand("plot-bench", "Plot benchmark results (Google Benchmark JSON) against map size and particles");
   std::vector<std::string> bench_json;
@@ -255,6 +268,14 @@ int main(int argc, char** argv) {
       run.dataset_settings = data_config;
       write_run(run_out, run);
       print_outputs(run_out, evaluate_and_report(run_out, run, dataset));
+    } else if (*nees_cmd) {
+      std::vector<Metrics> runs;
+      for (const std::string& dir : nees_dirs) {
+        const RunResult run = read_run(dir);
+        runs.push_back(evaluate_run(run, load_dataset(run.dataset, run.dataset_settings).truth));
+      }
+      write_monte_carlo_nees(nees_out, runs, nees_title);
+      fmt::print("wrote {} ({} runs)\n", nees_out, runs.size());
     } else if (*eval_cmd) {
       const RunResult run = read_run(eval_dir);
       const Dataset dataset = load_dataset(run.dataset, run.dataset_settings);

@@ -105,6 +105,31 @@ TEST_F(Cli, RunWritesResultsAndSlamBeatsDeadReckoning) {
   EXPECT_NEAR(m2["nees_pose_mean"].get<double>(), m["nees_pose_mean"].get<double>(), 1e-6);
 }
 
+// The UKF and the consistent EKF variants run from the command line like the EKF, each leaving
+// nees.svg; plot-nees draws their NEES averaged over runs.
+TEST_F(Cli, UkfAndConsistentVariantsRunAndPlotNees) {
+  const std::string data = " --data sim:" + (*work_ / "sim").string();
+  std::string dirs;
+  int run = 0;
+  for (const char* filter : {"--filter ukf", "--filter ekf --ekf-variant fej", "--filter ekf --ekf-variant invariant"}) {
+    const fs::path out = *work_ / ("consistent-" + std::to_string(++run));
+    const Result r = slamkit("run " + std::string(filter) + data + " --out " + out.string(), *work_);
+    ASSERT_EQ(r.exit_code, 0) << filter << ": " << r.err;
+    EXPECT_TRUE(fs::exists(out / "nees.svg")) << filter;
+    std::ifstream in(out / "metrics.json");
+    const auto m = nlohmann::json::parse(in);
+    EXPECT_EQ(m["filter"], std::string(filter).find("ukf") != std::string::npos ? "ukf" : "ekf");
+    EXPECT_LT(m["ate_rmse_m"].get<double>(), 0.25 * m["dead_reckoning_ate_rmse_m"].get<double>()) << filter;
+    dirs += " " + out.string();
+  }
+  const fs::path svg = *work_ / "nees_mc.svg";
+  const Result p = slamkit("plot-nees" + dirs + " --out " + svg.string(), *work_);
+  ASSERT_EQ(p.exit_code, 0) << p.err;
+  std::ifstream in(svg);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("95% interval of the 3-run mean"), std::string::npos);
+}
+
 TEST_F(Cli, SameSeedSameLog) {
   const Result a = slamkit("simulate --seed 3 --out " + (*work_ / "again").string(), *work_);
   ASSERT_EQ(a.exit_code, 0);
@@ -298,9 +323,10 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
     const char* options;
     const char* message;
   } cases[] = {
-      {"--filter ekff", "--filter: unknown filter 'ekff'; expected one of: ekf, fastslam1, fastslam2"},
+      {"--filter ekff", "--filter: unknown filter 'ekff'; expected one of: ekf, ukf, fastslam1, fastslam2"},
+      {"--filter ukf --ekf-variant fej", "EKF variant 'fej' applies to the filter 'ekf', not 'ukf'"},
       {"--assoc nearest", "--assoc: unknown association 'nearest'; expected one of: known, nn, jcbb"},
-      {"--ekf-variant sparse", "--ekf-variant: unknown EKF variant 'sparse'; expected one of: full, compressed"},
+      {"--ekf-variant sparse", "--ekf-variant: unknown EKF variant 'sparse'; expected one of: full, compressed, fej, invariant"},
       {"--ekf-update both", "--ekf-update: unknown EKF update 'both'; expected one of: joint, sequential"},
       {"--resample best", "--resample: unknown resampling method 'best'; expected one of: multinomial"},
       {"--resample-when sometimes", "--resample-when: unknown resampling policy 'sometimes'; expected always"},

@@ -178,6 +178,16 @@ TYPED_TEST(MotionModelProperties, JacobianOfTheStateMatchesCentralDifferences) {
   });
 }
 
+// The consistent EKF variants evaluate df/dx at pose pairs through jacobian_between: at the pair a
+// step links, it must be the Jacobian itself, for every model.
+TYPED_TEST(MotionModelProperties, JacobianBetweenTheStepsPosesMatchesCentralDifferences) {
+  this->for_each_case([](const TypeParam& model, const Pose2& x, const Control& u, double dt) {
+    const Eigen::MatrixXd numeric =
+        numeric_jacobian<3>([&](const Eigen::VectorXd& s) { return model.predict(s, u, dt); }, x, {2});
+    EXPECT_TRUE(jacobian_matches(MotionModel::jacobian_between(x, model.predict(x, u, dt)), numeric));
+  });
+}
+
 TYPED_TEST(MotionModelProperties, JacobianOfTheControlMatchesCentralDifferences) {
   this->for_each_case([](const TypeParam& model, const Pose2& x, const Control& u, double dt) {
     ASSERT_EQ(u.size(), model.control_dim());

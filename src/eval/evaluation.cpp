@@ -146,10 +146,12 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
     for (const auto& pair : filtered_pairs) {
       const auto i = static_cast<std::size_t>(pair.estimate_index);
       if (run.filtered[i].t != pair.t) continue;
-      nees.push_back(eval::pose_nees(run.filtered[i].pose, run.pose_covariances[i], pair.truth));
+      const double value = eval::pose_nees(run.filtered[i].pose, run.pose_covariances[i], pair.truth);
+      // The first samples are usually the exactly known start pose, whose covariance is zero.
+      if (!std::isfinite(value)) continue;
+      nees.push_back(value);
+      m.nees_pose_series.emplace_back(pair.t, value);
     }
-    // The first samples are usually the exactly known start pose, whose covariance is zero.
-    std::erase_if(nees, [](double v) { return !std::isfinite(v); });
     if (!nees.empty()) m.nees_pose = eval::summarize_nees(nees, 3, 0.95);
   }
   return m;

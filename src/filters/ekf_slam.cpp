@@ -6,6 +6,7 @@
 
 #include "slamkit/filters/compressed_joint_gaussian.hpp"
 #include "slamkit/filters/joint_gaussian.hpp"
+#include "slamkit/filters/unscented_joint_gaussian.hpp"
 
 namespace slamkit {
 
@@ -14,12 +15,24 @@ namespace {
 std::unique_ptr<EkfEstimator> make_estimator(std::shared_ptr<const MotionModel> motion,
                                              std::shared_ptr<const ObservationModel> observation,
                                              const EkfSlamOptions& options) {
-  if (options.variant == EkfVariant::kCompressed)
-    return std::make_unique<CompressedJointGaussian>(std::move(motion), std::move(observation),
-                                                     options.sensor.max_range, options.local_area_side,
-                                                     options.initial_pose, options.initial_covariance);
+  switch (options.variant) {
+    case EkfVariant::kCompressed:
+      return std::make_unique<CompressedJointGaussian>(std::move(motion), std::move(observation),
+                                                       options.sensor.max_range, options.local_area_side,
+                                                       options.initial_pose, options.initial_covariance);
+    case EkfVariant::kUnscented:
+      return std::make_unique<UnscentedJointGaussian>(std::move(motion), std::move(observation),
+                                                      options.initial_pose, options.initial_covariance);
+    case EkfVariant::kFirstEstimates:
+    case EkfVariant::kInvariant:
+    case EkfVariant::kFull:
+      break;
+  }
+  const Linearisation linearisation = options.variant == EkfVariant::kFirstEstimates ? Linearisation::kFirstEstimates
+                                      : options.variant == EkfVariant::kInvariant   ? Linearisation::kInvariant
+                                                                                    : Linearisation::kStandard;
   return std::make_unique<JointGaussian>(std::move(motion), std::move(observation), options.initial_pose,
-                                         options.initial_covariance);
+                                         options.initial_covariance, linearisation);
 }
 
 }  // namespace
@@ -37,7 +50,8 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
       existence_rule_(options.association, options.sensor),
       // Cells of a third of the sensor range: a query touches a few dozen cells at most.
       grid_(std::max(5.0, options.sensor.max_range / 3.0)),
-      joint_scan_update_(options.joint_scan_update) {
+      joint_scan_update_(options.joint_scan_update),
+      unscented_(options.variant == EkfVariant::kUnscented) {
   if (!estimator_) throw std::invalid_argument("EkfSlam needs an estimator");
   if (ids.size() != estimator_->num_landmarks())
     throw std::invalid_argument("EkfSlam: one id per landmark of the estimator");

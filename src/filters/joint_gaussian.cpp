@@ -36,8 +36,10 @@ void downdate_lower(Eigen::Ref<Eigen::MatrixXd> p, const Eigen::Ref<const Eigen:
 
 JointGaussian::JointGaussian(std::shared_ptr<const MotionModel> motion,
                              std::shared_ptr<const ObservationModel> observation, const Pose2& initial_pose,
-                             const Matrix3& initial_covariance)
-    : EkfEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance) {}
+                             const Matrix3& initial_covariance, Linearisation linearisation)
+    : EkfEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance),
+      linearisation_(linearisation),
+      predicted_pose_(x_.head<3>()) {}
 
 Vector2 JointGaussian::landmark_position(std::size_t index) const {
   return x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
@@ -83,9 +85,12 @@ void JointGaussian::apply_pending_motion() {
 
 void JointGaussian::predict(const Control& u, double dt) {
   const Pose2 xv = x_.head<3>();
-  const Matrix3 f = motion_->jacobian_state(xv, u, dt);
   const Matrix3 q = motion_->process_noise(xv, u, dt);
   x_.head<3>() = motion_->predict(xv, u, dt);
+  const Matrix3 f = linearisation_ == Linearisation::kFirstEstimates
+                        ? MotionModel::jacobian_between(predicted_pose_, x_.head<3>())
+                        : motion_->jacobian_state(xv, u, dt);
+  predicted_pose_ = x_.head<3>();
   p_.topLeftCorner<3, 3>() = f * diagonal_block<3>(0) * f.transpose() + q;
   // Landmarks are static: only the map-vehicle cross-covariance P_mv changes, to P_mv F^T. The Fs of
   // the controls between two scans are multiplied together and applied to P_mv once, when it is
@@ -115,7 +120,7 @@ bool JointGaussian::update_landmark(std::size_t index, const Vector2& z) {
   const Vector2 m = x_.segment<2>(li);
   Matrix23 hx;
   Matrix2 hm;
-  observation_->jacobians(xv, m, hx, hm);
+  observation_jacobians(index, hx, hm);
   const Vector2 nu = observation_->residual(z, observation_->predict(xv, m));
 
   auto pht = pht_.leftCols<2>().topRows(n);  // two columns known at compile time: 2x2 products stay fixed-size
@@ -126,8 +131,14 @@ bool JointGaussian::update_landmark(std::size_t index, const Vector2& z) {
   if (llt.info() != Eigen::Success) return false;
 
   // Eq. (10): x += W nu with W = P H^T S^-1.
-  x_.head(n).noalias() += pht * llt.solve(nu);
-  x_[2] = wrap_angle(x_[2]);
+  const Vector2 weights = llt.solve(nu);
+  if (linearisation_ == Linearisation::kInvariant) {
+    batch_nu_.resize(std::max<Eigen::Index>(batch_nu_.size(), n));
+    batch_nu_.head(n).noalias() = pht * weights;
+  } else {
+    x_.head(n).noalias() += pht * weights;
+    x_[2] = wrap_angle(x_[2]);
+  }
 
   // Eq. (11): P -= W S W^T = C C^T with C = P H^T L^-T (S = L L^T). L^-T is upper triangular, so C
   // is formed in place, column 1 first because it still needs the old column 0.
@@ -139,7 +150,16 @@ bool JointGaussian::update_landmark(std::size_t index, const Vector2& z) {
   c1 = a01 * c0 + a11 * c1;
   c0 *= a00;
   downdate_lower(p_.topLeftCorner(n, n), pht);
+  if (linearisation_ == Linearisation::kInvariant) correct(batch_nu_.head(n));
   return true;
+}
+
+void JointGaussian::reserve_joint_update(Eigen::Index k) {
+  if (pht_.cols() < k) pht_.resize(pht_.rows(), std::max(k, 2 * pht_.cols()));
+  if (batch_s_.rows() < pht_.cols()) {
+    batch_s_.resize(pht_.cols(), pht_.cols());
+    batch_nu_.resize(std::max(pht_.cols(), pht_.rows()));
+  }
 }
 
 bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch) {
@@ -149,11 +169,7 @@ bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch)
   const auto n = static_cast<Eigen::Index>(dim_);
   const auto k = static_cast<Eigen::Index>(2 * batch.size());
   const Pose2 xv = x_.head<3>();
-  if (pht_.cols() < k) pht_.resize(pht_.rows(), std::max(k, 2 * pht_.cols()));
-  if (batch_s_.rows() < k) {
-    batch_s_.resize(pht_.cols(), pht_.cols());
-    batch_nu_.resize(pht_.cols());
-  }
+  reserve_joint_update(k);
   batch_hx_.resize(batch.size());
   batch_hm_.resize(batch.size());
   // W = P H^T, two columns per observation, each pair from the two column blocks its row of H touches.
@@ -163,7 +179,7 @@ bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch)
     const auto l = landmark_offset(batch[i].index);
     const auto r = 2 * static_cast<Eigen::Index>(i);
     const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(l));
-    observation_->jacobians(xv, m, batch_hx_[i], batch_hm_[i]);
+    observation_jacobians(batch[i].index, batch_hx_[i], batch_hm_[i]);
     nu.segment<2>(r) = observation_->residual(batch[i].z, observation_->predict(xv, m));
     covariance_times_jacobian(l, batch_hx_[i], batch_hm_[i], pht.middleCols<2>(r));
   }
@@ -175,41 +191,112 @@ bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch)
     s.middleRows<2>(r).noalias() = batch_hx_[i] * pht.topRows<3>() + batch_hm_[i] * pht.middleRows<2>(l);
     s.block<2, 2>(r, r) += observation_->noise();
   }
+  return apply_joint_update(k);
+}
+
+bool JointGaussian::apply_joint_update(Eigen::Index k) {
+  const auto n = static_cast<Eigen::Index>(dim_);
+  auto pht = pht_.topLeftCorner(n, k);
+  auto nu = batch_nu_.head(k);
+  auto s = batch_s_.topLeftCorner(k, k);
   // The factorisation reads the lower triangle only, so symmetrising it is enough; in place, as an
   // LLT of a Ref, so that it needs no storage of its own.
   s.triangularView<Eigen::StrictlyLower>() = 0.5 * (s + s.transpose());
   const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(s);
   if (llt.info() != Eigen::Success) return false;
   llt.solveInPlace(nu);
-  x_.head(n).noalias() += pht * nu;
-  x_[2] = wrap_angle(x_[2]);
+  // The correction W S^-1 nu: applied at once by the additive variants; the invariant one needs the
+  // downdated covariance first, so it keeps the correction in the scratch column beside W.
+  if (linearisation_ == Linearisation::kInvariant) {
+    if (transport_b_.size() < n) transport_b_.resize(x_.size());
+    transport_b_.head(n).noalias() = pht * nu;
+  } else {
+    x_.head(n).noalias() += pht * nu;
+    x_[2] = wrap_angle(x_[2]);
+  }
   // P -= W S^-1 W^T = C C^T with C = W L^-T: one pass over the lower triangle for the scan.
   // Row by row independent (C L^T = W), so solved in row tiles for the same reason as the downdate.
   for (Eigen::Index r = 0, tile = tile_rows(k); r < n; r += tile)
     llt.matrixU().solveInPlace<Eigen::OnTheRight>(pht.middleRows(r, std::min(tile, n - r)));
   downdate_lower(p_.topLeftCorner(n, n), pht);
+  if (linearisation_ == Linearisation::kInvariant) {
+    batch_nu_.resize(std::max<Eigen::Index>(batch_nu_.size(), n));
+    batch_nu_.head(n) = transport_b_.head(n);
+    correct(batch_nu_.head(n));
+  }
   return true;
+}
+
+void JointGaussian::observation_jacobians(std::size_t index, Matrix23& hx, Matrix2& hm) const {
+  if (linearisation_ == Linearisation::kFirstEstimates) {
+    observation_->jacobians(predicted_pose_, first_estimates_[index], hx, hm);
+    return;
+  }
+  observation_->jacobians(x_.head<3>(), x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index))), hx, hm);
+}
+
+void JointGaussian::correct(const Eigen::Ref<const Eigen::VectorXd>& delta) {
+  const auto n = static_cast<Eigen::Index>(dim_);
+  // The correction in the invariant error's coordinates: xi_theta = dtheta, xi_p = dp - dtheta J p,
+  // xi_m = dm - dtheta J m (J the 90-degree rotation), applied as X+ = exp(xi) X-, i.e. every
+  // position moves to R(phi) p + V(phi) xi_p. To first order that is the additive correction.
+  const double phi = delta[2];
+  const double c = std::cos(phi), sn = std::sin(phi);
+  const double a = std::abs(phi) < 1e-9 ? 1.0 - phi * phi / 6.0 : sn / phi;
+  const double b = std::abs(phi) < 1e-9 ? phi / 2.0 : (1.0 - c) / phi;
+  Matrix2 rot, v;
+  rot << c, -sn, sn, c;
+  v << a, -b, b, a;
+  if (transport_u_.size() < n) {
+    transport_u_.resize(x_.size());
+    transport_b_.resize(x_.size());
+  }
+  auto u = transport_u_.head(n);
+  u[2] = 0.0;
+  for (Eigen::Index o = 0; o < n; o += (o == 0 ? 3 : 2)) {
+    const Vector2 before = x_.segment<2>(o);
+    const Vector2 xi = delta.segment<2>(o) - phi * Vector2(-before[1], before[0]);
+    const Vector2 after = rot * before + v * xi;
+    x_.segment<2>(o) = after;
+    // The covariance moves to the new estimate's coordinates: d -> M d with M = I + u e_theta^T,
+    // u = J (after - before) for each position (0 for the heading).
+    u.segment<2>(o) = Vector2(-(after[1] - before[1]), after[0] - before[0]);
+  }
+  x_[2] = wrap_angle(x_[2] + phi);
+  // M P M^T = P + u a^T + a u^T + a_theta u u^T with a = P e_theta: one symmetric rank-2 update.
+  auto bvec = transport_b_.head(n);
+  bvec.head<3>() = diagonal_block<3>(0).col(2);
+  bvec.tail(n - 3) = p_.block(3, 2, n - 3, 1);
+  bvec += (0.5 * bvec[2]) * u;
+  p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>().rankUpdate(u, bvec);
 }
 
 std::size_t JointGaussian::add_landmark(const Vector2& z) {
   reserve(dim_ + 2);
   apply_pending_motion();
-  const auto l = static_cast<Eigen::Index>(dim_);
   Matrix23 gx;
   const Matrix2 added = place_new_landmark(z, gx);
+  const Vector2 mean = x_.segment<2>(static_cast<Eigen::Index>(dim_));
+  append_landmark(mean, gx, gx * diagonal_block<3>(0) * gx.transpose() + added);
+  return num_landmarks() - 1;
+}
+
+void JointGaussian::append_landmark(const Vector2& mean, const Matrix23& gx, const Matrix2& covariance) {
+  const auto l = static_cast<Eigen::Index>(dim_);
+  x_.segment<2>(l) = mean;
   // The new landmark inherits the vehicle's uncertainty, so it is correlated with everything the
   // vehicle is correlated with: P(m_new, :) = Gx P(v, :).
-  const Matrix3 pvv = diagonal_block<3>(0);
-  p_.block<2, 3>(l, 0).noalias() = gx * pvv;
+  p_.block<2, 3>(l, 0).noalias() = gx * diagonal_block<3>(0);
   if (l > 3) p_.block(l, 3, 2, l - 3).noalias() = gx * p_.block(3, 0, l - 3, 3).transpose();
-  p_.block<2, 2>(l, l).noalias() = gx * pvv * gx.transpose() + added;
+  p_.block<2, 2>(l, l) = covariance;
   dim_ += 2;
-  return num_landmarks() - 1;
+  first_estimates_.push_back(mean);
 }
 
 void JointGaussian::remove_landmark(std::size_t index) {
   apply_pending_motion();
   remove_stored_landmark(index);
+  first_estimates_.erase(first_estimates_.begin() + static_cast<std::ptrdiff_t>(index));
 }
 
 }  // namespace slamkit

@@ -14,11 +14,17 @@ namespace {
 
 // Each enum's names, in the order help texts list them.
 constexpr std::pair<FilterKind, const char*> kFilterNames[] = {
-    {FilterKind::kEkf, "ekf"}, {FilterKind::kFastSlam1, "fastslam1"}, {FilterKind::kFastSlam2, "fastslam2"}};
+    {FilterKind::kEkf, "ekf"},
+    {FilterKind::kUkf, "ukf"},
+    {FilterKind::kFastSlam1, "fastslam1"},
+    {FilterKind::kFastSlam2, "fastslam2"}};
 constexpr std::pair<EkfUpdate, const char*> kEkfUpdateNames[] = {{EkfUpdate::kJoint, "joint"},
                                                                  {EkfUpdate::kSequential, "sequential"}};
+// The unscented estimator is chosen as its own filter ("ukf"), not as an EKF variant.
 constexpr std::pair<EkfVariant, const char*> kEkfVariantNames[] = {{EkfVariant::kFull, "full"},
-                                                                   {EkfVariant::kCompressed, "compressed"}};
+                                                                   {EkfVariant::kCompressed, "compressed"},
+                                                                   {EkfVariant::kFirstEstimates, "fej"},
+                                                                   {EkfVariant::kInvariant, "invariant"}};
 
 template <typename Enum, std::size_t N>
 Enum parse_name(const std::pair<Enum, const char*> (&names)[N], const std::string& name, const char* what) {
@@ -52,19 +58,25 @@ std::vector<std::string> filter_names() {
 void validate(const FilterConfig& config) {
   if (config.particles < 1)
     throw std::invalid_argument(fmt::format("particles must be an integer >= 1, found {}", config.particles));
+  if (config.ekf_variant == EkfVariant::kUnscented)
+    throw std::invalid_argument("the unscented estimator is the filter 'ukf', not an EKF variant");
+  if (config.filter == FilterKind::kUkf && config.ekf_variant != EkfVariant::kFull)
+    throw std::invalid_argument(
+        fmt::format("EKF variant '{}' applies to the filter 'ekf', not 'ukf'", to_string(config.ekf_variant)));
   validate(config.association);
 }
 
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset) {
   validate(config);
   switch (config.filter) {
-    case FilterKind::kEkf: {
+    case FilterKind::kEkf:
+    case FilterKind::kUkf: {
       EkfSlamOptions options;
       options.initial_pose = dataset.initial_pose;
       options.association = config.association;
       options.sensor = dataset.sensor;
-      options.variant = config.ekf_variant;
-      options.joint_scan_update = config.ekf_update == EkfUpdate::kJoint && config.ekf_variant == EkfVariant::kFull;
+      options.variant = config.filter == FilterKind::kUkf ? EkfVariant::kUnscented : config.ekf_variant;
+      options.joint_scan_update = config.ekf_update == EkfUpdate::kJoint && options.variant != EkfVariant::kCompressed;
       return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
     }
     case FilterKind::kFastSlam1:

@@ -2,8 +2,14 @@
 
 #include <Eigen/Geometry>
 #include <filesystem>
+#include <algorithm>
+#include <cmath>
 #include <map>
+#include <stdexcept>
 
+#include <fmt/format.h>
+
+#include "slamkit/core/chi_square.hpp"
 #include "slamkit/plot/svg_plot.hpp"
 
 namespace slamkit {
@@ -19,6 +25,7 @@ std::vector<Vector2> positions(const std::vector<StampedPose>& poses, const eval
 
 std::string filter_title(const std::string& filter) {
   if (filter == "ekf") return "EKF-SLAM";
+  if (filter == "ukf") return "UKF-SLAM";
   if (filter == "fastslam1") return "FastSLAM 1.0";
   if (filter == "fastslam2") return "FastSLAM 2.0";
   return filter;
@@ -100,6 +107,55 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
     series.std_y.push_back(s.std_y);
   }
   plot::write_landmark_std_svg((fs::path(dir) / "landmark_std.svg").string(), std_plot);
+
+  if (metrics.nees_pose && !metrics.nees_pose_series.empty()) {
+    plot::NeesPlotData nees;
+    nees.title = "Pose NEES over time: " + title;
+    nees.subtitle = fmt::format("mean {:.2f}, {:.0f}% of steps inside the 95% interval", metrics.nees_pose->mean,
+                                100.0 * metrics.nees_pose->in_interval_fraction);
+    nees.nees = metrics.nees_pose_series;
+    nees.band_lo = metrics.nees_pose->interval.lo;
+    nees.band_hi = metrics.nees_pose->interval.hi;
+    plot::nees_figure(nees).save((fs::path(dir) / "nees.svg").string());
+  }
+}
+
+void write_monte_carlo_nees(const std::string& path, const std::vector<Metrics>& runs, const std::string& title) {
+  if (runs.empty()) throw std::invalid_argument("Monte Carlo NEES: no runs");
+  // Runs of one world step at the same times, but need not have a NEES at each (a start pose known
+  // exactly has none; a log may end a step earlier): the times all runs have are averaged.
+  std::map<long long, std::pair<Vector2, std::size_t>> by_time;  // microseconds -> (t, sum), runs
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    if (runs[r].nees_pose_series.empty())
+      throw std::invalid_argument(fmt::format("Monte Carlo NEES: run {} has no pose NEES", r + 1));
+    for (const Vector2& p : runs[r].nees_pose_series) {
+      auto& [sum, count] = by_time.try_emplace(std::llround(p.x() * 1e6), Vector2::Zero(), 0).first->second;
+      sum = Vector2(p.x(), sum.y() + p.y());
+      ++count;
+    }
+  }
+  std::vector<Vector2> mean;
+  for (const auto& [key, entry] : by_time)
+    if (entry.second == runs.size()) mean.emplace_back(entry.first.x(), entry.first.y() / static_cast<double>(runs.size()));
+  if (mean.empty()) throw std::invalid_argument("Monte Carlo NEES: the runs have no step time in common");
+  const int n = static_cast<int>(runs.size());
+  const eval::Interval band = eval::averaged_nees_interval(0.95, 3, n);
+  std::size_t inside = 0;
+  double total = 0.0;
+  for (const Vector2& p : mean) {
+    inside += band.contains(p.y());
+    total += p.y();
+  }
+  plot::NeesPlotData data;
+  data.title = title;
+  data.subtitle = fmt::format("{} runs: mean NEES {:.2f}, {:.0f}% of steps inside the 95% interval of the {}-run mean",
+                              n, total / static_cast<double>(mean.size()),
+                              100.0 * static_cast<double>(inside) / static_cast<double>(mean.size()), n);
+  data.nees = std::move(mean);
+  data.band_lo = band.lo;
+  data.band_hi = band.hi;
+  data.runs = n;
+  plot::nees_figure(data).save(path);
 }
 
 }  // namespace slamkit

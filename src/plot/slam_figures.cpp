@@ -89,4 +89,31 @@ void write_landmark_std_svg(const std::string& path, const StdPlotData& data) {
   landmark_std_figure(data).save(path);
 }
 
+Figure nees_figure(const NeesPlotData& data) {
+  if (!(data.band_lo < data.band_hi)) throw std::invalid_argument("NEES plot: the band needs lo < hi");
+  double t0 = std::numeric_limits<double>::infinity(), t1 = -t0;
+  for (const Vector2& p : data.nees)
+    if (p.allFinite()) {
+      t0 = std::min(t0, p.x());
+      t1 = std::max(t1, p.x());
+    }
+  if (!(t0 <= t1)) throw std::invalid_argument("NEES plot: no finite NEES value");
+  Figure fig;
+  fig.set_title(data.title);
+  fig.set_subtitle(data.subtitle);
+  fig.set_x_label("time [s]");
+  fig.set_y_label(data.runs > 1 ? fmt::format("pose NEES, mean of {} runs", data.runs) : "pose NEES");
+  fig.set_log_y(true);
+  const std::string band = data.runs > 1 ? fmt::format("95% interval of a {}-run mean", data.runs) : "95% interval";
+  const LineStyle band_style{palette::kVermillion, 1.2, Dash::kDashed};
+  const Vector2 lo[] = {{t0, data.band_lo}, {t1, data.band_lo}};
+  const Vector2 hi[] = {{t0, data.band_hi}, {t1, data.band_hi}};
+  const Vector2 mean[] = {{t0, data.dof}, {t1, data.dof}};
+  fig.add_line(data.nees, {palette::kBlue, data.runs > 1 ? 1.2 : 0.8}, "pose NEES");
+  fig.add_line(lo, band_style, band);
+  fig.add_line(hi, band_style, band);
+  fig.add_line(mean, {palette::kGrey, 1.0, Dash::kDotted}, fmt::format("consistent mean ({:g})", data.dof));
+  return fig;
+}
+
 }  // namespace slamkit::plot

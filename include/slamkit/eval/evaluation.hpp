@@ -22,6 +22,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "slamkit/eval/metrics.hpp"
 #include "slamkit/core/dataset.hpp"
@@ -48,6 +49,8 @@ struct Metrics {
   std::optional<double> map_rmse_m;
   std::size_t map_landmarks_paired = 0;
   std::optional<eval::NeesSummary> nees_pose;
+  /// (t, pose NEES) at every step nees_pose summarises, for the NEES-over-time pictures.
+  std::vector<Vector2> nees_pose_series;
   std::optional<AssociationMetrics> association;
   std::string association_method;
   std::map<std::string, double> filter_statistics;

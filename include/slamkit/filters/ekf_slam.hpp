@@ -28,6 +28,9 @@ namespace slamkit {
 enum class EkfVariant {
   kFull,        ///< JointGaussian: every update touches the whole joint covariance
   kCompressed,  ///< CompressedJointGaussian: updates confined to a local area, the rest on leaving it
+  kFirstEstimates,  ///< JointGaussian with first-estimates Jacobians (consistent)
+  kInvariant,       ///< JointGaussian with the right-invariant error (consistent)
+  kUnscented,       ///< UnscentedJointGaussian: UKF-SLAM, the filter named "ukf"
 };
 
 struct EkfSlamOptions {
@@ -41,7 +44,7 @@ struct EkfSlamOptions {
   /// Compressed variant: side of the square the vehicle may roam before the accumulated update is
   /// applied to the whole map and a new area is centred on it [m]; 0 means 2 x sensor.max_range.
   double local_area_side = 0.0;
-  /// Full variant: update with all of a scan's paired observations at once (one joint innovation
+  /// Full variants and UKF: update with all of a scan's paired observations at once (one joint innovation
   /// and one symmetric rank-2k downdate, a single pass over the covariance) instead of one after
   /// another. Equal to the sequential update for linear models; for nonlinear ones every
   /// observation is linearised at the prior of the scan, as in eqs. (10)-(11) with z_k the scan.
@@ -60,7 +63,7 @@ class EkfSlam final : public SlamFilter {
   /// `options`, the association, sensor and joint_scan_update settings apply.
   EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> ids, const EkfSlamOptions& options = {});
 
-  std::string name() const override { return "ekf"; }
+  std::string name() const override { return unscented_ ? "ukf" : "ekf"; }
   void predict(const ControlEvent& control) override;
   /// Pairs the scan's observations with landmarks (known ids, NN or JCBB, as configured), applies
   /// the updates, then adds the new landmarks. With known association an observation without an id
@@ -126,6 +129,7 @@ class EkfSlam final : public SlamFilter {
   double drift_since_rebuild_ = 0.0;  // vehicle corrections since the grid was last rebuilt [m]
   std::vector<AssociationRecord> last_associations_;
   bool joint_scan_update_;
+  bool unscented_;
   std::vector<LandmarkObservation> batch_;  // a scan's updates, when applied jointly
   // Reused per scan.
   std::vector<std::size_t> new_observations_;

@@ -7,18 +7,39 @@
 // observation update is O(n^2) with the constant of one symmetric rank-2 downdate, because the
 // observation Jacobian has non-zeros only in the vehicle's 3 and the landmark's 2 columns; a joint
 // update of k observations is one symmetric rank-2k downdate, a single pass over the lower triangle.
+//
+// Linearisation: besides the standard EKF, two variants that keep EKF-SLAM consistent by giving the
+// linearised system the unobservable directions of the true one (global translation and rotation),
+// which the standard EKF loses because its Jacobians are evaluated at estimates that change:
+//  * first-estimates Jacobians (Huang, Mourikis and Roumeliotis, ICRA 2008 / IJRR 2010): the motion
+//    Jacobian links the pose predicted for a step with the pose predicted for the step before, and an
+//    observation Jacobian is evaluated at the predicted pose and the landmark's first estimate, so
+//    the Jacobians' products along the trajectory telescope as the true system's do;
+//  * the right-invariant EKF (Barrau and Bonnabel 2015): the error is that of the group SE_{1+n}(2),
+//    xi = (dtheta, dp - dtheta J p, dm_i - dtheta J m_i), in which the motion Jacobian is the identity
+//    and the observation Jacobian does not depend on the heading estimate. Kept in the standard
+//    coordinates: the gain and the downdate are the standard ones (S is the same in both), the
+//    correction is applied through the group's exponential, and the covariance is carried to the
+//    corrected estimate's coordinates by a symmetric rank-2 update, one more pass per scan.
 #include <vector>
 
 #include "slamkit/filters/ekf_estimator.hpp"
 
 namespace slamkit {
 
-class JointGaussian final : public EkfEstimator {
+enum class Linearisation {
+  kStandard,        ///< Jacobians at the current estimates
+  kFirstEstimates,  ///< first-estimates Jacobians (FEJ-EKF)
+  kInvariant,       ///< right-invariant error (invariant EKF)
+};
+
+class JointGaussian : public EkfEstimator {
  public:
   /// The vehicle at `initial_pose` with `initial_covariance` (the map frame is defined by the start
   /// pose, so by default it is known exactly), and no landmarks.
   JointGaussian(std::shared_ptr<const MotionModel> motion, std::shared_ptr<const ObservationModel> observation,
-                const Pose2& initial_pose = Pose2::Zero(), const Matrix3& initial_covariance = Matrix3::Zero());
+                const Pose2& initial_pose = Pose2::Zero(), const Matrix3& initial_covariance = Matrix3::Zero(),
+                Linearisation linearisation = Linearisation::kStandard);
 
   Matrix3 pose_covariance() const override { return diagonal_block<3>(0); }
   Vector2 landmark_position(std::size_t index) const override;
@@ -37,21 +58,45 @@ class JointGaussian final : public EkfEstimator {
   std::size_t add_landmark(const Vector2& z) override;
   void remove_landmark(std::size_t index) override;
 
- private:
+ protected:
   /// Brings the stored map-vehicle cross-covariance up to date with the controls since (see predict).
   void apply_pending_motion();
+  /// Sizes the joint update's workspace for k measurement rows and returns its three parts: W (in
+  /// pht_, dim_ x k), the innovation nu and S (k x k, lower triangle read).
+  void reserve_joint_update(Eigen::Index k);
+  /// Eqs. (10)-(11) for the k measurement rows whose W = P H^T, innovation and S the caller has
+  /// written into the workspace: x += W S^-1 nu, P -= W S^-1 W^T as one symmetric rank-k downdate.
+  /// Returns false (and changes nothing) if S is not positive definite.
+  bool apply_joint_update(Eigen::Index k);
+  /// Appends a landmark with mean `mean`, covariance `covariance` and P(m, :) = gx P(v, :), its
+  /// correlations all through the vehicle's (pending motion applied, room reserved).
+  void append_landmark(const Vector2& mean, const Matrix23& gx, const Matrix2& covariance);
+
+  /// Product of the motion Jacobians not yet applied to the stored P_mv: P_mv = stored * pending^T.
+  Matrix3 pending_motion_ = Matrix3::Identity();
+  Eigen::VectorXd batch_nu_;
+  Eigen::MatrixXd batch_s_;
+
+ private:
   /// Fills `out` (dim_ x 2) with P H^T for an observation Jacobian with blocks hx (vehicle) and hm
   /// (landmark).
   void covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm,
                                  Eigen::Ref<Eigen::MatrixX2d> out) const;
+  /// The observation Jacobians of landmark `index` where the linearisation evaluates them.
+  void observation_jacobians(std::size_t index, Matrix23& hx, Matrix2& hm) const;
+  /// Adds the correction `delta` (standard coordinates) to the estimate; the invariant variant
+  /// applies it through the group's exponential and carries the covariance along.
+  void correct(const Eigen::Ref<const Eigen::VectorXd>& delta);
 
-  /// Product of the motion Jacobians not yet applied to the stored P_mv: P_mv = stored * pending^T.
-  Matrix3 pending_motion_ = Matrix3::Identity();
+  Linearisation linearisation_;
+  // First-estimates Jacobians: the pose predicted for the current step (before its update), and
+  // each landmark's first estimate, by map index.
+  Pose2 predicted_pose_;
+  std::vector<Vector2> first_estimates_;
   // The joint update's other terms, sized for the largest batch so far.
   std::vector<Matrix23> batch_hx_;
   std::vector<Matrix2> batch_hm_;
-  Eigen::VectorXd batch_nu_;
-  Eigen::MatrixXd batch_s_;
+  Eigen::VectorXd transport_u_, transport_b_;  // the invariant variant's rank-2 update
 };
 
 }  // namespace slamkit

@@ -30,6 +30,18 @@ class MotionModel {
   /// Covariance M of the noise on the control u.
   virtual ControlCovariance control_noise(const Control& u, double dt) const = 0;
 
+  /// df/dx written through the poses it links, for the consistent EKF variants: every model here
+  /// moves by a displacement fixed in the vehicle frame, rotated by the heading, so the Jacobian is
+  /// [I  J (p_to - p_from); 0 1] with J the 90-degree rotation, whatever the control. Evaluated at
+  /// (from, f(from, u)) it equals jacobian_state(from, u); first-estimates Jacobians evaluate it at
+  /// other pose pairs, so that the products over a trajectory telescope.
+  static Matrix3 jacobian_between(const Pose2& from, const Pose2& to) {
+    Matrix3 f = Matrix3::Identity();
+    f(0, 2) = -(to[1] - from[1]);
+    f(1, 2) = to[0] - from[0];
+    return f;
+  }
+
   /// Q = Fu M Fu^T, the process noise of eq. (9).
   Matrix3 process_noise(const Pose2& x, const Control& u, double dt) const {
     const ControlJacobian fu = jacobian_control(x, u, dt);

@@ -16,7 +16,7 @@
 
 namespace slamkit {
 
-enum class FilterKind { kEkf, kFastSlam1, kFastSlam2 };
+enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2 };
 
 /// How the EKF applies a scan's paired observations.
 enum class EkfUpdate {
@@ -28,8 +28,9 @@ struct FilterConfig {
   FilterKind filter = FilterKind::kEkf;
   std::uint64_t seed = 1;
   AssociationConfig association;
-  // EKF only.
+  // EKF and UKF.
   EkfUpdate ekf_update = EkfUpdate::kJoint;
+  // EKF only.
   /// The compressed variant works on its local state one observation at a time, so with it
   /// ekf_update is always sequential (it then equals the full EKF with sequential updates).
   EkfVariant ekf_variant = EkfVariant::kFull;
@@ -40,13 +41,13 @@ struct FilterConfig {
   unsigned threads = 0;          // 0: all cores
 };
 
-/// "ekf", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
+/// "ekf", "ukf", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
 FilterKind parse_filter_kind(const std::string& name);
 std::string to_string(FilterKind kind);
 /// "joint" or "sequential"; throws std::invalid_argument naming the accepted values.
 EkfUpdate parse_ekf_update(const std::string& name);
 std::string to_string(EkfUpdate update);
-/// "full" or "compressed"; throws std::invalid_argument naming the accepted values.
+/// "full", "compressed", "fej" or "invariant"; throws std::invalid_argument naming the accepted values.
 EkfVariant parse_ekf_variant(const std::string& name);
 std::string to_string(EkfVariant variant);
 

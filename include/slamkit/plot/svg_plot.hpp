@@ -248,4 +248,19 @@ struct StdPlotData {
 Figure landmark_std_figure(const StdPlotData& data);
 void write_landmark_std_svg(const std::string& path, const StdPlotData& data);
 
+/// Pose NEES over time, of one run or averaged over Monte Carlo runs, with the interval it stays in
+/// 95% of the time if the filter is consistent.
+struct NeesPlotData {
+  std::string title;
+  std::string subtitle;
+  std::vector<Vector2> nees;  // (t [s], NEES)
+  double band_lo = 0.0, band_hi = 0.0;
+  double dof = 3.0;  // the consistent mean
+  int runs = 1;      // averaged over this many runs
+};
+
+/// Log y axis (an inconsistent filter's NEES spans decades); the band and the consistent mean as
+/// dashed lines. Throws std::invalid_argument without finite points or with band_lo >= band_hi.
+Figure nees_figure(const NeesPlotData& data);
+
 }  // namespace slamkit::plot

@@ -1,0 +1,214 @@
+#include "slamkit/filters/unscented_joint_gaussian.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+
+#include "slamkit/core/angles.hpp"
+
+namespace slamkit {
+
+namespace {
+
+// The symmetric sigma-point set of a Gaussian with covariance `cov`: points mean +- o_j, o_j = c a_j
+// for the r columns a_j of a square root A (A A^T = cov), each point of weight 1/(2 c^2), the mean
+// itself taking the rest. The spread c^2 = min(r, 3): 3 matches the Gaussian's fourth moment along
+// each direction (Julier and Uhlmann's kappa = 3 - r); below r = 3 that would give the mean a
+// negative weight, so c^2 = r there (the mean's weight is 0). A is the Cholesky factor when the
+// covariance is well conditioned (cheap); otherwise the eigen-directions of non-zero variance, so
+// that a singular covariance (the start pose is known exactly) gives points only where there is
+// uncertainty.
+struct SigmaPoints {
+  Eigen::MatrixXd offsets;          // the o_j as columns (d x r)
+  Eigen::MatrixXd inverse_offsets;  // their pseudo-inverse (r x d)
+  double weight = 0.0;              // of each of the 2r points
+};
+
+SigmaPoints sigma_points(const Eigen::MatrixXd& cov) {
+  const Eigen::Index d = cov.rows();
+  const Eigen::LLT<Eigen::MatrixXd> llt(cov);
+  if (llt.info() == Eigen::Success &&
+      llt.matrixLLT().diagonal().array().square().minCoeff() > 1e-12 * cov.diagonal().maxCoeff()) {
+    const double spread = std::min(static_cast<double>(d), 3.0);
+    const double c = std::sqrt(spread);
+    SigmaPoints points{c * Eigen::MatrixXd(llt.matrixL()), Eigen::MatrixXd::Identity(d, d) / c, 0.5 / spread};
+    llt.matrixL().solveInPlace(points.inverse_offsets);
+    return points;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(cov);
+  const Eigen::VectorXd& lambda = eigen.eigenvalues();
+  const double floor = 1e-12 * std::max(lambda.maxCoeff(), 0.0);
+  std::vector<Eigen::Index> kept;
+  for (Eigen::Index j = 0; j < lambda.size(); ++j)
+    if (lambda[j] > floor && lambda[j] > 0.0) kept.push_back(j);
+  const auto r = static_cast<Eigen::Index>(kept.size());
+  const double spread = std::min(static_cast<double>(r), 3.0);
+  SigmaPoints points{Eigen::MatrixXd(d, r), Eigen::MatrixXd(r, d), 0.5 / std::max(spread, 1.0)};
+  for (Eigen::Index j = 0; j < r; ++j) {
+    const double length = std::sqrt(spread * lambda[kept[static_cast<std::size_t>(j)]]);
+    const auto v = eigen.eigenvectors().col(kept[static_cast<std::size_t>(j)]);
+    points.offsets.col(j) = length * v;
+    points.inverse_offsets.row(j) = v.transpose() / length;  // orthogonal columns
+  }
+  return points;
+}
+
+struct Transformed {
+  Eigen::VectorXd mean;  // angular entries not wrapped
+  Eigen::MatrixXd covariance;
+  /// The statistical linearisation P_ys P_ss^+ (the Jacobian, for a linear f).
+  Eigen::MatrixXd linearisation;
+};
+
+// The unscented transform of y = f(s), s ~ N(mean, cov); difference(a, b) is a - b with angular
+// entries wrapped, so that sigma points straddling +-pi average correctly.
+template <class Function, class Difference>
+Transformed unscented(const Eigen::VectorXd& mean, const Eigen::MatrixXd& cov, Function f, Difference difference) {
+  const SigmaPoints points = sigma_points(cov);
+  const Eigen::MatrixXd& offsets = points.offsets;
+  const Eigen::Index r = offsets.cols();
+  const Eigen::VectorXd centre = f(mean);
+  const Eigen::Index m = centre.size();
+  Transformed t{centre, Eigen::MatrixXd::Zero(m, m), Eigen::MatrixXd::Zero(m, mean.size())};
+  if (r == 0) return t;
+  Eigen::MatrixXd plus(m, r), minus(m, r);  // the points' images, less the centre's
+  for (Eigen::Index j = 0; j < r; ++j) {
+    plus.col(j) = difference(f(mean + offsets.col(j)), centre);
+    minus.col(j) = difference(f(mean - offsets.col(j)), centre);
+  }
+  const double w = points.weight;
+  const Eigen::VectorXd shift = w * (plus.rowwise().sum() + minus.rowwise().sum());
+  t.mean += shift;
+  // Central differences along the offsets, (y+ - y-) / 2 = J o_j for a linear f, so J = that times
+  // the offsets' pseudo-inverse: the regression coefficient of y on s.
+  t.linearisation.noalias() = 0.5 * (plus - minus) * points.inverse_offsets;
+  // The weighted scatter about the new mean, the centre point's term included, is this sum less
+  // shift shift^T (the weights add up to one).
+  t.covariance.noalias() = w * (plus * plus.transpose() + minus * minus.transpose());
+  t.covariance.noalias() -= shift * shift.transpose();
+  return t;
+}
+
+Eigen::VectorXd pose_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  Eigen::VectorXd d = a - b;
+  d[2] = wrap_angle(d[2]);
+  return d;
+}
+
+}  // namespace
+
+UnscentedJointGaussian::UnscentedJointGaussian(std::shared_ptr<const MotionModel> motion,
+                                               std::shared_ptr<const ObservationModel> observation,
+                                               const Pose2& initial_pose, const Matrix3& initial_covariance)
+    : JointGaussian(std::move(motion), std::move(observation), initial_pose, initial_covariance) {}
+
+void UnscentedJointGaussian::predict(const Control& u, double dt) {
+  const ControlCovariance noise = motion_->control_noise(u, dt);
+  const Eigen::Index c = noise.rows();
+  // Sigma points over [vehicle, control noise].
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(3 + c);
+  mean.head<3>() = x_.head<3>();
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(3 + c, 3 + c);
+  cov.topLeftCorner<3, 3>() = diagonal_block<3>(0);
+  cov.bottomRightCorner(c, c) = noise;
+  const Transformed t = unscented(
+      mean, cov,
+      [&](const Eigen::VectorXd& a) -> Eigen::VectorXd {
+        return motion_->predict(a.head<3>(), Control(u + a.tail(c)), dt);
+      },
+      pose_difference);
+  x_.head<3>() = t.mean;
+  x_[2] = wrap_angle(x_[2]);
+  p_.topLeftCorner<3, 3>() = t.covariance;
+  // P_mv <- P_mv A^T with A the vehicle part of the regression, applied lazily like F.
+  pending_motion_ = t.linearisation.leftCols<3>() * pending_motion_;
+}
+
+bool UnscentedJointGaussian::update_landmark(std::size_t index, const Vector2& z) {
+  const LandmarkObservation one{index, z};
+  return update_landmarks(std::span<const LandmarkObservation>(&one, 1));
+}
+
+bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservation> batch) {
+  if (batch.empty()) return true;
+  apply_pending_motion();
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const auto k = static_cast<Eigen::Index>(2 * batch.size());
+  // The sub-state s: the vehicle, then each observed landmark once; at[i] is observation i's
+  // landmark's position in s.
+  sub_offsets_.assign(1, 0);
+  std::vector<Eigen::Index> at(batch.size());
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const std::size_t offset = landmark_offset(batch[i].index);
+    const auto found = std::find(sub_offsets_.begin(), sub_offsets_.end(), offset);
+    at[i] = 3 + 2 * static_cast<Eigen::Index>(found - sub_offsets_.begin() - 1);
+    if (found == sub_offsets_.end()) sub_offsets_.push_back(offset);
+  }
+  const auto d = static_cast<Eigen::Index>(1 + 2 * sub_offsets_.size());
+  auto width = [](std::size_t block) -> Eigen::Index { return block == 0 ? 3 : 2; };
+  sub_mean_.resize(d);
+  sub_covariance_.resize(d, d);
+  for (std::size_t a = 0, ra = 0; a < sub_offsets_.size(); ra += static_cast<std::size_t>(width(a)), ++a) {
+    sub_mean_.segment(static_cast<Eigen::Index>(ra), width(a)) =
+        x_.segment(static_cast<Eigen::Index>(sub_offsets_[a]), width(a));
+    for (std::size_t b = 0, rb = 0; b < sub_offsets_.size(); rb += static_cast<std::size_t>(width(b)), ++b)
+      for (Eigen::Index i = 0; i < width(a); ++i)
+        for (Eigen::Index j = 0; j < width(b); ++j)
+          sub_covariance_(static_cast<Eigen::Index>(ra) + i, static_cast<Eigen::Index>(rb) + j) =
+              stored_entry(sub_offsets_[a] + static_cast<std::size_t>(i), sub_offsets_[b] + static_cast<std::size_t>(j));
+  }
+
+  const Transformed t = unscented(
+      sub_mean_, sub_covariance_,
+      [&](const Eigen::VectorXd& s) {
+        Eigen::VectorXd z(k);
+        for (std::size_t i = 0; i < batch.size(); ++i)
+          z.segment<2>(2 * static_cast<Eigen::Index>(i)) = observation_->predict(s.head<3>(), s.segment<2>(at[i]));
+        return z;
+      },
+      [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+        Eigen::VectorXd r(k);
+        for (Eigen::Index i = 0; i < k; i += 2) r.segment<2>(i) = observation_->residual(a.segment<2>(i), b.segment<2>(i));
+        return r;
+      });
+
+  reserve_joint_update(k);
+  auto s = batch_s_.topLeftCorner(k, k);
+  s = t.covariance;
+  for (Eigen::Index i = 0; i < k; i += 2) {
+    s.block<2, 2>(i, i) += observation_->noise();
+    batch_nu_.segment<2>(i) = observation_->residual(batch[static_cast<std::size_t>(i / 2)].z, t.mean.segment<2>(i));
+  }
+  // W = P(:, s) A^T, block column by block column of s, each read from the lower triangle.
+  gain_basis_ = t.linearisation.transpose();
+  auto w = pht_.topLeftCorner(n, k);
+  w.setZero();
+  for (std::size_t a = 0, ra = 0; a < sub_offsets_.size(); ra += static_cast<std::size_t>(width(a)), ++a) {
+    const auto o = static_cast<Eigen::Index>(sub_offsets_[a]);
+    const Eigen::Index wa = width(a);
+    const auto g = gain_basis_.middleRows(static_cast<Eigen::Index>(ra), wa);
+    if (o > 0) w.topRows(o).noalias() += p_.block(o, 0, wa, o).transpose() * g;
+    w.middleRows(o, wa).noalias() += p_.block(o, o, wa, wa).selfadjointView<Eigen::Lower>() * g;
+    if (o + wa < n) w.bottomRows(n - o - wa).noalias() += p_.block(o + wa, o, n - o - wa, wa) * g;
+  }
+  return apply_joint_update(k);
+}
+
+std::size_t UnscentedJointGaussian::add_landmark(const Vector2& z) {
+  reserve(dim_ + 2);
+  apply_pending_motion();
+  // Sigma points over [vehicle, measurement noise], through the inverse observation model.
+  Eigen::VectorXd mean(5);
+  mean << x_.head<3>(), z;
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(5, 5);
+  cov.topLeftCorner<3, 3>() = diagonal_block<3>(0);
+  cov.bottomRightCorner<2, 2>() = observation_->noise();
+  const Transformed t = unscented(
+      mean, cov,
+      [&](const Eigen::VectorXd& a) -> Eigen::VectorXd { return observation_->inverse(a.head<3>(), a.tail<2>()); },
+      [](const Eigen::VectorXd& a, const Eigen::VectorXd& b) -> Eigen::VectorXd { return a - b; });
+  append_landmark(t.mean, t.linearisation.leftCols<3>(), t.covariance);
+  return num_landmarks() - 1;
+}
+
+}  // namespace slamkit

@@ -1,0 +1,146 @@
+// UKF-SLAM: on a linear-Gaussian system the unscented joint Gaussian is the Kalman filter (the EKF's
+// JointGaussian is exact there), and on a nearly linear one it agrees with the EKF to first order.
+#include <gtest/gtest.h>
+
+#include "slamkit/filters/joint_gaussian.hpp"
+#include "slamkit/filters/unscented_joint_gaussian.hpp"
+
+using namespace slamkit;
+
+namespace {
+
+// x' = x + u dt: linear, with a control noise that does not depend on the state.
+class LinearMotion final : public MotionModel {
+ public:
+  std::string name() const override { return "linear"; }
+  int control_dim() const override { return 3; }
+  Pose2 predict(const Pose2& x, const Control& u, double dt) const override { return x + dt * u; }
+  Matrix3 jacobian_state(const Pose2&, const Control&, double) const override { return Matrix3::Identity(); }
+  ControlJacobian jacobian_control(const Pose2&, const Control&, double dt) const override {
+    return dt * Matrix3::Identity();
+  }
+  ControlCovariance control_noise(const Control&, double) const override {
+    ControlCovariance m(3, 3);
+    m << 0.04, 0.01, 0.0, 0.01, 0.09, 0.002, 0.0, 0.002, 0.003;
+    return m;
+  }
+};
+
+// z = m - p: the landmark's offset from the vehicle in the map frame.
+class LinearObservation final : public ObservationModel {
+ public:
+  std::string name() const override { return "offset"; }
+  Vector2 predict(const Pose2& x, const Vector2& m) const override { return m - x.head<2>(); }
+  void jacobians(const Pose2&, const Vector2&, Matrix23& hx, Matrix2& hm) const override {
+    hx << -1, 0, 0, 0, -1, 0;
+    hm.setIdentity();
+  }
+  Matrix2 noise() const override { return (Matrix2() << 0.02, 0.005, 0.005, 0.03).finished(); }
+  Vector2 residual(const Vector2& z, const Vector2& zhat) const override { return z - zhat; }
+  Vector2 inverse(const Pose2& x, const Vector2& z) const override { return x.head<2>() + z; }
+  void inverse_jacobians(const Pose2&, const Vector2&, Matrix23& gx, Matrix2& gz) const override {
+    gx << 1, 0, 0, 0, 1, 0;
+    gz.setIdentity();
+  }
+};
+
+Control control(double a, double b, double c) {
+  Control u(3);
+  u << a, b, c;
+  return u;
+}
+
+// The same sequence of steps on any estimator: additions, joint and single updates, a removal.
+void drive(EkfEstimator& f) {
+  const double dt = 0.5;
+  f.predict(control(1.0, 0.2, 0.05), dt);
+  f.add_landmark(Vector2(5.0, 2.0));
+  f.add_landmark(Vector2(-1.0, 4.0));
+  for (int i = 0; i < 3; ++i) f.predict(control(0.8, -0.1, 0.02), dt);
+  const LandmarkObservation both[] = {{0, Vector2(3.6, 1.9)}, {1, Vector2(-2.3, 4.2)}};
+  ASSERT_TRUE(f.update_landmarks(both));
+  f.add_landmark(Vector2(2.0, -3.0));
+  f.predict(control(0.5, 0.5, -0.1), dt);
+  ASSERT_TRUE(f.update_landmark(2, Vector2(1.7, -3.4)));
+  f.remove_landmark(1);
+  f.predict(control(0.3, 0.0, 0.0), dt);
+  const LandmarkObservation again[] = {{1, Vector2(1.2, -3.9)}, {0, Vector2(2.9, 1.1)}};
+  ASSERT_TRUE(f.update_landmarks(again));
+}
+
+}  // namespace
+
+class UkfOnLinearGaussianSystem : public ::testing::TestWithParam<Matrix3> {};
+
+TEST_P(UkfOnLinearGaussianSystem, EqualsTheKalmanFilter) {
+  auto motion = std::make_shared<LinearMotion>();
+  auto observation = std::make_shared<LinearObservation>();
+  JointGaussian kalman(motion, observation, Pose2(1.0, -2.0, 0.3), GetParam());
+  UnscentedJointGaussian ukf(motion, observation, Pose2(1.0, -2.0, 0.3), GetParam());
+  drive(kalman);
+  drive(ukf);
+  ASSERT_EQ(ukf.state_dim(), kalman.state_dim());
+  EXPECT_LT((ukf.state() - kalman.state()).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((ukf.covariance() - kalman.covariance()).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_GT(kalman.covariance().diagonal().minCoeff(), 1e-3);  // the comparison is not of zeros
+}
+
+// The start pose known exactly (the default, whose covariance is singular) and uncertain.
+INSTANTIATE_TEST_SUITE_P(StartCovariance, UkfOnLinearGaussianSystem,
+                         ::testing::Values(Matrix3::Zero(), Eigen::Vector3d(0.1, 0.2, 0.01).asDiagonal().toDenseMatrix()));
+
+namespace {
+
+// The UKF's and the EKF's estimates after a few steps of the nonlinear models, with every noise
+// (and so every covariance) scaled by `scale`^2 and the measurements scaled accordingly.
+double largest_difference(double scale, double& covariance_difference) {
+  AckermannModel::Params mp;
+  mp.sigma_speed *= scale;
+  mp.sigma_steer *= scale;
+  RangeBearingModel::Params op;
+  op.sigma_range *= scale;
+  op.sigma_bearing *= scale;
+  auto motion = std::make_shared<AckermannModel>(mp);
+  auto observation = std::make_shared<RangeBearingModel>(op);
+  const Matrix3 start = scale * scale * Eigen::Vector3d(0.04, 0.04, 0.001).asDiagonal().toDenseMatrix();
+  JointGaussian ekf(motion, observation, Pose2::Zero(), start);
+  UnscentedJointGaussian ukf(motion, observation, Pose2::Zero(), start);
+  const Vector2 landmarks[] = {{30.0, 8.0}, {25.0, -12.0}, {40.0, 3.0}};
+  Pose2 truth = Pose2::Zero();
+  const Vector2 offsets[] = {{0.05, -0.01}, {-0.08, 0.015}, {0.02, 0.01}};  // in units of sigma
+  auto measure = [&](int i) {
+    Vector2 z = observation->predict(truth, landmarks[i]);
+    z += scale * Vector2(offsets[i][0], offsets[i][1] * deg2rad(1.0) / 0.1);
+    return z;
+  };
+  Control u(2);
+  u << 3.0, 0.05;
+  for (EkfEstimator* f : {static_cast<EkfEstimator*>(&ekf), static_cast<EkfEstimator*>(&ukf)})
+    for (int i = 0; i < 3; ++i) f->add_landmark(measure(i));
+  for (int step = 0; step < 4; ++step) {
+    truth = motion->predict(truth, u, 0.5);
+    ekf.predict(u, 0.5);
+    ukf.predict(u, 0.5);
+    const LandmarkObservation scan[] = {{0, measure(0)}, {1, measure(1)}, {2, measure(2)}};
+    EXPECT_TRUE(ekf.update_landmarks(scan));
+    EXPECT_TRUE(ukf.update_landmarks(scan));
+  }
+  const Eigen::MatrixXd p = ekf.covariance();
+  covariance_difference = (ukf.covariance() - p).cwiseAbs().maxCoeff() / p.diagonal().maxCoeff();
+  // State differences in units of the EKF's standard deviations.
+  return ((ukf.state() - ekf.state()).array() / p.diagonal().array().sqrt()).abs().maxCoeff();
+}
+
+}  // namespace
+
+TEST(UkfOnNearlyLinearSystem, AgreesWithTheEkfToFirstOrder) {
+  double cov_coarse = 0.0, cov_fine = 0.0;
+  const double coarse = largest_difference(1e-2, cov_coarse);
+  const double fine = largest_difference(1e-3, cov_fine);
+  // The two differ by second-order terms: in units of sigma, the difference of the means shrinks in
+  // proportion to sigma, and so does the relative difference of the covariances.
+  EXPECT_LT(coarse, 1e-2);
+  EXPECT_LT(fine, 0.2 * coarse);
+  EXPECT_LT(cov_coarse, 1e-2);
+  EXPECT_LT(cov_fine, 0.2 * cov_coarse + 1e-9);
+}
