@@ -169,6 +169,16 @@ TEST(EkfSlam, KnownAssociationDiscardsObservationWithoutIdentity) {
   EXPECT_EQ(ekf.statistics().at("discarded_observations"), 1.0);
 }
 
+// A simulator config with no sensor noise used to run to an empty map after thousands of landmarks
+// were started and removed: every innovation was infinitely far from every landmark.
+TEST(EkfSlam, RejectsAMeasurementNoiseThatIsNotPositiveDefinite) {
+  RangeBearingModel::Params perfect;
+  perfect.sigma_range = 0.0;
+  perfect.sigma_bearing = 0.0;
+  EXPECT_THROW(EkfSlam(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>(perfect)),
+               std::invalid_argument);
+}
+
 TEST(JointGaussian, RemovingALandmarkEqualsMarginalisingItOut) {
   JointGaussian ekf(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>());
   Control u(2);

@@ -335,6 +335,15 @@ TEST_F(MrclamFiles, TimeGoingBackwardsIsRejected) {
   EXPECT_NE(input_error("Robot1_Measurement.dat", 4).find("earlier than"), std::string::npos);
 }
 
+// Times near the ends of a long (9e18 s) used to overflow the difference of whole seconds.
+TEST_F(MrclamFiles, TimesBeyondAnyClockAreRejected) {
+  write("Robot1_Odometry.dat", "-9000000000000000000.5 \t 0.1 \t 0.0 \r\n9000000000000000000.5 \t 0.1 \t 0.0 \r\n");
+  EXPECT_NE(input_error("Robot1_Odometry.dat", 3).find("expected a Unix time in seconds within +-1e+12"),
+            std::string::npos);
+  write("Robot1_Odometry.dat", "1000000100.000 \t 0.1 \t 0.0 \r\n1e300 \t 0.1 \t 0.0 \r\n");
+  EXPECT_NE(input_error("Robot1_Odometry.dat", 4).find("found '1e300'"), std::string::npos);
+}
+
 TEST_F(MrclamFiles, MalformedBarcodesAndLandmarksAreRejected) {
   write("Barcodes.dat", "  1 \t 5 \r\n  2 \t 5 \r\n");
   EXPECT_NE(input_error("Barcodes.dat", 4).find("barcode 5 is given to two subjects"), std::string::npos);

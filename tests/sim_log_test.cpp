@@ -426,6 +426,9 @@ TEST(WorldFile, ReportsWhereAndWhatIsWrong) {
       {good + "landmark 1 2 3\nlandmark 1 4 5\n", 5, "duplicate landmark id 1 (first defined on line 4)"},
       {good + "landmark -1 2 3\n", 4, "expected a landmark id from 0"},
       {good + "waypoint 10 0\n", 4, "waypoint repeats the previous one"},
+      // A waypoint at 1e300 m used to overflow the simulator's step count.
+      {good + "waypoint 1e300 0\n", 4, "expected waypoint x within +-2e6 m, found 1e+300"},
+      {good + "start 0 -3e6 90\n", 4, "expected start y within +-2e6 m"},
       {"waypoint 0 0\n# only one\n", 0, "expected at least 2 waypoints, found 1"},
   };
   for (const auto& [text, line, message] : cases) {

@@ -187,6 +187,28 @@ TEST(World, RejectsImpossibleOptions) {
   WorldGenOptions negative;
   negative.landmarks = -1;
   EXPECT_THROW(generate_world(negative), InputError);
+  // Sizes beyond any map (the spacing grid's keys used to overflow) and a band of no width.
+  WorldGenOptions huge;
+  huge.width = 1e12;
+  EXPECT_THROW(generate_world(huge), InputError);
+  WorldGenOptions endless_band;
+  endless_band.band_outer = 1e308;
+  EXPECT_THROW(generate_world(endless_band), InputError);
+  WorldGenOptions crowd;
+  crowd.landmarks = 2'000'000'000;
+  EXPECT_THROW(generate_world(crowd), InputError);
+}
+
+// A band a nanometre wide used to run forever, every sample rejected.
+TEST(World, ATooThinBandIsAnErrorNotAHang) {
+  WorldGenOptions thin;
+  thin.band_outer = thin.band_inner + 1e-9;
+  try {
+    generate_world(thin);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("too thin"), std::string::npos) << e.what();
+  }
 }
 
 // ---- Config -----------------------------------------------------------------------------------------
@@ -274,6 +296,9 @@ TEST(SimulatorConfig, WrongTypesAndOutOfRangeValuesAreErrors) {
       {{"speed_mps", "fast"}},          {{"speed_mps", 0.0}},          {{"loops", 0}}, {{"loops", 1.5}},
       {{"max_steer_deg", 95}},          {{"sigma_range_m", -0.1}},     {{"seed", -3}}, {{"fov_deg", 400}},
       {{"observation_period_s", 0.21}}, nlohmann::json::array({1, 2}),
+      // Beyond physical sense: these used to be accepted and fail later, obscurely.
+      {{"speed_mps", 1e-300}},          {{"max_range_m", 1e308}},      {{"sigma_range_m", 0.0}},
+      {{"sigma_bearing_deg", 0.0}},     {{"clutter_rate_per_scan", 1e9}}, {{"control_period_s", 1e-9}},
   };
   for (const nlohmann::json& j : bad)
     EXPECT_THROW(simulator_config_from_json(j, "test"), InputError) << j.dump();
@@ -492,6 +517,18 @@ TEST(Simulator, RejectsAWaypointTheVehicleCannotReach) {
     FAIL() << "no error";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot reach waypoint 3"), std::string::npos) << e.what();
+  }
+}
+
+// Two billion laps used to end in std::bad_alloc (or the machine's memory) from the event buffers.
+TEST(Simulator, ARunBeyondTheMachinesMemoryIsRefusedUpFront) {
+  SimulatorConfig endless;
+  endless.loops = 2147483647;
+  try {
+    simulate(default_world(), endless);
+    FAIL() << "expected std::length_error";
+  } catch (const std::length_error& e) {
+    EXPECT_NE(std::string(e.what()).find("GiB of memory"), std::string::npos) << e.what();
   }
 }
 

@@ -1,5 +1,6 @@
 #include "slamkit/assoc/landmark_grid.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace slamkit {
@@ -7,6 +8,8 @@ namespace slamkit {
 namespace {
 // The node pool's first allocation: the entries of a few hundred cells.
 constexpr std::size_t kInitialNodes = 4096;
+// A query square up to this many cells (256 x 256) is visited cell by cell, whatever the grid holds.
+constexpr double kWideQueryCells = 65536.0;
 }  // namespace
 
 LandmarkGrid::LandmarkGrid(double cell_size) : cell_size_(cell_size) {
@@ -64,6 +67,16 @@ void LandmarkGrid::query(const Vector2& centre, double radius, std::vector<std::
   lo_y_ = column(centre.y() - radius);
   hi_x_ = column(centre.x() + radius);
   hi_y_ = column(centre.y() + radius);
+  // Cells as doubles: the square may span 2^31 columns each way. Walking the grid's cells costs
+  // about what visiting as many cells of the square would, and creates none.
+  const double square_cells = static_cast<double>(hi_x_ - lo_x_ + 3) * static_cast<double>(hi_y_ - lo_y_ + 3);
+  wide_ = square_cells > std::max(kWideQueryCells, 4.0 * static_cast<double>(cells_.size()));
+  if (wide_) {
+    for (const auto& [cell, head] : cells_)
+      if (in_last_query(cell))
+        for (std::uint32_t n = head; n != kNone; n = nodes_[n].next) out.push_back(nodes_[n].index);
+    return;
+  }
   // One pass over the square and the ring around it: the ring's cells are only created.
   for (std::int64_t ix = lo_x_ - 1; ix <= hi_x_ + 1; ++ix)
     for (std::int64_t iy = lo_y_ - 1; iy <= hi_y_ + 1; ++iy) {

@@ -1,5 +1,6 @@
 #include "slamkit/filters/ekf_estimator.hpp"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <stdexcept>
 
@@ -16,6 +17,10 @@ EkfEstimator::EkfEstimator(std::shared_ptr<const MotionModel> motion,
                            const Matrix3& initial_covariance)
     : motion_(std::move(motion)), observation_(std::move(observation)) {
   if (!motion_ || !observation_) throw std::invalid_argument("EKF-SLAM needs a motion and an observation model");
+  // The gates measure innovations against R: without measurement noise a new landmark's innovation
+  // covariance is singular and unknown association starts a landmark for every observation.
+  if (observation_->noise().llt().info() != Eigen::Success)
+    throw std::invalid_argument("EKF-SLAM needs a positive definite measurement noise R");
   reserve(3 + 2 * kInitialLandmarkCapacity);
   x_.head<3>() = initial_pose;
   x_[2] = wrap_angle(x_[2]);

@@ -43,7 +43,10 @@ auto origin_lower_bound(Origins& origins, int id) {
 void validate(const FastSlamConfig& c) {
   auto fail = [](const std::string& what) { throw std::invalid_argument("FastSLAM config: " + what); };
   if (c.version != 1 && c.version != 2) fail(fmt::format("version must be 1 or 2, found {}", c.version));
-  if (c.particles < 1) fail(fmt::format("particles must be >= 1, found {}", c.particles));
+  if (c.particles < 1 || c.particles > FastSlamConfig::kMaxParticles)
+    fail(fmt::format("particles must be from 1 to {}, found {}", FastSlamConfig::kMaxParticles, c.particles));
+  if (c.threads > FastSlamConfig::kMaxThreads)
+    fail(fmt::format("threads must be from 0 (all cores) to {}, found {}", FastSlamConfig::kMaxThreads, c.threads));
   if (c.policy.kind == ResamplePolicy::Kind::kEvery && c.policy.every < 1)
     fail(fmt::format("resampling every K scans needs K >= 1, found {}", c.policy.every));
   if (c.policy.kind == ResamplePolicy::Kind::kEss && !(c.policy.ess_fraction > 0.0 && c.policy.ess_fraction <= 1.0))

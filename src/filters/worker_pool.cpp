@@ -1,15 +1,32 @@
 #include "slamkit/filters/worker_pool.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <system_error>
 #include <utility>
 
 namespace slamkit {
 
 WorkerPool::WorkerPool(unsigned threads) {
-  for (unsigned i = 1; i < threads; ++i) workers_.emplace_back([this, i] { loop(i); });
+  // A constructor that throws gets no destructor call, and destroying the condition variables with
+  // the started workers still waiting on them never returns: those workers are stopped first.
+  try {
+    workers_.reserve(threads);
+    for (unsigned i = 1; i < threads; ++i) workers_.emplace_back([this, i] { loop(i); });
+  } catch (const std::system_error& e) {
+    stop_workers();
+    throw std::runtime_error(fmt::format("could not start worker thread {} of {} ({}); ask for fewer threads",
+                                         workers_.size() + 1, threads, e.what()));
+  } catch (...) {
+    stop_workers();
+    throw;
+  }
 }
 
-WorkerPool::~WorkerPool() {
+WorkerPool::~WorkerPool() { stop_workers(); }
+
+void WorkerPool::stop_workers() {
   {
     const std::lock_guard lock(mutex_);
     stop_ = true;

@@ -80,10 +80,16 @@ bool parse_time(std::string_view s, UnixTime& out) {
   return true;
 }
 
+// Times are Unix times (about 1.25e9 s for these logs). A bound far beyond any log's clock keeps the
+// difference of two times, whole seconds and fractions alike, inside a long and exact in a double.
+constexpr double kMaxAbsTime = 1e12;  // about 31,700 years
+
 UnixTime read_time(const TextReader& in, std::size_t i) {
   UnixTime t;
   if (!parse_time(in.field(i), t))
     in.fail(fmt::format("expected a finite number for the time, found '{}'", in.field(i)));
+  if (std::abs(static_cast<double>(t.seconds) + t.fraction) > kMaxAbsTime)
+    in.fail(fmt::format("expected a Unix time in seconds within +-{:g}, found '{}'", kMaxAbsTime, in.field(i)));
   return t;
 }
 

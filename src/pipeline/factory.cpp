@@ -56,8 +56,12 @@ std::vector<std::string> filter_names() {
 }
 
 void validate(const FilterConfig& config) {
-  if (config.particles < 1)
-    throw std::invalid_argument(fmt::format("particles must be an integer >= 1, found {}", config.particles));
+  if (config.particles < 1 || config.particles > FastSlamConfig::kMaxParticles)
+    throw std::invalid_argument(fmt::format("particles must be an integer from 1 to {}, found {}",
+                                            FastSlamConfig::kMaxParticles, config.particles));
+  if (config.threads > FastSlamConfig::kMaxThreads)
+    throw std::invalid_argument(fmt::format("threads must be from 0 (all cores) to {}, found {}",
+                                            FastSlamConfig::kMaxThreads, config.threads));
   if (config.ekf_variant == EkfVariant::kUnscented)
     throw std::invalid_argument("the unscented estimator is the filter 'ukf', not an EKF variant");
   if (config.filter == FilterKind::kUkf && config.ekf_variant != EkfVariant::kFull)

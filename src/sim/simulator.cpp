@@ -10,8 +10,10 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
+#include "slamkit/core/checked_integer.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
+#include "slamkit/core/memory_budget.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 
@@ -26,29 +28,41 @@ using Real = RealOption<SimulatorConfig>;
 // Beyond 90 degrees the wheels would point backwards.
 constexpr RealRange kSteeringLock{[](double v) { return v > 0.0 && v < kPi / 2.0; }, "> 0 and < 90"};
 constexpr RealRange kProbability{[](double v) { return v > 0.0 && v <= 1.0; }, "> 0 and <= 1"};
+// Physical limits, generous for any ground vehicle and landmark sensor; beyond them a value is a
+// mistake, and one like a speed of 1e-300 or a range of 1e308 would only fail later, obscurely.
+constexpr RealRange kSpeed{[](double v) { return v >= 1e-3 && v <= 100.0; }, ">= 0.001 and <= 100 (m/s)"};
+constexpr RealRange kLength{[](double v) { return v >= 1e-3 && v <= 100.0; }, ">= 0.001 and <= 100 (m)"};
+constexpr RealRange kRange{[](double v) { return v > 0.0 && v <= 1e4; }, "> 0 and <= 10000 (m)"};
+constexpr RealRange kPeriod{[](double v) { return v >= 1e-4 && v <= 3600.0; }, ">= 0.0001 and <= 3600 (s)"};
+// The filters gate innovations by the measurement noise: with none, every observation is infinitely
+// far from every landmark and unknown association starts a landmark for each.
+constexpr RealRange kSensorNoise{[](double v) { return v > 0.0 && std::isfinite(v); }, "> 0"};
+// Each false detection is drawn, stored and shuffled in; a thousand per scan is already a sensor
+// that sees nothing but clutter.
+constexpr RealRange kClutter{[](double v) { return v >= 0.0 && v <= 1000.0; }, ">= 0 and <= 1000"};
 
 const OptionKey<SimulatorConfig> kConfigKeys[] = {
-    {"speed_mps", Real{[](SimulatorConfig& c) -> double& { return c.speed; }, kPositive}},
-    {"wheelbase_m", Real{[](SimulatorConfig& c) -> double& { return c.wheelbase; }, kPositive}},
+    {"speed_mps", Real{[](SimulatorConfig& c) -> double& { return c.speed; }, kSpeed}},
+    {"wheelbase_m", Real{[](SimulatorConfig& c) -> double& { return c.wheelbase; }, kLength}},
     {"max_steer_deg", Real{[](SimulatorConfig& c) -> double& { return c.max_steer; }, kSteeringLock, Unit::kDegrees}},
     {"max_steer_rate_deg_per_s",
      Real{[](SimulatorConfig& c) -> double& { return c.max_steer_rate; }, kPositive, Unit::kDegrees}},
-    {"waypoint_tolerance_m", Real{[](SimulatorConfig& c) -> double& { return c.waypoint_tolerance; }, kPositive}},
+    {"waypoint_tolerance_m", Real{[](SimulatorConfig& c) -> double& { return c.waypoint_tolerance; }, kLength}},
     {"loops", IntegerOption<SimulatorConfig, int>{[](SimulatorConfig& c) -> int& { return c.loops; }, 1}},
     {"sigma_speed_mps", Real{[](SimulatorConfig& c) -> double& { return c.sigma_speed; }, kNonNegative}},
     {"sigma_steer_deg",
      Real{[](SimulatorConfig& c) -> double& { return c.sigma_steer; }, kNonNegative, Unit::kDegrees}},
-    {"max_range_m", Real{[](SimulatorConfig& c) -> double& { return c.max_range; }, kPositive}},
+    {"max_range_m", Real{[](SimulatorConfig& c) -> double& { return c.max_range; }, kRange}},
     {"fov_deg", Real{[](SimulatorConfig& c) -> double& { return c.fov; }, kFieldOfView, Unit::kDegrees}},
-    {"sigma_range_m", Real{[](SimulatorConfig& c) -> double& { return c.sigma_range; }, kNonNegative}},
+    {"sigma_range_m", Real{[](SimulatorConfig& c) -> double& { return c.sigma_range; }, kSensorNoise}},
     {"sigma_bearing_deg",
-     Real{[](SimulatorConfig& c) -> double& { return c.sigma_bearing; }, kNonNegative, Unit::kDegrees}},
-    {"clutter_rate_per_scan", Real{[](SimulatorConfig& c) -> double& { return c.clutter_rate; }, kNonNegative}},
+     Real{[](SimulatorConfig& c) -> double& { return c.sigma_bearing; }, kSensorNoise, Unit::kDegrees}},
+    {"clutter_rate_per_scan", Real{[](SimulatorConfig& c) -> double& { return c.clutter_rate; }, kClutter}},
     {"detection_probability",
      Real{[](SimulatorConfig& c) -> double& { return c.detection_probability; }, kProbability}},
     {"provide_ids", FlagOption<SimulatorConfig>{[](SimulatorConfig& c) -> bool& { return c.provide_ids; }}},
-    {"control_period_s", Real{[](SimulatorConfig& c) -> double& { return c.control_period; }, kPositive}},
-    {"observation_period_s", Real{[](SimulatorConfig& c) -> double& { return c.observation_period; }, kPositive}},
+    {"control_period_s", Real{[](SimulatorConfig& c) -> double& { return c.control_period; }, kPeriod}},
+    {"observation_period_s", Real{[](SimulatorConfig& c) -> double& { return c.observation_period; }, kPeriod}},
     {"seed", IntegerOption<SimulatorConfig, std::uint64_t>{[](SimulatorConfig& c) -> std::uint64_t& { return c.seed; }}},
 };
 
@@ -248,8 +262,16 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
   out.truth.poses_have_heading = true;
   out.truth.landmarks = world.landmarks;
 
-  const auto expected_steps =
-      static_cast<std::size_t>(1.05 * config.loops * route_length(waypoints) / (config.speed * dt) + 16.0);
+  const auto expected_steps = checked_integer<std::size_t>(
+      1.05 * config.loops * route_length(waypoints) / (config.speed * dt) + 16.0, "the run's number of control steps");
+  // A control event, a true pose, and a scan's share: its event and observations (a dozen landmarks in
+  // view and the clutter).
+  require_memory(static_cast<double>(expected_steps) *
+                     (sizeof(Event) + sizeof(StampedPose) +
+                      (sizeof(Event) + (12.0 + config.clutter_rate) * sizeof(Observation)) /
+                          static_cast<double>(steps_per_scan)),
+                 fmt::format("simulating {} laps of a {:.0f} m route at {} m/s every {} s", config.loops,
+                             route_length(waypoints), config.speed, dt));
   out.events.reserve(expected_steps + expected_steps / static_cast<std::size_t>(steps_per_scan));
   out.truth.poses.reserve(expected_steps + 1);
   out.truth.poses.push_back(StampedPose{0.0, pose});
@@ -289,7 +311,7 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
     if (arrived) {
       const double patience =
           3.0 * ((target - pose.head<2>()).norm() + 2.0 * kPi * turn_radius) / config.speed;
-      deadline = k + static_cast<long>(std::ceil(patience / dt));
+      deadline = k + checked_integer<long>(std::ceil(patience / dt), "the steps allowed to reach a waypoint");
     } else if (k > deadline) {
       throw InputError(fmt::format(
           "world: the vehicle cannot reach waypoint {} at ({}, {}); it is {:.1f} m away after {:.0f} s. "

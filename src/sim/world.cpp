@@ -13,6 +13,7 @@
 #include <unordered_map>
 
 #include "slamkit/core/angles.hpp"
+#include "slamkit/core/checked_integer.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/text_reader.hpp"
 
@@ -83,21 +84,28 @@ class RoundedRectRoute {
   std::array<Piece, 9> pieces_;
 };
 
+// A world is at most a thousand kilometres across (the plane of a range-bearing map; the grid keys
+// below stay far inside 32 bits) and holds at most ten million landmarks (about a gigabyte of world
+// and simulated observations).
+constexpr double kMaxExtent = 1e6;
+constexpr int kMaxLandmarks = 10'000'000;
+
 void require(bool ok, const char* option, const char* expected, double found) {
   if (!ok)
     throw InputError(fmt::format("world generation: {} must be {}, found {}", option, expected, found));
 }
 
 void validate(const WorldGenOptions& o) {
-  require(std::isfinite(o.width) && o.width > 0.0, "width", "a positive number of metres", o.width);
-  require(std::isfinite(o.height) && o.height > 0.0, "height", "a positive number of metres", o.height);
-  require(o.landmarks >= 0, "landmarks", "zero or more", o.landmarks);
-  require(std::isfinite(o.band_inner) && o.band_inner >= 0.0, "band_inner", "a distance >= 0", o.band_inner);
-  require(std::isfinite(o.band_outer) && o.band_outer > o.band_inner, "band_outer",
-          "a distance greater than band_inner", o.band_outer);
+  require(o.width > 0.0 && o.width <= kMaxExtent, "width", "a positive number of metres up to 1e6", o.width);
+  require(o.height > 0.0 && o.height <= kMaxExtent, "height", "a positive number of metres up to 1e6", o.height);
+  require(o.landmarks >= 0 && o.landmarks <= kMaxLandmarks, "landmarks", "from 0 to 1e7", o.landmarks);
+  require(o.band_inner >= 0.0 && o.band_inner <= kMaxExtent, "band_inner", "a distance from 0 to 1e6", o.band_inner);
+  require(o.band_outer > o.band_inner && o.band_outer <= kMaxExtent, "band_outer",
+          "a distance greater than band_inner, up to 1e6", o.band_outer);
   require(std::isfinite(o.waypoint_spacing) && o.waypoint_spacing > 0.0, "waypoint_spacing",
           "a positive number of metres", o.waypoint_spacing);
-  require(std::isfinite(o.min_spacing) && o.min_spacing > 0.0, "min_spacing", "a positive number of metres",
+  // With a centimetre at least, the spacing grid's cells number below 2^31 across a valid world.
+  require(o.min_spacing >= 0.01 && o.min_spacing <= kMaxExtent, "min_spacing", "a distance from 0.01 to 1e6 m",
           o.min_spacing);
 }
 
@@ -109,10 +117,10 @@ class SpacingGrid {
 
   // Valid for any spacing up to the cell size: closer points are then always in adjacent cells.
   bool has_neighbour_within(const Vector2& p, double spacing, const std::vector<Landmark>& placed) const {
-    const long long cx = cell_of(p.x()), cy = cell_of(p.y());
-    for (long long ix = cx - 1; ix <= cx + 1; ++ix) {
-      for (long long iy = cy - 1; iy <= cy + 1; ++iy) {
-        const auto it = cells_.find(key(ix, iy));
+    const std::int64_t cx = cell_of(p.x()), cy = cell_of(p.y());
+    for (std::int64_t ix = cx - 1; ix <= cx + 1; ++ix) {
+      for (std::int64_t iy = cy - 1; iy <= cy + 1; ++iy) {
+        const auto it = cells_.find(key(static_cast<std::int32_t>(ix), static_cast<std::int32_t>(iy)));
         if (it == cells_.end()) continue;
         for (const int i : it->second)
           if ((placed[i].position - p).squaredNorm() < spacing * spacing) return true;
@@ -124,11 +132,13 @@ class SpacingGrid {
   void add(const Vector2& p, int index) { cells_[key(cell_of(p.x()), cell_of(p.y()))].push_back(index); }
 
  private:
-  long long cell_of(double v) const { return static_cast<long long>(std::floor(v / cell_)); }
-  static long long key(long long ix, long long iy) { return ix * 0x100000000LL + (iy & 0xffffffffLL); }
+  std::int32_t cell_of(double v) const { return checked_integer<std::int32_t>(std::floor(v / cell_), "a grid cell"); }
+  static std::uint64_t key(std::int32_t ix, std::int32_t iy) {
+    return static_cast<std::uint64_t>(static_cast<std::uint32_t>(ix)) << 32 | static_cast<std::uint32_t>(iy);
+  }
 
   double cell_;
-  std::unordered_map<long long, std::vector<int>> cells_;
+  std::unordered_map<std::uint64_t, std::vector<int>> cells_;
 };
 
 void write_file(const std::string& path, const fmt::memory_buffer& content) {
@@ -227,11 +237,23 @@ World generate_world(const WorldGenOptions& o) {
   SpacingGrid grid(o.min_spacing);
   double spacing = o.min_spacing;
   int rejected_in_a_row = 0;
+  // A band that covers a fraction f of the box takes 1/f samples per landmark; past this many in a
+  // row outside it (f below about 1e-6) it is too thin to fill in any reasonable time.
+  constexpr long kMaxOutsideBand = 20'000'000;
+  long outside_band_in_a_row = 0;
   world.landmarks.reserve(static_cast<std::size_t>(o.landmarks));
   while (world.landmarks.size() < static_cast<std::size_t>(o.landmarks)) {
     const Vector2 p(x0 + (x1 - x0) * uniform01(rng), y0 + (y1 - y0) * uniform01(rng));
     const double d = route.distance(p);
-    if (d < o.band_inner || d > o.band_outer) continue;
+    if (d < o.band_inner || d > o.band_outer) {
+      if (++outside_band_in_a_row == kMaxOutsideBand)
+        throw InputError(fmt::format(
+            "world generation: the band from {} to {} m of the route is too thin for its {:.0f} x {:.0f} m "
+            "bounding box: {} samples in a row fell outside it; widen it (band_outer - band_inner)",
+            o.band_inner, o.band_outer, x1 - x0, y1 - y0, kMaxOutsideBand));
+      continue;
+    }
+    outside_band_in_a_row = 0;
     if (grid.has_neighbour_within(p, spacing, world.landmarks)) {
       if (++rejected_in_a_row == kPatience) {
         spacing *= 0.9;
@@ -245,6 +267,14 @@ World generate_world(const WorldGenOptions& o) {
     world.landmarks.push_back(Landmark{id, p, Matrix2::Zero()});
   }
   return world;
+}
+
+// A coordinate of a world file, in metres: finite and inside the largest world (see kMaxExtent),
+// with room for the band around a route.
+double coordinate(const TextReader& in, std::size_t field, const char* what) {
+  const double v = in.number(field, what);
+  if (std::abs(v) > 2.0 * kMaxExtent) in.fail(fmt::format("expected {} within +-2e6 m, found {}", what, v));
+  return v;
 }
 
 World read_world(const std::string& path) {
@@ -261,11 +291,11 @@ World read_world(const std::string& path) {
         in.fail(fmt::format("expected a landmark id from 0 to {}, found {}", INT_MAX, id));
       if (const auto [it, fresh] = line_of_id.emplace(id, in.line_number()); !fresh)
         in.fail(fmt::format("duplicate landmark id {} (first defined on line {})", id, it->second));
-      const Vector2 p(in.number(2, "landmark x"), in.number(3, "landmark y"));
+      const Vector2 p(coordinate(in, 2, "landmark x"), coordinate(in, 3, "landmark y"));
       world.landmarks.push_back(Landmark{static_cast<int>(id), p, Matrix2::Zero()});
     } else if (keyword == "waypoint") {
       in.expect_fields(3, "waypoint <x> <y>");
-      const Vector2 p(in.number(1, "waypoint x"), in.number(2, "waypoint y"));
+      const Vector2 p(coordinate(in, 1, "waypoint x"), coordinate(in, 2, "waypoint y"));
       if (!world.waypoints.empty() && p == world.waypoints.back())
         in.fail("waypoint repeats the previous one; expected a distinct point");
       world.waypoints.push_back(p);
@@ -283,7 +313,7 @@ World read_world(const std::string& path) {
       if (start_line != 0)
         in.fail(fmt::format("duplicate start line (first on line {}); expected at most one", start_line));
       start_line = in.line_number();
-      world.start = Pose2(in.number(1, "start x"), in.number(2, "start y"),
+      world.start = Pose2(coordinate(in, 1, "start x"), coordinate(in, 2, "start y"),
                           wrap_angle(deg2rad(in.number(3, "start heading in degrees"))));
     } else {
       in.fail(fmt::format("unknown keyword '{}'; expected 'landmark', 'waypoint', 'route' or 'start'", keyword));

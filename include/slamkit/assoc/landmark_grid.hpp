@@ -11,8 +11,10 @@
 //
 // Entries are linked lists through one pool of nodes that only grows, and a query creates the cells
 // of its square and a ring around it (where a scan's new and moved landmarks land), so listing,
-// moving and clearing over ground already seen do not allocate. Not thread-safe; cell_of may be
-// called concurrently with itself.
+// moving and clearing over ground already seen do not allocate. A query whose square is larger than
+// 256 x 256 cells and four times the cells the grid holds (a search region grown with a diverged
+// estimate) walks the existing cells instead and creates none, so its cost and memory stay bounded by the map's. Not thread-safe;
+// cell_of may be called concurrently with itself.
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
@@ -30,6 +32,8 @@ class LandmarkGrid {
   explicit LandmarkGrid(double cell_size);
 
   double cell_size() const { return cell_size_; }
+  /// Cells created so far, empty ones included: the grid's memory.
+  std::size_t cells() const { return cells_.size(); }
   Cell cell_of(const Vector2& p) const { return pack(column(p.x()), column(p.y())); }
 
   /// Lists landmark `index` in `cell`, unless it is listed there already.
@@ -67,18 +71,38 @@ class LandmarkGrid {
   };
   static constexpr std::uint32_t kNone = 0xffffffffU;
 
-  std::int64_t column(double v) const { return static_cast<std::int64_t>(std::floor(v / cell_size_)); }
+  // Columns saturate at +-2^30 cells (billions of metres at any useful cell size), so that a
+  // position, even a diverged or infinite one, converts without overflow, a column and its
+  // neighbours fit in 32 bits, and pack() is one-to-one. NaN, which no estimate should hold, goes to
+  // column 0.
+  static constexpr std::int64_t kMaxColumn = std::int64_t{1} << 30;
+  std::int64_t column(double v) const {
+    const double c = std::floor(v / cell_size_);
+    if (!(c > -static_cast<double>(kMaxColumn))) return std::isnan(c) ? 0 : -kMaxColumn;
+    return c < static_cast<double>(kMaxColumn) ? static_cast<std::int64_t>(c) : kMaxColumn;
+  }
   static Cell pack(std::int64_t ix, std::int64_t iy) {
     return (static_cast<Cell>(static_cast<std::uint32_t>(ix)) << 32) | static_cast<std::uint32_t>(iy);
   }
+  static std::int64_t column_x(Cell cell) { return static_cast<std::int32_t>(static_cast<std::uint32_t>(cell >> 32)); }
+  static std::int64_t column_y(Cell cell) { return static_cast<std::int32_t>(static_cast<std::uint32_t>(cell)); }
   std::uint32_t acquire(std::uint32_t index, std::uint32_t next);
   void release(std::uint32_t node);
   /// f(cell, head) for each existing cell of the last query's square.
   template <class F>
   void for_each_queried_cell(F&& f) {
+    if (wide_) {
+      for (auto& [cell, head] : cells_)
+        if (in_last_query(cell)) f(cell, head);
+      return;
+    }
     for (std::int64_t ix = lo_x_; ix <= hi_x_; ++ix)
       for (std::int64_t iy = lo_y_; iy <= hi_y_; ++iy)
         if (const auto it = cells_.find(pack(ix, iy)); it != cells_.end()) f(it->first, it->second);
+  }
+  bool in_last_query(Cell cell) const {
+    const std::int64_t ix = column_x(cell), iy = column_y(cell);
+    return ix >= lo_x_ && ix <= hi_x_ && iy >= lo_y_ && iy <= hi_y_;
   }
 
   double cell_size_;
@@ -86,6 +110,7 @@ class LandmarkGrid {
   std::vector<Node> nodes_;
   std::uint32_t free_ = kNone;  // the list of unused nodes
   std::int64_t lo_x_ = 0, lo_y_ = 0, hi_x_ = -1, hi_y_ = -1;  // the last query's cells; none yet
+  bool wide_ = false;  // the last query walked the existing cells
 };
 
 }  // namespace slamkit

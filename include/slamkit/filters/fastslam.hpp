@@ -89,6 +89,12 @@
 namespace slamkit {
 
 struct FastSlamConfig {
+  /// Ten thousand particles are already far beyond what landmark SLAM uses (tens to hundreds); a
+  /// million of them hold a gigabyte of paths every thousand steps.
+  static constexpr int kMaxParticles = 1'000'000;
+  /// A thread per particle chunk; more than any machine's cores only adds hand-over cost.
+  static constexpr unsigned kMaxThreads = 1024;
+
   int version = 2;  // 1: FastSLAM 1.0, 2: FastSLAM 2.0
   int particles = 100;
   ResampleMethod resample = ResampleMethod::kSystematic;

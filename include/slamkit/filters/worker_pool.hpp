@@ -22,7 +22,8 @@ class WorkerPool {
  public:
   using Body = std::function<void(std::size_t begin, std::size_t end)>;
 
-  /// `threads` threads in all, the calling one included (0 is taken as 1).
+  /// `threads` threads in all, the calling one included (0 is taken as 1). Throws
+  /// std::runtime_error, with every thread it started stopped, when the system refuses a thread.
   explicit WorkerPool(unsigned threads);
   ~WorkerPool();
   WorkerPool(const WorkerPool&) = delete;
@@ -39,6 +40,7 @@ class WorkerPool {
  private:
   void work();
   void loop(unsigned index);
+  void stop_workers();
 
   // Which pool's worker the running thread is, and its index there.
   static inline thread_local const WorkerPool* current_pool_ = nullptr;
