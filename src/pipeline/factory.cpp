@@ -53,6 +53,9 @@ void validate(const FilterConfig& config) {
   if (config.particles < 1)
     throw std::invalid_argument(fmt::format("particles must be an integer >= 1, found {}", config.particles));
   validate(config.association);
+  if (config.filter != FilterKind::kEkf && config.association.method == AssociationMethod::kJcbb)
+    throw std::invalid_argument(fmt::format("association jcbb is for the EKF; {} associates per particle with known or nn",
+                                            to_string(config.filter)));
 }
 
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset) {
