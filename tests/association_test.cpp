@@ -122,6 +122,23 @@ TEST(SensorView, WidensAndNarrowsTheViewByItsMargins) {
   EXPECT_THROW(validate(SensorLimits{10.0, std::nan("")}), std::invalid_argument);
 }
 
+TEST(ExistenceRule, AProvisionalLandmarkNearbyButOutOfViewIsRemovedUnlessConfirmed) {
+  AssociationConfig c;
+  c.confirm_after = 2;
+  c.provisional_max_misses = 3;
+  const ExistenceRule rule(c, SensorLimits{});
+  LandmarkExistence provisional = rule.first_observed();
+  EXPECT_FALSE(rule.unseen_nearby(provisional));
+  EXPECT_FALSE(rule.missed(provisional)) << "misses in view and out of it add up";
+  EXPECT_TRUE(rule.unseen_nearby(provisional)) << "never confirmed: removed even outside the view";
+
+  LandmarkExistence confirmed = rule.first_observed();
+  rule.observed(confirmed);
+  ASSERT_TRUE(rule.confirmed(confirmed));
+  for (int scan = 0; scan < 100; ++scan) EXPECT_FALSE(rule.unseen_nearby(confirmed)) << scan;
+  EXPECT_FALSE(rule.missed(confirmed)) << "out-of-view scans are not misses of a confirmed landmark";
+}
+
 TEST(ExistenceRule, ConfirmsAfterRepeatedObservationsAndRemovesAfterMisses) {
   AssociationConfig c;
   c.confirm_after = 3;

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "slamkit/io/load_dataset.hpp"
@@ -58,6 +59,45 @@ TEST(EvaluateRun, WithoutOriginsOnlyKnownAssociationPairsById) {
   ASSERT_TRUE(known.map_rmse_m);
   EXPECT_EQ(known.map_landmarks_paired, 2u);
   EXPECT_NEAR(*known.map_rmse_m, std::sqrt((0.2 * 0.2 + 0.1 * 0.1) / 2.0), 1e-12);
+}
+
+// Loop closure: true landmark 5 is seen at t = 0 and 1, then after a gap of 100 s (a lap) at t = 101,
+// 102, 103, 104 and 105. The filter started landmark 0 from it; on the return it started a duplicate
+// (landmark 1) and paired with it twice, then once with landmark 0 and once with landmark 2, which
+// true landmark 8 started. Landmark 8 returns once, to its own landmark.
+TEST(EvaluateRun, LoopClosureFractionCountsReturnsPairedWithTheFirstVisitsLandmark) {
+  RunResult run;
+  run.association = "nn";
+  GroundTruth truth;
+  auto scan = [&](double t, std::vector<AssociationRecord> records, std::vector<int> ids) {
+    run.scan_times.push_back(t);
+    run.associations.push_back(std::move(records));
+    truth.observation_ids.push_back(std::move(ids));
+  };
+  using D = AssociationDecision;
+  scan(0.0, {{D::kNew, 0}, {D::kNew, 2}}, {5, 8});
+  scan(1.0, {{D::kUpdate, 0}}, {5});
+  scan(101.0, {{D::kNew, 1}}, {5});
+  scan(102.0, {{D::kUpdate, 1}}, {5});
+  scan(103.0, {{D::kUpdate, 1}, {D::kUpdate, 2}}, {5, 8});
+  scan(104.0, {{D::kUpdate, 0}}, {5});
+  scan(105.0, {{D::kUpdate, 2}}, {5});
+  run.scans = run.associations.size();
+  EvaluationOptions options;
+  options.revisit_gap_s = 60.0;
+  const Metrics m = evaluate_run(run, truth, options);
+  ASSERT_TRUE(m.association.has_value());
+  EXPECT_EQ(m.association->return_observations, 6U) << "5 of landmark 5, 1 of landmark 8";
+  // 8's return at 103 s is paired with its own first landmark; of 5's five, only the one at 104 s.
+  EXPECT_EQ(m.association->return_observations_closed, 2U);
+  ASSERT_TRUE(m.association->loop_closure_fraction());
+  EXPECT_NEAR(*m.association->loop_closure_fraction(), 2.0 / 6.0, 1e-12);
+  EXPECT_EQ(to_json(m)["loop_closed"], false);
+
+  options.revisit_gap_s = 200.0;  // no gap that long: no returns, no fraction
+  const Metrics none = evaluate_run(run, truth, options);
+  EXPECT_FALSE(none.association->loop_closure_fraction());
+  EXPECT_TRUE(to_json(none)["loop_closure_fraction"].is_null());
 }
 
 // The shipped course example with nearest-neighbour association reported a map RMSE of 4.24 m over

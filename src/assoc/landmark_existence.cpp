@@ -31,4 +31,10 @@ bool ExistenceRule::missed(LandmarkExistence& e) const {
                       : e.misses_ >= provisional_max_misses_;
 }
 
+bool ExistenceRule::unseen_nearby(LandmarkExistence& e) const {
+  if (confirmed(e)) return false;
+  ++e.misses_;
+  return e.misses_ >= provisional_max_misses_;
+}
+
 }  // namespace slamkit

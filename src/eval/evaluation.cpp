@@ -25,11 +25,15 @@ struct OriginTable {
 };
 
 /// Scores the run's association decisions against the truth's identities (see the header).
-std::optional<OriginTable> score_associations(const RunResult& run, const GroundTruth& truth) {
+std::optional<OriginTable> score_associations(const RunResult& run, const GroundTruth& truth, double revisit_gap_s) {
   if (truth.observation_ids.size() != run.associations.size()) return std::nullopt;
+  const bool timed = run.scan_times.size() == run.associations.size();
   OriginTable table;
   AssociationMetrics& m = table.metrics;
   std::unordered_set<int> seen, mapped;
+  std::unordered_map<int, double> last_seen;      // true id -> time of its latest observation
+  std::unordered_map<int, std::size_t> started_at;  // filter landmark id -> the scan that started it
+  std::unordered_map<int, std::size_t> return_at;   // true id -> the scan of its first return
   for (std::size_t k = 0; k < run.associations.size(); ++k) {
     const auto& records = run.associations[k];
     const auto& ids = truth.observation_ids[k];
@@ -39,9 +43,24 @@ std::optional<OriginTable> score_associations(const RunResult& run, const Ground
       const AssociationRecord& r = records[i];
       if (true_id == kUnknownId) ++m.clutter_observations;
       else seen.insert(true_id);
+      if (true_id != kUnknownId && timed) {
+        const double t = run.scan_times[k];
+        const auto [last, first_time] = last_seen.try_emplace(true_id, t);
+        if (!first_time && t - last->second > revisit_gap_s) return_at.try_emplace(true_id, k);
+        last->second = t;
+        if (const auto back = return_at.find(true_id); back != return_at.end()) {
+          ++m.return_observations;
+          const auto origin = table.origin.find(r.landmark_id);
+          const auto started = started_at.find(r.landmark_id);
+          if (r.decision == AssociationDecision::kUpdate && origin != table.origin.end() && origin->second == true_id &&
+              started != started_at.end() && started->second < back->second)
+            ++m.return_observations_closed;
+        }
+      }
       switch (r.decision) {
         case AssociationDecision::kNew:
           table.origin[r.landmark_id] = true_id;
+          started_at[r.landmark_id] = k;
           if (true_id != kUnknownId && !mapped.insert(true_id).second) ++m.missed;
           break;
         case AssociationDecision::kUpdate: {
@@ -103,8 +122,10 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
   m.landmarks = run.map.size();
   m.wall_time_s = run.wall_time_s;
   m.association_method = run.association;
+  m.revisit_gap_s = options.revisit_gap_s;
+  m.smoothed = run.smoothed;
   m.filter_statistics = run.statistics;
-  const std::optional<OriginTable> origins = score_associations(run, truth);
+  const std::optional<OriginTable> origins = score_associations(run, truth, options.revisit_gap_s);
   if (origins) m.association = origins->metrics;
   const std::optional<std::vector<Landmark>> map = map_with_true_ids(run, origins);
   if (truth.poses.empty()) {
@@ -117,12 +138,20 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
     return m;
   }
 
+  // ate_rmse_m scores what every filter knew at each step (comparable across filters); a smoothed
+  // trajectory (FastSLAM's best particle's path, revised by later scans) is scored on its own.
+  const auto filtered_pairs = eval::match_by_time(run.filtered, truth.poses, options.max_interpolation_gap_s);
+  if (filtered_pairs.size() >= 2) {
+    const eval::AteResult ate = eval::absolute_trajectory_error(filtered_pairs);
+    m.ate_rmse_m = ate.rmse;
+    m.final_position_error_m = ate.final_error;
+  }
+  // The map and the pictures go with the trajectory written as the estimate.
   const auto pairs = eval::match_by_time(run.trajectory, truth.poses, options.max_interpolation_gap_s);
   m.matched_poses = pairs.size();
   if (pairs.size() >= 2) {
     const eval::AteResult ate = eval::absolute_trajectory_error(pairs);
-    m.ate_rmse_m = ate.rmse;
-    m.final_position_error_m = ate.final_error;
+    if (run.smoothed) m.smoothed_ate_rmse_m = ate.rmse;
     m.alignment = ate.align;
     if (!truth.landmarks.empty() && map) {
       const eval::MapError map_error = eval::map_rmse(*map, truth.landmarks, ate.align);
@@ -186,6 +215,13 @@ nlohmann::json to_json(const Metrics& m) {
     j["nees_pose_mean"] = nullptr;
     j["nees_pose_in_95_fraction"] = nullptr;
   }
+  if (m.smoothed) {
+    j["smoothed_ate_rmse_m"] = optional_json(m.smoothed_ate_rmse_m);
+    j["nees_pose_note"] =
+        "the particle cloud's covariance: resampling depletes the cloud's history and collapses it (Bailey, "
+        "Nieto and Nebot, 'Consistency of the FastSLAM algorithm', the tutorial's reference [2]), so a NEES far "
+        "above 3 says the cloud is over-confident, not that the estimate diverged; judge accuracy by ate_rmse_m";
+  }
   j["association"] = m.association_method;
   if (m.association) {
     const AssociationMetrics& a = *m.association;
@@ -196,10 +232,17 @@ nlohmann::json to_json(const Metrics& m) {
     j["clutter_discarded"] = a.clutter_discarded;
     j["spurious_landmarks"] = a.spurious_landmarks;
     j["landmarks_true_seen"] = a.landmarks_true_seen;
+    j["loop_closure_fraction"] = optional_json(a.loop_closure_fraction());
+    j["loop_closure_observations"] = a.return_observations;
+    j["loop_closed"] = a.loop_closure_fraction() ? nlohmann::json(*a.loop_closure_fraction() >= kLoopClosedFraction)
+                                                 : nlohmann::json(nullptr);
   }
   for (const auto& [key, value] : m.filter_statistics) j[key] = value;
   j["metric_definitions"] = {
-      {"ate_rmse_m", "position RMSE over time-matched truth samples after SE(2) least-squares alignment"},
+      {"ate_rmse_m",
+       "position RMSE of the per-step (filtered) estimates over time-matched truth samples after SE(2) "
+       "least-squares alignment"},
+      {"smoothed_ate_rmse_m", "the same for the smoothed trajectory (FastSLAM: the final best particle's path)"},
       {"final_position_error_m", "position error at the last matched truth sample, same alignment"},
       {"map_rmse_m", "landmark position RMSE over landmarks paired with the truth, same alignment"},
       {"nees_pose_in_95_fraction",
@@ -207,8 +250,18 @@ nlohmann::json to_json(const Metrics& m) {
       {"association_correct", "pairings whose observation's true landmark started the landmark it updated"},
       {"association_wrong", "pairings of an observation with a landmark another true landmark (or clutter) started"},
       {"association_missed", "observations of an already mapped true landmark left unpaired or starting a duplicate"},
-      {"spurious_landmarks", "final-map landmarks started by clutter or duplicating another landmark"}};
+      {"spurious_landmarks", "final-map landmarks started by clutter or duplicating another landmark"},
+      {"loop_closure_fraction",
+       fmt::format("share of returns (observations of a true landmark unobserved for more than {:g} s, and the "
+                   "observations of it that follow) paired with a landmark that true landmark started before its "
+                   "return; loop_closed when at least {:g}",
+                   m.revisit_gap_s, kLoopClosedFraction)}};
   return j;
+}
+
+std::optional<double> AssociationMetrics::loop_closure_fraction() const {
+  if (return_observations == 0) return std::nullopt;
+  return static_cast<double>(return_observations_closed) / static_cast<double>(return_observations);
 }
 
 void write_metrics(const std::string& dir, const Metrics& metrics) {

@@ -75,7 +75,8 @@ std::vector<Landmark> EkfSlam::landmarks() const {
 std::map<std::string, double> EkfSlam::statistics() const {
   std::map<std::string, double> s = {{"discarded_observations", static_cast<double>(discarded_)},
                                      {"landmarks_removed", static_cast<double>(removed_)},
-                                     {"landmarks_in_state", static_cast<double>(ids_.size())}};
+                                     {"landmarks_in_state", static_cast<double>(ids_.size())},
+                                     {"landmarks_provisional", static_cast<double>(ids_.size() - landmarks().size())}};
   estimator_->add_statistics(s);
   if (association_.method == AssociationMethod::kKnown && gate_known_)
     s["outliers_rejected"] = static_cast<double>(outliers_);
@@ -267,11 +268,15 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
 }
 
 void EkfSlam::manage_map() {
-  find_candidates(existence_rule_.detection_view());
+  find_candidates(association_view_);
   doomed_.clear();
+  const Pose2 xv = estimator_->pose();
+  const ObservationModel& model = estimator_->observation_model();
   for (const std::size_t j : candidates_) {
     if (j >= seen_.size() || seen_[j]) continue;  // added this scan, or seen
-    if (existence_rule_.missed(existence_[j])) doomed_.push_back(j);
+    const bool expected = existence_rule_.detection_view().contains(model.predict(xv, estimator_->landmark_position(j)));
+    if (expected ? existence_rule_.missed(existence_[j]) : existence_rule_.unseen_nearby(existence_[j]))
+      doomed_.push_back(j);
   }
   // Highest index first, so the indices still to remove stay valid.
   for (auto it = doomed_.rbegin(); it != doomed_.rend(); ++it) {

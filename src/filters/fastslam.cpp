@@ -52,6 +52,10 @@ void validate(const FastSlamConfig& c) {
   if (c.policy.kind == ResamplePolicy::Kind::kEss && !(c.policy.ess_fraction > 0.0 && c.policy.ess_fraction <= 1.0))
     fail(fmt::format("the ESS fraction must lie in (0, 1], found {}", c.policy.ess_fraction));
   validate(c.association);
+  // Each particle pairs by maximum likelihood with mutual exclusion; running NN when JCBB was asked
+  // for would be a silent substitution.
+  if (c.association.method == AssociationMethod::kJcbb)
+    fail("association jcbb is not implemented per particle; use known or nn");
   validate(c.sensor);
   if (!c.initial_pose.allFinite()) fail("the initial pose must be finite");
 }
@@ -325,10 +329,11 @@ std::size_t FastSlam::num_landmarks() const {
   return n;
 }
 
+// Confirmed landmarks only, as the EKF reports them: a provisional one may still be clutter.
 std::vector<Landmark> FastSlam::landmarks() const {
   std::vector<Landmark> out;
   impl_->best_particle().map.for_each([&](std::size_t, const LandmarkGaussian& lm) {
-    if (!lm.removed) out.push_back({lm.id, lm.mean, lm.covariance});
+    if (!lm.removed && impl_->existence.confirmed(lm.existence)) out.push_back({lm.id, lm.mean, lm.covariance});
   });
   return out;
 }
@@ -347,7 +352,12 @@ std::vector<WeightedPose> FastSlam::pose_samples() const {
 std::map<std::string, double> FastSlam::statistics() const {
   const Impl& s = *impl_;
   const auto n = static_cast<double>(s.particles.size());
+  std::size_t provisional = 0;
+  s.best_particle().map.for_each([&](std::size_t, const LandmarkGaussian& lm) {
+    provisional += !lm.removed && !s.existence.confirmed(lm.existence) ? 1 : 0;
+  });
   return {{"particles", n},
+          {"landmarks_provisional", static_cast<double>(provisional)},
           {"ess_mean", s.scans > 0 ? s.ess_sum / static_cast<double>(s.scans) : n},
           {"resamples", static_cast<double>(s.resamples)},
           {"weight_collapses", static_cast<double>(s.collapses)}};

@@ -235,9 +235,10 @@ void FastSlam::Impl::count_misses(Particle& p, Slot& s) const {
   // landmark the existence rule expects to be seen from the final pose.
   for (const Candidate& c : s.candidates) {
     if (std::binary_search(s.observed.begin(), s.observed.end(), c.index)) continue;
-    if (!existence.detection_view().contains(observation->predict(p.pose, p.map[c.index].mean))) continue;
+    const bool expected = existence.detection_view().contains(observation->predict(p.pose, p.map[c.index].mean));
+    if (!expected && existence.confirmed(p.map[c.index].existence)) continue;  // nothing to record: no copy
     LandmarkGaussian& lm = p.map.mutate(c.index);
-    if (existence.missed(lm.existence)) lm.removed = true;
+    if (expected ? existence.missed(lm.existence) : existence.unseen_nearby(lm.existence)) lm.removed = true;
   }
 }
 

@@ -193,7 +193,8 @@ RunResult read_run(const std::string& dir) {
 
   run.trajectory = read_tum(path_in(dir, "trajectory.tum"));
   const std::string filtered_path = path_in(dir, "filtered.tum");
-  run.filtered = fs::exists(filtered_path) ? read_tum(filtered_path) : run.trajectory;
+  run.smoothed = fs::exists(filtered_path);  // written only when the trajectory is not the filtered one
+  run.filtered = run.smoothed ? read_tum(filtered_path) : run.trajectory;
   const std::string cov_path = path_in(dir, "pose_covariance.txt");
   PoseCovariances covs = read_pose_covariances(cov_path);
   if (covs.t.size() != run.filtered.size())

@@ -68,6 +68,9 @@ void validate(const FilterConfig& config) {
     throw std::invalid_argument(
         fmt::format("EKF variant '{}' applies to the filter 'ekf', not 'ukf'", to_string(config.ekf_variant)));
   validate(config.association);
+  if (config.filter != FilterKind::kEkf && config.association.method == AssociationMethod::kJcbb)
+    throw std::invalid_argument(fmt::format("association jcbb is for the EKF; {} associates per particle with known or nn",
+                                            to_string(config.filter)));
 }
 
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset) {

@@ -68,7 +68,8 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
   result.map = filter.landmarks();
   result.trajectory = filter.smoothed_trajectory();
-  if (result.trajectory.empty()) result.trajectory = result.filtered;
+  result.smoothed = !result.trajectory.empty();
+  if (!result.smoothed) result.trajectory = result.filtered;
   result.statistics = filter.statistics();
   result.dead_reckoning = dead_reckoning(dataset);
   return result;

@@ -2,7 +2,8 @@
 // Whether a landmark of the map is real. A landmark started from one observation is provisional
 // until it has been observed confirm_after times; one that is expected to be seen (predicted well
 // inside the sensor's view) and is not, provisional_max_misses scans in a row (confirmed_max_misses
-// once confirmed), is removed. Both filters keep a LandmarkExistence per landmark (the EKF per map
+// once confirmed), is removed; a provisional landmark is removed as well after provisional_max_misses
+// scans near the vehicle without a sighting, inside the view or not: one never confirmed goes. Both filters keep a LandmarkExistence per landmark (the EKF per map
 // entry, FastSLAM per particle and landmark) and create, change and read it only through
 // ExistenceRule, so the rule can be replaced here alone, e.g. by a log-odds existence probability,
 // without touching the filters.
@@ -34,6 +35,12 @@ class ExistenceRule {
   /// The landmark was expected to be seen (see detection_view) and was not. Returns true when it
   /// should be removed from the map.
   bool missed(LandmarkExistence& existence) const;
+  /// The landmark was a candidate of the scan (in the association view) but is predicted outside
+  /// detection_view, and was not seen. A confirmed landmark is not judged by that; a provisional one
+  /// counts it as a miss, so that one which leaves the view before it is confirmed (or hovers at its
+  /// edge) is removed too, rather than staying provisional for ever. Returns true when it should be
+  /// removed from the map.
+  bool unseen_nearby(LandmarkExistence& existence) const;
   bool confirmed(const LandmarkExistence& existence) const { return existence.observations_ >= confirm_after_; }
 
   /// Where a landmark is expected to be seen: the sensor's view narrowed by the margins, since near

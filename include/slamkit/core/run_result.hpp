@@ -33,7 +33,9 @@ struct RunResult {
   /// The estimated trajectory: the filter's smoothed trajectory where it has one (FastSLAM's best
   /// particle), else the per-step estimates.
   std::vector<StampedPose> trajectory;
-  /// The per-step (filtering) estimates with their covariances: what NEES is computed on.
+  /// Whether `trajectory` is a smoothed one, not the per-step estimates.
+  bool smoothed = false;
+  /// The per-step (filtering) estimates with their covariances: what ATE and NEES are computed on.
   std::vector<StampedPose> filtered;
   std::vector<Matrix3> pose_covariances;  // one per filtered sample
   std::vector<StampedPose> dead_reckoning;

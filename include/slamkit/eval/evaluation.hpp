@@ -2,7 +2,8 @@
 // Turns a run and the dataset's ground truth into the numbers metrics.json reports. Every accuracy
 // figure names its metric:
 //   ate_rmse_m              RMSE of position over the time-matched truth samples, after the SE(2)
-//                           least-squares alignment of the estimated trajectory onto the truth
+//                           least-squares alignment of the per-step (filtered) estimates onto the
+//                           truth; smoothed_ate_rmse_m the same for a smoothed trajectory
 //   final_position_error_m  position error of the last matched sample, same alignment
 //   map_rmse_m              RMSE of landmark position over landmarks paired with the truth, after
 //                           the trajectory's alignment. Each landmark is paired by its origin (below)
@@ -18,6 +19,11 @@
 //                           included); missed when an observation of a true landmark the filter already
 //                           had was not paired (discarded, or started a duplicate). Spurious landmarks
 //                           are final-map landmarks started by clutter or duplicating another's origin.
+//   loop_closure_fraction   where the truth names the landmark of every observation: of the returns
+//                           (observations of a true landmark last observed more than revisit_gap_s
+//                           earlier, and the observations of it that follow), the share paired with
+//                           a landmark that true landmark started before its return (not a duplicate
+//                           started since). A loop is closed when it is at least kLoopClosedFraction.
 #include <nlohmann/json_fwd.hpp>
 #include <map>
 #include <optional>
@@ -35,7 +41,15 @@ struct AssociationMetrics {
   std::size_t clutter_observations = 0, clutter_discarded = 0;
   std::size_t spurious_landmarks = 0;
   std::size_t landmarks_true_seen = 0;
+  std::size_t return_observations = 0;       // see loop_closure_fraction in the header comment
+  std::size_t return_observations_closed = 0;
+  /// return_observations_closed / return_observations; unset without returns.
+  std::optional<double> loop_closure_fraction() const;
 };
+
+/// loop_closure_fraction at or above which a run counts as having closed its loop: most returns
+/// paired with the first lap's landmark, whatever missed detections and ambiguous discards cost.
+inline constexpr double kLoopClosedFraction = 0.8;
 
 struct Metrics {
   std::string filter;
@@ -44,7 +58,9 @@ struct Metrics {
   double wall_time_s = 0.0;
 
   std::size_t matched_poses = 0;
-  std::optional<double> ate_rmse_m, final_position_error_m;
+  std::optional<double> ate_rmse_m, final_position_error_m;  // of the per-step (filtered) estimates
+  bool smoothed = false;                                       // the run's trajectory is smoothed
+  std::optional<double> smoothed_ate_rmse_m;
   std::optional<double> dead_reckoning_ate_rmse_m, dead_reckoning_final_position_error_m;
   std::optional<double> map_rmse_m;
   std::size_t map_landmarks_paired = 0;
@@ -53,6 +69,7 @@ struct Metrics {
   std::vector<Vector2> nees_pose_series;
   std::optional<AssociationMetrics> association;
   std::string association_method;
+  double revisit_gap_s = 0.0;  // the EvaluationOptions' return gap the association metrics used
   std::map<std::string, double> filter_statistics;
 
   eval::Se2Transform alignment;                // estimate -> truth, used for the map and the pictures
@@ -62,6 +79,9 @@ struct Metrics {
 struct EvaluationOptions {
   /// Estimate samples further apart than this [s] are not interpolated between.
   double max_interpolation_gap_s = 1.0;
+  /// A true landmark observed again after this long without an observation [s] is a return: longer
+  /// than any one pass by a landmark in the simulator's worlds, shorter than a lap.
+  double revisit_gap_s = 60.0;
 };
 
 Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const EvaluationOptions& options = {});

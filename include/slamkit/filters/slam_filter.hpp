@@ -24,8 +24,9 @@ class SlamFilter {
 
   virtual Pose2 pose() const = 0;
   virtual Matrix3 pose_covariance() const = 0;
+  /// Landmarks in the filter's state, provisional ones included.
   virtual std::size_t num_landmarks() const = 0;
-  /// The current map, each landmark with its marginal 2x2 covariance.
+  /// The current map of confirmed landmarks, each with its marginal 2x2 covariance.
   virtual std::vector<Landmark> landmarks() const = 0;
   /// One record per observation of the last scan given to update(), in the scan's order.
   virtual const std::vector<AssociationRecord>& last_associations() const = 0;
