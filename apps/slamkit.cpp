@@ -96,7 +96,7 @@ enum class Verbosity { kQuiet, kNormal, kVerbose };
 void print_outputs(const std::string& dir, const Metrics& metrics, Verbosity verbosity) {
   if (verbosity == Verbosity::kQuiet) return;
   fmt::print("{}\n", headline(metrics));
-  fmt::print("results in {}/: metrics.json, map.svg, landmark_std.svg, trajectory.tum, truth.tum, map.txt\n", dir);
+  fmt::print("results in {}/: metrics.json, map.svg, landmark_std.svg, pose_error.svg, trajectory.tum, truth.tum, map.txt\n", dir);
 }
 
 /// A progress line on stderr, rewritten in place, for runs that last longer than a second: how far,

@@ -465,5 +465,28 @@ TEST_F(Cli, VersionUnknownSubcommandAndIgnoredOptions) {
   EXPECT_NE(ekf.err.find("warning: --particles is ignored by the EKF"), std::string::npos) << ekf.err;
   // The truth beside the estimate, in the same format and time base.
   EXPECT_TRUE(fs::exists(out / "truth.tum"));
+  EXPECT_TRUE(fs::exists(out / "pose_error.svg"));
   EXPECT_EQ(count_lines(read_file(out / "truth.tum")) > 100, true);
+}
+
+TEST_F(Cli, ReplayPageIsSelfContainedAndRewrittenFromItsRecording) {
+  const fs::path out = *work_ / "replay";
+  const Result run = slamkit("run --data sim:" + (*work_ / "sim").string() + " --out " + out.string() + " --replay",
+                             *work_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string page = read_file(out / "replay.html");
+  // One file: the script and style inline, nothing fetched.
+  EXPECT_EQ(page.find("<script src"), std::string::npos);
+  EXPECT_EQ(page.find("<link"), std::string::npos);
+  EXPECT_EQ(page.find("http://"), std::string::npos);
+  EXPECT_EQ(page.find("https://"), std::string::npos);
+  EXPECT_NE(page.find("window.replay"), std::string::npos);
+  const nlohmann::json recording = read_json(out / "replay.json");
+  EXPECT_GT(recording.at("frames").size(), 100u);
+  EXPECT_LE(recording.at("frames").size(), 601u);
+
+  fs::remove(out / "replay.html");
+  const Result again = slamkit("replay " + out.string(), *work_);
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_EQ(read_file(out / "replay.html"), page);
 }

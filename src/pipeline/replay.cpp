@@ -19,14 +19,19 @@ double rounded(double v) { return std::round(v * 1000.0) / 1000.0; }
 /// Covariances span many magnitudes; four significant digits draw the same ellipse.
 double significant(double v) { return std::stod(fmt::format("{:.4g}", v)); }
 
+/// Truth samples further apart than this are not interpolated between (as in the evaluation): a
+/// GPS gap of a minute hides tens of metres of driving.
+constexpr double kMaxTruthGapS = 1.0;
+
 /// The truth pose at `t`, linearly interpolated (heading along the shorter arc); none outside the
-/// truth's time span.
+/// truth's time span or inside a gap.
 std::optional<Pose2> truth_at(const std::vector<StampedPose>& truth, double t) {
   if (truth.empty() || t < truth.front().t || t > truth.back().t) return std::nullopt;
   const auto after = std::lower_bound(truth.begin(), truth.end(), t,
                                       [](const StampedPose& p, double time) { return p.t < time; });
   if (after == truth.begin() || after->t == t) return after->pose;
   const StampedPose& before = *(after - 1);
+  if (after->t - before.t > kMaxTruthGapS) return std::nullopt;
   const double f = (t - before.t) / (after->t - before.t);
   Pose2 pose = before.pose + f * (after->pose - before.pose);
   pose.z() = wrap_angle(before.pose.z() + f * wrap_angle(after->pose.z() - before.pose.z()));
