@@ -7,18 +7,23 @@ DEMO_OUT ?= out/demo
 SLAMKIT := $(BUILD_DIR)/slamkit
 
 # Everything the build, the tests and the benchmarks need, all from Debian 12 (`time` is GNU time,
-# for the peak memory of end-to-end runs).
+# for the peak memory of end-to-end runs; Python and Chromium for the Python module's tests and the
+# replay page's browser test).
 DEB_PACKAGES := cmake make g++ libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev \
                 nlohmann-json3-dev libcli11-dev libfmt-dev zlib1g-dev time
+# What `make test` needs beyond that (the demo does without them).
+TEST_DEB_PACKAGES := pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib \
+                     chromium chromium-driver
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps build demo test bench bench-e2e bench-compare clean
+.PHONY: all deps test-deps build demo test bench bench-e2e bench-compare clean
 
 all: build
 
-deps:
+# Installs the missing packages of the list given.
+define install_missing
 	@missing=""; \
-	for p in $(DEB_PACKAGES); do \
+	for p in $(1); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
 	done; \
 	if [ -n "$$missing" ]; then \
@@ -26,18 +31,28 @@ deps:
 	  $(SUDO) apt-get update && \
 	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $$missing; \
 	fi
+endef
+
+deps:
+	$(call install_missing,$(DEB_PACKAGES))
+
+test-deps: deps
+	$(call install_missing,$(TEST_DEB_PACKAGES))
 
 build: deps
 	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
-# The main job on the built-in simulated world: simulate, run EKF-SLAM, evaluate, draw.
-demo: build
+# The main job on the built-in simulated world: simulate, run EKF-SLAM, evaluate, draw. Only the
+# command line is built (not the tests, benchmarks or Python module), so the first result comes quickly.
+demo: deps
+	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target slamkit
 	$(SLAMKIT) simulate --seed 1 --out $(DEMO_OUT)/sim
 	$(SLAMKIT) run --filter ekf --data sim:$(DEMO_OUT)/sim --out $(DEMO_OUT)/ekf
 	$(SLAMKIT) evaluate $(DEMO_OUT)/ekf
 
-test: build
+test: test-deps build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
 
 # Micro-benchmarks (Google Benchmark, medians of 5 repetitions; about 10 minutes), and whole runs of the

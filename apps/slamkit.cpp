@@ -2,23 +2,35 @@
 // calls the public API, and reports. Bad input of any kind ends in one line on stderr naming the
 // file, the line and what was expected, and a non-zero exit code.
 #include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <atomic>
 #include <charconv>
+#include <chrono>
 #include <cmath>
+#include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fmt/format.h>
+#include <fstream>
 #include <iostream>
+#include <optional>
 #include <stdexcept>
 
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
+#include "slamkit/core/version.hpp"
 #include "slamkit/eval/evaluation.hpp"
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/io/load_dataset.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/io/sim_log.hpp"
+#include "slamkit/io/trajectory_io.hpp"
+#include "slamkit/pipeline/replay.hpp"
 #include "slamkit/pipeline/runner.hpp"
 #include "slamkit/plot/benchmark_plots.hpp"
+#include "slamkit/plot/replay_html.hpp"
 #include "slamkit/plot/report.hpp"
 #include "slamkit/sim/simulator.hpp"
 #include "slamkit/sim/world.hpp"
@@ -30,6 +42,7 @@ namespace {
 
 constexpr int kExitBadInput = 1;
 constexpr int kExitUsage = 2;
+constexpr int kExitInterrupted = 130;  // the shell's code for a program ended by SIGINT
 
 // CLI11's own range checks print the limits of a double in full (310 digits); these say the range in
 // words. An integer option is checked here as text, so that "1.5" gets the same message as "0".
@@ -78,9 +91,67 @@ CLI::Option* add_named(CLI::App* cmd, const std::string& flag, T& target, T (*pa
       ->default_str(to_string(target));
 }
 
-void print_outputs(const std::string& dir, const Metrics& metrics) {
+enum class Verbosity { kQuiet, kNormal, kVerbose };
+
+void print_outputs(const std::string& dir, const Metrics& metrics, Verbosity verbosity) {
+  if (verbosity == Verbosity::kQuiet) return;
   fmt::print("{}\n", headline(metrics));
-  fmt::print("results in {}/: metrics.json, map.svg, landmark_std.svg, trajectory.tum, map.txt (nees.svg where the truth has headings)\n", dir);
+  std::string files = "metrics.json, map.svg, landmark_std.svg";
+  // These need a truth of the right kind (with headings; any truth for truth.tum).
+  for (const char* optional : {"nees.svg", "pose_error.svg", "truth.tum"})
+    if (fs::exists(fs::path(dir) / optional)) files += fmt::format(", {}", optional);
+  fmt::print("results in {}/: {}, trajectory.tum, map.txt\n", dir, files);
+}
+
+/// A progress line on stderr, rewritten in place, for runs that last longer than a second: how far,
+/// how fast, and when it will end. Only on a terminal, so logs and pipes stay clean.
+class ProgressLine : public RunObserver {
+ public:
+  void on_scan(const SlamFilter& filter, const ScanEvent& scan, std::size_t done, std::size_t total) override {
+    const auto now = std::chrono::steady_clock::now();
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    if (elapsed < 1.0 || now - last_ < std::chrono::milliseconds(250)) return;
+    last_ = now;
+    const double rate = static_cast<double>(done) / elapsed;
+    const double eta = static_cast<double>(total - done) / rate;
+    fmt::print(stderr, "\r\033[K{:5.1f}%  t = {:.0f} s  {} landmarks  {:.0f} events/s  ETA {:.0f} s",
+               100.0 * static_cast<double>(done) / static_cast<double>(total), scan.t, filter.num_landmarks(), rate,
+               eta);
+    shown_ = true;
+  }
+  /// Clears the line, so what follows starts on a clean one.
+  void finish() {
+    if (shown_) fmt::print(stderr, "\r\033[K");
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+  std::chrono::steady_clock::time_point last_ = start_;
+  bool shown_ = false;
+};
+
+// Set by the first Ctrl-C: the run stops after the current event and writes what it has, marked
+// partial. The handler then steps aside, so a second Ctrl-C ends the program at once.
+std::atomic<bool> g_interrupted{false};
+static_assert(std::atomic<bool>::is_always_lock_free);
+extern "C" void on_interrupt(int) {
+  g_interrupted.store(true);
+  std::signal(SIGINT, SIG_DFL);
+}
+
+/// The ground truth in TUM format beside the estimate (same times), so tools such as evo compare
+/// them as they are. A truth of positions only (GPS) gets heading 0.
+void write_truth(const std::string& dir, const Dataset& dataset) {
+  const std::string path = (fs::path(dir) / "truth.tum").string();
+  if (dataset.truth.poses.empty())
+    fs::remove(path);
+  else
+    write_tum(path, dataset.truth.poses);
+}
+
+/// The dataset settings' contents, or null for the reader's defaults.
+nlohmann::json dataset_settings_json(const std::string& path) {
+  return path.empty() ? nlohmann::json() : read_json_file(path);
 }
 
 bool has_landmark_ids(const Dataset& dataset) {
@@ -105,6 +176,7 @@ int main(int argc, char** argv) {
   CLI::App app{"slamkit: landmark-based SLAM (EKF-SLAM) with a simulator, evaluation and plots"};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Show help for every command");
+  app.set_version_flag("--version", version(), "Print the version and exit");
 
   // ---- simulate ----
   auto* simulate_cmd = app.add_subcommand("simulate", "Simulate a vehicle driving through a landmark world");
@@ -154,12 +226,13 @@ int main(int argc, char** argv) {
   add_named(run_cmd, "--filter", filter.filter, parse_filter_kind, "Filter: ekf, ukf, fastslam1, fastslam2");
   add_named(run_cmd, "--assoc", filter.association.method, parse_association_method,
             "Data association: known (ids from the log), nn, jcbb");
-  run_cmd->add_option("--data", data_spec,
-                      "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN, course:DIR")
-      ->required();
-  run_cmd->add_option("--data-config", data_config,
-                      "Dataset settings (JSON: noise, sensor limits); the defaults are config/*.json")
-      ->check(CLI::ExistingFile);
+  auto* data_opt = run_cmd->add_option(
+      "--data", data_spec, "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN, course:DIR");
+  auto* data_config_opt =
+      run_cmd
+          ->add_option("--data-config", data_config,
+                       "Dataset settings (JSON: noise, sensor limits); the defaults are config/*.json")
+          ->check(CLI::ExistingFile);
   run_cmd->add_option("--seed", filter.seed, "Random seed for stochastic filters")
       ->capture_default_str()
       ->check(integer_at_least(0));
@@ -180,7 +253,33 @@ int main(int argc, char** argv) {
             "EKF: full, compressed (local-area updates, the same result as full with sequential updates), "
             "fej (first-estimates Jacobians) or invariant (right-invariant error); fej and invariant keep "
             "the EKF consistent");
-  run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots")->required();
+  run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots");
+  std::string repeat_path;
+  bool print_config = false, replay = false, quiet = false, verbose = false;
+  // Every filter and data option, which a repeated run takes from its run.json instead.
+  std::vector<CLI::Option*> setting_opts = {data_opt, data_config_opt};
+  for (const char* name : {"--filter", "--assoc", "--seed", "--particles", "--resample", "--resample-when",
+                           "--threads", "--ekf-update", "--ekf-variant"})
+    setting_opts.push_back(run_cmd->get_option(name));
+  auto* repeat_opt =
+      run_cmd
+          ->add_option("--config", repeat_path,
+                       "Repeat a run: the run.json of its folder gives the dataset, the dataset settings and every "
+                       "filter setting (no other filter or data option may be given)")
+          ->check(CLI::ExistingFile);
+  for (CLI::Option* opt : setting_opts) repeat_opt->excludes(opt);
+  run_cmd->add_flag("--print-config", print_config,
+                    "Print the effective settings (as run.json records them) and exit without running");
+  run_cmd->add_flag("--replay", replay,
+                    "Also record the run scan by scan and write replay.html, a page that plays it back");
+  auto* quiet_opt = run_cmd->add_flag("--quiet", quiet, "No progress line and no summary; errors and warnings only");
+  run_cmd->add_flag("--verbose", verbose, "Also print the effective settings and the time of each stage")
+      ->excludes(quiet_opt);
+
+  // ---- replay ----
+  auto* replay_cmd = app.add_subcommand("replay", "Write replay.html for a run folder recorded with 'run --replay'");
+  std::string replay_dir;
+  replay_cmd->add_option("dir", replay_dir, "Run folder holding replay.json")->required()->check(CLI::ExistingDirectory);
 
   // ---- evaluate ----
   auto* eval_cmd = app.add_subcommand("evaluate", "Recompute metrics.json and the plots of a run folder");
@@ -214,21 +313,52 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
     return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
   } catch (const CLI::ParseError& e) {
     const auto parsed = app.get_subcommands();
     const std::string help = parsed.empty() ? "slamkit --help" : "slamkit " + parsed.front()->get_name() + " --help";
-    std::cerr << "slamkit: error: " << e.what() << " (see '" << help << "')\n";
+    // CLI11 reports a misspelt subcommand as a missing one, or as an unexpected argument.
+    if (parsed.empty() && argc > 1 && argv[1][0] != '-') {
+      std::string names;
+      for (const CLI::App* sub : app.get_subcommands({})) names += (names.empty() ? "" : ", ") + sub->get_name();
+      std::cerr << "slamkit: error: unknown subcommand '" << argv[1] << "'; expected one of: " << names << " (see '"
+                << help << "')\n";
+    } else {
+      std::cerr << "slamkit: error: " << e.what() << " (see '" << help << "')\n";
+    }
     return kExitUsage;
   }
   // The filter settings as a whole, by the library's own check (which make_filter repeats), before
-  // any data is read.
+  // any data is read. A repeated run takes them from its run.json, checked the same way.
+  const Verbosity verbosity = quiet ? Verbosity::kQuiet : verbose ? Verbosity::kVerbose : Verbosity::kNormal;
+  nlohmann::json settings_contents;
   if (*run_cmd) {
-    try {
-      validate(filter);
-    } catch (const std::invalid_argument& e) {
-      std::cerr << "slamkit: error: " << e.what() << " (see 'slamkit run --help')\n";
+    const auto usage_error = [](const std::string& message) {
+      std::cerr << "slamkit: error: " << message << " (see 'slamkit run --help')\n";
       return kExitUsage;
+    };
+    try {
+      if (!repeat_path.empty()) {
+        const nlohmann::json previous = read_json_file(repeat_path);
+        if (!previous.contains("settings") || !previous.contains("dataset"))
+          throw InputError(repeat_path, 0, "expected the run.json of a run folder (with 'settings' and 'dataset')");
+        filter = filter_config_from_json(previous.at("settings"), repeat_path);
+        data_spec = previous.at("dataset").get<std::string>();
+        data_config = previous.value("dataset_settings", "");
+        settings_contents = previous.value("dataset_settings_contents", nlohmann::json());
+      } else {
+        if (data_spec.empty()) return usage_error("--data is required (or --config with an earlier run.json)");
+        validate(filter);
+        settings_contents = dataset_settings_json(data_config);
+      }
+    } catch (const std::invalid_argument& e) {
+      return usage_error(e.what());
+    } catch (const InputError& e) {  // a settings file or run.json that cannot be read or is wrong
+      std::cerr << "slamkit: error: " << e.what() << "\n";
+      return kExitBadInput;
     }
+    if (run_out.empty() && !print_config) return usage_error("--out is required");
   }
 
   try {
@@ -255,19 +385,94 @@ int main(int argc, char** argv) {
       write_world(world_out, generate_world(gen));
       fmt::print("wrote {} ({} landmarks)\n", world_out, gen.landmarks);
     } else if (*run_cmd) {
+      const auto warn = [&](const std::string& message) { std::cerr << "slamkit: warning: " << message << "\n"; };
       if (filter.ekf_variant == EkfVariant::kCompressed && filter.ekf_update == EkfUpdate::kJoint &&
           run_cmd->count("--ekf-update") > 0)
-        std::cerr << "slamkit: warning: the compressed EKF updates one observation at a time; --ekf-update joint "
-                     "is ignored and the run is sequential\n";
-      const Dataset dataset = load_dataset(data_spec, data_config);
+        warn("the compressed EKF updates one observation at a time; --ekf-update joint is ignored and the run is "
+             "sequential");
+      const bool particle_filter = filter.filter == FilterKind::kFastSlam1 || filter.filter == FilterKind::kFastSlam2;
+      for (const char* name : {"--particles", "--resample", "--resample-when", "--threads"})
+        if (!particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by the EKF and the UKF", name));
+      for (const char* name : {"--ekf-update", "--ekf-variant"})
+        if (particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by FastSLAM", name));
+      if (!particle_filter && run_cmd->count("--seed") > 0)
+        warn("--seed is ignored by the EKF and the UKF, which draw no random numbers");
+
+      // Everything needed to repeat the run from any folder: absolute paths, the dataset settings'
+      // contents (the file may change or move), every filter setting by name.
+      nlohmann::json provenance = {
+          {"slamkit_version", version()},
+          {"command_line", std::vector<std::string>(argv, argv + argc)},
+          {"working_directory", fs::current_path().string()},
+          {"dataset_as_given", data_spec},
+          {"dataset_settings_contents", settings_contents},
+          {"settings", to_json(filter)},
+      };
+      const std::string dataset_spec = absolute_dataset_spec(data_spec);
+      const std::string settings_path = data_config.empty() ? "" : fs::absolute(data_config).lexically_normal().string();
+      if (print_config) {
+        provenance["dataset"] = dataset_spec;
+        provenance["dataset_settings"] = settings_path;
+        fmt::print("{}\n", provenance.dump(2));
+        return 0;
+      }
+      const auto stage_start = std::chrono::steady_clock::now();
+      const auto stage = [&](const char* what) {
+        if (verbosity == Verbosity::kVerbose)
+          fmt::print(stderr, "{}: {:.2f} s\n", what,
+                     std::chrono::duration<double>(std::chrono::steady_clock::now() - stage_start).count());
+      };
+      if (verbosity == Verbosity::kVerbose) fmt::print(stderr, "settings: {}\n", provenance.at("settings").dump());
+
+      const Dataset dataset = load_dataset(dataset_spec, settings_contents, settings_path);
+      stage("dataset read");
       if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
         throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
+      if (dataset_spec.starts_with("sim:"))
+        provenance["simulator"] = read_json_file((fs::path(dataset_spec.substr(4)) / "params.json").string());
+      // The source's time of t = 0, as exact decimal text (a double would lose the sub-microsecond
+      // digits of a Unix time): trajectory.tum and truth.tum times plus this are the source's times.
+      if (dataset.time_origin_s != 0 || dataset.time_origin_fraction_s != 0.0)
+        provenance["time_origin_s"] =
+            fmt::format("{}.{:09}", dataset.time_origin_s, std::llround(dataset.time_origin_fraction_s * 1e9));
+
       auto slam = make_filter(filter, dataset);
-      RunResult run = run_filter(*slam, dataset);
+      RunOptions options;
+      ProgressLine progress;
+      if (verbosity != Verbosity::kQuiet && isatty(STDERR_FILENO)) options.observers.push_back(&progress);
+      std::optional<ReplayRecorder> recorder;
+      if (replay) options.observers.push_back(&recorder.emplace(dataset));
+      options.stop = &g_interrupted;
+      std::signal(SIGINT, on_interrupt);
+      RunResult run = run_filter(*slam, dataset, options);
+      std::signal(SIGINT, SIG_DFL);
+      progress.finish();
+      stage("filter run");
+      if (run.partial) warn(fmt::format("interrupted: writing the partial result (up to t = {:.1f} s) to {}",
+                                        run.filtered.back().t, run_out));
       run.association = to_string(filter.association.method);
-      run.dataset_settings = data_config;
+      run.dataset = dataset_spec;
+      run.dataset_settings = settings_path;
+      run.provenance = std::move(provenance);
       write_run(run_out, run);
-      print_outputs(run_out, evaluate_and_report(run_out, run, dataset));
+      write_truth(run_out, dataset);
+      const Metrics metrics = evaluate_and_report(run_out, run, dataset);
+      if (recorder) {
+        // A truth with headings shares the map's frame (the start pose), as pose NEES assumes; a GPS
+        // truth does not, and is brought over by the evaluation's alignment.
+        const Pose2 alignment = dataset.truth.poses_have_heading
+                                    ? Pose2::Zero()
+                                    : Pose2(metrics.alignment.translation.x(), metrics.alignment.translation.y(),
+                                            metrics.alignment.theta);
+        const nlohmann::json recording = recorder->to_json(run.filter, alignment);
+        std::ofstream((fs::path(run_out) / "replay.json").string()) << recording.dump() << "\n";
+        plot::write_replay_html((fs::path(run_out) / "replay.html").string(), recording);
+      }
+      stage("written and evaluated");
+      print_outputs(run_out, metrics, verbosity);
+      if (recorder && verbosity != Verbosity::kQuiet)
+        fmt::print("replay: {}\n", (fs::path(run_out) / "replay.html").string());
+      if (run.partial) return kExitInterrupted;
     } else if (*nees_cmd) {
       std::vector<Metrics> runs;
       for (const std::string& dir : nees_dirs) {
@@ -276,10 +481,19 @@ int main(int argc, char** argv) {
       }
       write_monte_carlo_nees(nees_out, runs, nees_title);
       fmt::print("wrote {} ({} runs)\n", nees_out, runs.size());
+    } else if (*replay_cmd) {
+      const std::string page = (fs::path(replay_dir) / "replay.html").string();
+      plot::write_replay_html(page, read_json_file((fs::path(replay_dir) / "replay.json").string()));
+      fmt::print("wrote {}\n", page);
     } else if (*eval_cmd) {
       const RunResult run = read_run(eval_dir);
-      const Dataset dataset = load_dataset(run.dataset, run.dataset_settings);
-      print_outputs(eval_dir, evaluate_and_report(eval_dir, run, dataset));
+      // A run.json that records the settings' contents is evaluated with them, wherever the file went.
+      const Dataset dataset =
+          run.provenance.contains("dataset_settings_contents")
+              ? load_dataset(run.dataset, run.provenance.at("dataset_settings_contents"), run.dataset_settings)
+              : load_dataset(run.dataset, run.dataset_settings);
+      write_truth(eval_dir, dataset);
+      print_outputs(eval_dir, evaluate_and_report(eval_dir, run, dataset), Verbosity::kNormal);
     }
   } catch (const InputError& e) {
     std::cerr << "slamkit: error: " << e.what() << "\n";

@@ -20,10 +20,12 @@ struct Result {
   std::string err;
 };
 
-/// Runs the slamkit binary with `args` (shell-quoted by the caller), capturing stdout and stderr.
-Result slamkit(const std::string& args, const fs::path& work) {
+/// Runs the slamkit binary with `args` (shell-quoted by the caller), capturing stdout and stderr; in
+/// the folder `cwd` if given.
+Result slamkit(const std::string& args, const fs::path& work, const fs::path& cwd = {}) {
   const fs::path err_file = work / "stderr.txt";
-  const std::string command = std::string(SLAMKIT_CLI) + " " + args + " 2>" + err_file.string();
+  const std::string command = (cwd.empty() ? "" : "cd " + cwd.string() + " && ") + std::string(SLAMKIT_CLI) + " " +
+                              args + " 2>" + err_file.string();
   Result r;
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return r;
@@ -400,4 +402,117 @@ TEST_F(Cli, SettingsFilesWithANumberBeyondADoubleNameTheFileAndLine) {
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_EQ(count_lines(run.err), 1u) << run.err;
   EXPECT_NE(run.err.find(settings.string() + ":1: "), std::string::npos) << run.err;
+}
+
+std::string read_file(const fs::path& file) {
+  std::ifstream in(file);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+nlohmann::json read_json(const fs::path& file) { return nlohmann::json::parse(read_file(file)); }
+
+TEST_F(Cli, RunJsonRepeatsTheRunBitForBitFromAnotherFolder) {
+  // A run given relative paths and a settings file, then repeated from elsewhere after the settings
+  // file is gone: run.json alone (absolute data path, the settings' contents, every filter setting)
+  // must give the same estimate and the same metrics.
+  const fs::path first = *work_ / "repeat" / "first", second = *work_ / "repeat" / "second";
+  fs::create_directories(first);
+  fs::create_directories(second);
+  fs::copy(fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course", first / "course", fs::copy_options::recursive);
+  std::ofstream(first / "settings.json") << read_file(fs::path(SLAMKIT_SOURCE_DIR) / "config" / "course.json");
+  const Result run = slamkit("run --filter fastslam2 --particles 15 --seed 5 --assoc nn --resample-when every:2 "
+                             "--data course:course --data-config settings.json --out r --quiet",
+                             *work_, first);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.out, "");  // --quiet
+  fs::remove(first / "settings.json");
+
+  const nlohmann::json info = read_json(first / "r" / "run.json");
+  EXPECT_EQ(info.at("dataset"), "course:" + fs::weakly_canonical(first / "course").string());
+  EXPECT_EQ(info.at("dataset_settings"), fs::weakly_canonical(first / "settings.json").string());
+  EXPECT_TRUE(info.at("dataset_settings_contents").is_object());
+  EXPECT_EQ(info.at("settings").at("particles"), 15);
+  EXPECT_EQ(info.at("settings").at("seed"), 5);
+  EXPECT_EQ(info.at("settings").at("resample_when"), "every:2");
+  EXPECT_EQ(info.at("settings").at("association").at("method"), "nn");
+  EXPECT_EQ(info.at("partial"), false);
+  EXPECT_FALSE(info.at("slamkit_version").get<std::string>().empty());
+  EXPECT_EQ(info.at("command_line").at(1), "run");
+
+  const Result repeat = slamkit("run --config " + (first / "r" / "run.json").string() + " --out r", *work_, second);
+  ASSERT_EQ(repeat.exit_code, 0) << repeat.err;
+  EXPECT_EQ(read_file(first / "r" / "trajectory.tum"), read_file(second / "r" / "trajectory.tum"));
+  EXPECT_EQ(read_file(first / "r" / "map.txt"), read_file(second / "r" / "map.txt"));
+  nlohmann::json a = read_json(first / "r" / "metrics.json"), b = read_json(second / "r" / "metrics.json");
+  a.erase("wall_time_s");
+  b.erase("wall_time_s");
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(read_json(second / "r" / "run.json").at("settings"), info.at("settings"));
+
+  // The folder evaluates from anywhere, and settings cannot be mixed into a repeat.
+  const Result evaluate = slamkit("evaluate " + (first / "r").string(), *work_, second);
+  EXPECT_EQ(evaluate.exit_code, 0) << evaluate.err;
+  const Result mixed =
+      slamkit("run --config " + (first / "r" / "run.json").string() + " --particles 3 --out r", *work_, second);
+  EXPECT_EQ(mixed.exit_code, 2) << mixed.err;
+}
+
+TEST_F(Cli, PrintConfigShowsEveryEffectiveSettingWithoutRunning) {
+  const Result r = slamkit("run --filter fastslam1 --particles 7 --data sim:" + (*work_ / "sim").string() +
+                               " --print-config",
+                           *work_);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json config = nlohmann::json::parse(r.out);
+  EXPECT_EQ(config.at("settings").at("filter"), "fastslam1");
+  EXPECT_EQ(config.at("settings").at("particles"), 7);
+  EXPECT_EQ(config.at("settings").at("resample"), "systematic");
+  EXPECT_TRUE(config.at("settings").at("association").contains("accept_probability"));
+  EXPECT_EQ(config.at("dataset"), "sim:" + fs::weakly_canonical(*work_ / "sim").string());
+}
+
+TEST_F(Cli, VersionUnknownSubcommandAndIgnoredOptions) {
+  const Result version = slamkit("--version", *work_);
+  EXPECT_EQ(version.exit_code, 0);
+  EXPECT_NE(version.out.find('.'), std::string::npos) << version.out;
+
+  const Result typo = slamkit("rnu --filter ekf", *work_);
+  EXPECT_EQ(typo.exit_code, 2);
+  EXPECT_EQ(count_lines(typo.err), 1u) << typo.err;
+  EXPECT_NE(typo.err.find("unknown subcommand 'rnu'; expected one of: simulate, make-world, run"), std::string::npos)
+      << typo.err;
+
+  const fs::path out = *work_ / "ignored";
+  const Result ekf = slamkit("run --filter ekf --particles 50 --data sim:" + (*work_ / "sim").string() + " --out " +
+                                 out.string(),
+                             *work_);
+  ASSERT_EQ(ekf.exit_code, 0) << ekf.err;
+  EXPECT_NE(ekf.err.find("warning: --particles is ignored by the EKF"), std::string::npos) << ekf.err;
+  // The truth beside the estimate, in the same format and time base.
+  EXPECT_TRUE(fs::exists(out / "truth.tum"));
+  EXPECT_TRUE(fs::exists(out / "pose_error.svg"));
+  EXPECT_EQ(count_lines(read_file(out / "truth.tum")) > 100, true);
+}
+
+TEST_F(Cli, ReplayPageIsSelfContainedAndRewrittenFromItsRecording) {
+  const fs::path out = *work_ / "replay";
+  const Result run = slamkit("run --data sim:" + (*work_ / "sim").string() + " --out " + out.string() + " --replay",
+                             *work_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const std::string page = read_file(out / "replay.html");
+  // One file: the script and style inline, nothing fetched.
+  EXPECT_EQ(page.find("<script src"), std::string::npos);
+  EXPECT_EQ(page.find("<link"), std::string::npos);
+  EXPECT_EQ(page.find("http://"), std::string::npos);
+  EXPECT_EQ(page.find("https://"), std::string::npos);
+  EXPECT_NE(page.find("window.replay"), std::string::npos);
+  const nlohmann::json recording = read_json(out / "replay.json");
+  EXPECT_GT(recording.at("frames").size(), 100u);
+  EXPECT_LE(recording.at("frames").size(), 601u);
+
+  fs::remove(out / "replay.html");
+  const Result again = slamkit("replay " + out.string(), *work_);
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_EQ(read_file(out / "replay.html"), page);
 }

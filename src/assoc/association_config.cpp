@@ -3,9 +3,29 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "slamkit/core/json_options.hpp"
+
 namespace slamkit {
+
+namespace {
+
+// The numeric settings; the method and gate_known (an enum and an optional) are handled beside it.
+// The table checks kinds only: validate() states the ranges, in one place.
+constexpr OptionKey<AssociationConfig> kNumericKeys[] = {
+    {"accept_probability", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.accept_probability; }, option_ranges::kFinite}},
+    {"new_landmark_probability", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.new_landmark_probability; }, option_ranges::kFinite}},
+    {"confirm_after", IntegerOption<AssociationConfig, int>{[](AssociationConfig& c) -> int& { return c.confirm_after; }, 1}},
+    {"provisional_max_misses", IntegerOption<AssociationConfig, int>{[](AssociationConfig& c) -> int& { return c.provisional_max_misses; }, 1}},
+    {"confirmed_max_misses", IntegerOption<AssociationConfig, int>{[](AssociationConfig& c) -> int& { return c.confirmed_max_misses; }, 0}},
+    {"view_margin_m", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.view_margin_m; }, option_ranges::kNonNegative}},
+    {"view_margin_rad", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.view_margin_rad; }, option_ranges::kNonNegative}},
+    {"jcbb_max_nodes", IntegerOption<AssociationConfig, std::uint64_t>{[](AssociationConfig& c) -> std::uint64_t& { return c.jcbb_max_nodes; }, 1}},
+};
+
+}  // namespace
 
 AssociationMethod parse_association_method(const std::string& name) {
   if (name == "known") return AssociationMethod::kKnown;
@@ -40,6 +60,45 @@ void validate(const AssociationConfig& c) {
   if (!(std::isfinite(c.view_margin_rad) && c.view_margin_rad >= 0.0))
     fail("view_margin_rad", "finite and >= 0", c.view_margin_rad);
   if (c.jcbb_max_nodes < 1) fail("jcbb_max_nodes", ">= 1", c.jcbb_max_nodes);
+}
+
+nlohmann::json to_json(const AssociationConfig& config) {
+  nlohmann::json j = options_to_json(config, std::span<const OptionKey<AssociationConfig>>(kNumericKeys));
+  j["method"] = to_string(config.method);
+  j["gate_known"] = config.gate_known ? nlohmann::json(*config.gate_known) : nlohmann::json("filter default");
+  return j;
+}
+
+AssociationConfig association_config_from_json(const nlohmann::json& json, const std::string& source) {
+  if (!json.is_object()) throw InputError(source, 0, "expected the association settings as a JSON object");
+  AssociationConfig config;
+  nlohmann::json numeric = json;
+  if (json.contains("method")) {
+    const nlohmann::json& method = json.at("method");
+    if (!method.is_string()) throw InputError(source, 0, "association 'method' must be a name, found " + method.dump());
+    try {
+      config.method = parse_association_method(method.get<std::string>());
+    } catch (const std::invalid_argument& e) {
+      throw InputError(source, 0, e.what());
+    }
+    numeric.erase("method");
+  }
+  if (json.contains("gate_known")) {
+    const nlohmann::json& gate = json.at("gate_known");
+    if (gate.is_boolean())
+      config.gate_known = gate.get<bool>();
+    else if (gate != "filter default")
+      throw InputError(source, 0, "association 'gate_known' must be true, false or \"filter default\", found " + gate.dump());
+    numeric.erase("gate_known");
+  }
+  option_detail::read_keys(numeric, source, "the association settings",
+                           std::span<const OptionKey<AssociationConfig>>(kNumericKeys), config);
+  try {
+    validate(config);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(source, 0, e.what());
+  }
+  return config;
 }
 
 }  // namespace slamkit

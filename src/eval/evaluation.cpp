@@ -8,6 +8,7 @@
 #include <unordered_set>
 #include <nlohmann/json.hpp>
 
+#include "slamkit/core/version.hpp"
 #include "slamkit/core/error.hpp"
 
 namespace slamkit {
@@ -188,6 +189,7 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
 
 nlohmann::json to_json(const Metrics& m) {
   nlohmann::json j = {
+      {"slamkit_version", version()},
       {"filter", m.filter},
       {"dataset", m.dataset},
       {"steps", m.steps},

@@ -78,7 +78,14 @@ std::string datasets_folder() {
   return "../shared/datasets";
 }
 
-Dataset load_dataset(const std::string& spec, const std::string& settings_path) {
+namespace {
+
+struct ResolvedSpec {
+  const DatasetKind* kind;
+  std::string path;
+};
+
+ResolvedSpec resolve(const std::string& spec) {
   const std::size_t colon = spec.find(':');
   const std::string_view kind = std::string_view(spec).substr(0, colon);
   const auto match = std::find_if(std::begin(kKinds), std::end(kKinds),
@@ -99,8 +106,28 @@ Dataset load_dataset(const std::string& spec, const std::string& settings_path) 
                                    "{}/ or give {}:PATH",
                                    path, match->default_folder, kind));
   }
-  const nlohmann::json settings = settings_path.empty() ? nlohmann::json() : read_json_file(settings_path);
-  Dataset dataset = match->read(path, settings_path.empty() ? nullptr : &settings, settings_path);
+  return {match, path};
+}
+
+}  // namespace
+
+std::string absolute_dataset_spec(const std::string& spec) {
+  const ResolvedSpec resolved = resolve(spec);
+  // MRCLAM's ":robotN" suffix selects a robot and is no part of the folder.
+  const std::size_t robot = resolved.path.rfind(":robot");
+  const std::string folder = robot == std::string::npos ? resolved.path : resolved.path.substr(0, robot);
+  const std::string suffix = robot == std::string::npos ? std::string() : resolved.path.substr(robot);
+  return fmt::format("{}:{}{}", resolved.kind->name, std::filesystem::absolute(folder).lexically_normal().string(),
+                     suffix);
+}
+
+Dataset load_dataset(const std::string& spec, const std::string& settings_path) {
+  return load_dataset(spec, settings_path.empty() ? nlohmann::json() : read_json_file(settings_path), settings_path);
+}
+
+Dataset load_dataset(const std::string& spec, const nlohmann::json& settings, const std::string& source) {
+  const ResolvedSpec resolved = resolve(spec);
+  Dataset dataset = resolved.kind->read(resolved.path, settings.is_null() ? nullptr : &settings, source);
   dataset.spec = spec;
   return dataset;
 }

@@ -339,6 +339,8 @@ Dataset read_mrclam(const std::string& dataset_dir, int robot, const MrclamOptio
   dataset.observation = std::make_shared<const RangeBearingModel>(options.measurement);
   dataset.sensor = options.sensor;
   dataset.events = merge(commands, scans, stats);
+  dataset.time_origin_s = origin.seconds;
+  dataset.time_origin_fraction_s = origin.fraction;
 
   GroundTruth& truth = dataset.truth;
   truth.poses_have_heading = true;

@@ -156,15 +156,17 @@ void write_run(const std::string& dir, const RunResult& run) {
   else
     fs::remove(particles_path);
 
-  const nlohmann::json info = {{"filter", run.filter},
-                               {"dataset", run.dataset},
-                               {"dataset_settings", run.dataset_settings},
-                               {"association", run.association},
-                               {"steps", run.steps},
-                               {"scans", run.scans},
-                               {"observations", run.observations},
-                               {"wall_time_s", run.wall_time_s},
-                               {"statistics", run.statistics}};
+  nlohmann::json info = run.provenance;
+  info.update({{"filter", run.filter},
+               {"dataset", run.dataset},
+               {"dataset_settings", run.dataset_settings},
+               {"association", run.association},
+               {"partial", run.partial},
+               {"steps", run.steps},
+               {"scans", run.scans},
+               {"observations", run.observations},
+               {"wall_time_s", run.wall_time_s},
+               {"statistics", run.statistics}});
   const std::string info_path = path_in(dir, "run.json");
   std::ofstream out(info_path);
   out << info.dump(2) << "\n";
@@ -187,6 +189,8 @@ RunResult read_run(const std::string& dir) {
     run.association = info.value("association", "known");
     run.dataset_settings = info.value("dataset_settings", "");
     run.statistics = info.value("statistics", std::map<std::string, double>{});
+    run.partial = info.value("partial", false);
+    run.provenance = info;
   } catch (const nlohmann::json::exception& e) {
     throw InputError(info_path, 0, std::string("expected a run description: ") + e.what());
   }

@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <utility>
 
+#include "slamkit/core/error.hpp"
 #include "slamkit/filters/fastslam.hpp"
 
 namespace slamkit {
@@ -102,6 +104,70 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
     }
   }
   throw std::invalid_argument("make_filter: unknown filter kind");
+}
+
+nlohmann::json to_json(const FilterConfig& config) {
+  return {{"filter", to_string(config.filter)},
+          {"seed", config.seed},
+          {"association", to_json(config.association)},
+          {"ekf_update", to_string(config.ekf_update)},
+          {"ekf_variant", to_string(config.ekf_variant)},
+          {"particles", config.particles},
+          {"resample", to_string(config.resample)},
+          {"resample_when", to_string(config.resample_when)},
+          {"threads", config.threads}};
+}
+
+FilterConfig filter_config_from_json(const nlohmann::json& json, const std::string& source) {
+  if (!json.is_object()) throw InputError(source, 0, "expected the filter settings as a JSON object");
+  FilterConfig config;
+  for (const auto& [key, value] : json.items()) {
+    const auto name = [&] {
+      if (!value.is_string()) throw InputError(source, 0, fmt::format("'{}' must be a name, found {}", key, value.dump()));
+      return value.get<std::string>();
+    };
+    const auto integer = [&](auto& field) {
+      using Int = std::remove_reference_t<decltype(field)>;
+      const bool fits = value.is_number_unsigned() ? std::in_range<Int>(value.get<std::uint64_t>())
+                                                   : value.is_number_integer() && std::in_range<Int>(value.get<std::int64_t>());
+      if (!fits) throw InputError(source, 0, fmt::format("'{}' must be an integer in range, found {}", key, value.dump()));
+      field = value.is_number_unsigned() ? static_cast<Int>(value.get<std::uint64_t>())
+                                         : static_cast<Int>(value.get<std::int64_t>());
+    };
+    try {
+      if (key == "filter")
+        config.filter = parse_filter_kind(name());
+      else if (key == "seed")
+        integer(config.seed);
+      else if (key == "association")
+        config.association = association_config_from_json(value, source);
+      else if (key == "ekf_update")
+        config.ekf_update = parse_ekf_update(name());
+      else if (key == "ekf_variant")
+        config.ekf_variant = parse_ekf_variant(name());
+      else if (key == "particles")
+        integer(config.particles);
+      else if (key == "resample")
+        config.resample = parse_resample_method(name());
+      else if (key == "resample_when")
+        config.resample_when = parse_resample_policy(name());
+      else if (key == "threads")
+        integer(config.threads);
+      else
+        throw InputError(source, 0,
+                         fmt::format("unknown key '{}' in the filter settings; expected one of: {}", key,
+                                     "filter, seed, association, ekf_update, ekf_variant, particles, resample, "
+                                     "resample_when, threads"));
+    } catch (const std::invalid_argument& e) {
+      throw InputError(source, 0, e.what());
+    }
+  }
+  try {
+    validate(config);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(source, 0, e.what());
+  }
+  return config;
 }
 
 }  // namespace slamkit

@@ -43,7 +43,13 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
   double last_std_time = -INFINITY;
   const auto begin = std::chrono::steady_clock::now();
   record(start_time(dataset));
+  std::size_t events_done = 0;
   for (const Event& event : dataset.events) {
+    if (options.stop != nullptr && options.stop->load()) {
+      result.partial = true;
+      break;
+    }
+    ++events_done;
     if (const auto* control = std::get_if<ControlEvent>(&event)) {
       filter.predict(*control);
       ++result.steps;
@@ -63,6 +69,8 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
                                          std::sqrt(std::max(0.0, lm.covariance(1, 1)))});
         for (const WeightedPose& p : filter.pose_samples()) result.particles.push_back({scan.t, p});
       }
+      for (RunObserver* observer : options.observers)
+        observer->on_scan(filter, scan, events_done, dataset.events.size());
     }
   }
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
@@ -72,6 +80,8 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
   if (!result.smoothed) result.trajectory = result.filtered;
   result.statistics = filter.statistics();
   result.dead_reckoning = dead_reckoning(dataset);
+  if (result.partial)
+    std::erase_if(result.dead_reckoning, [&](const StampedPose& p) { return p.t > result.filtered.back().t; });
   return result;
 }
 

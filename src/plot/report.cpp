@@ -1,9 +1,9 @@
 #include "slamkit/plot/report.hpp"
 
 #include <Eigen/Geometry>
-#include <filesystem>
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <stdexcept>
 
@@ -48,6 +48,43 @@ std::string wrap_headline(const std::string& headline) {
     start = bar + 3;
   }
   return out + line;
+}
+
+/// pose_error.svg: the per-step estimate's x and y error against the truth over time, each with the
+/// filter's own +-2 sigma bounds; a consistent filter keeps its error inside them about 95% of the
+/// time. Unaligned, like pose NEES, so only for a truth in the map's frame (one with headings).
+void write_pose_error_plot(const std::string& path, const RunResult& run, const GroundTruth& truth,
+                           const std::string& title) {
+  const std::vector<eval::PosePair> pairs = eval::match_by_time(run.filtered, truth.poses, 1.0);
+  std::filesystem::remove(path);
+  if (pairs.empty() || run.pose_covariances.size() != run.filtered.size()) return;
+  // A few thousand points draw the same curve as a hundred thousand.
+  const std::size_t step = std::max<std::size_t>(1, pairs.size() / 3000);
+  std::vector<Vector2> error_x, error_y, upper_x, lower_x, upper_y, lower_y;
+  for (std::size_t i = 0; i < pairs.size(); i += step) {
+    const eval::PosePair& p = pairs[i];
+    const Matrix3& cov = run.pose_covariances[static_cast<std::size_t>(p.estimate_index)];
+    const double sx = 2.0 * std::sqrt(std::max(0.0, cov(0, 0))), sy = 2.0 * std::sqrt(std::max(0.0, cov(1, 1)));
+    error_x.emplace_back(p.t, p.estimate.x() - p.truth.x());
+    error_y.emplace_back(p.t, p.estimate.y() - p.truth.y());
+    upper_x.emplace_back(p.t, sx);
+    lower_x.emplace_back(p.t, -sx);
+    upper_y.emplace_back(p.t, sy);
+    lower_y.emplace_back(p.t, -sy);
+  }
+  plot::Figure figure(900, 520);
+  figure.set_title("Pose error over time: " + title);
+  figure.set_subtitle("estimate minus truth, with the filter's own 2-sigma bounds (unaligned, like pose NEES)");
+  figure.set_x_label("time [s]");
+  figure.set_y_label("position error [m]");
+  const plot::LineStyle x_bound{plot::palette::kBlue, 1.0, plot::Dash::kDashed}, y_bound{plot::palette::kGreen, 1.0, plot::Dash::kDashed};
+  figure.add_line(upper_x, x_bound, "x: +-2 sigma");
+  figure.add_line(lower_x, x_bound);
+  figure.add_line(upper_y, y_bound, "y: +-2 sigma");
+  figure.add_line(lower_y, y_bound);
+  figure.add_line(error_x, {plot::palette::kBlue, 1.2}, "x error");
+  figure.add_line(error_y, {plot::palette::kGreen, 1.2}, "y error");
+  figure.save(path);
 }
 
 }  // namespace
@@ -118,6 +155,12 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
     nees.band_hi = metrics.nees_pose->interval.hi;
     plot::nees_figure(nees).save((fs::path(dir) / "nees.svg").string());
   }
+
+  const std::string pose_error_path = (fs::path(dir) / "pose_error.svg").string();
+  if (truth.poses_have_heading)
+    write_pose_error_plot(pose_error_path, run, truth, title);
+  else
+    fs::remove(pose_error_path);
 }
 
 void write_monte_carlo_nees(const std::string& path, const std::vector<Metrics>& runs, const std::string& title) {

@@ -4,6 +4,7 @@
 // gates, and when provisional landmarks are confirmed or removed. validate() is the one check of
 // these settings: both filters call it, and so may a front end before it reads any data.
 #include <cstddef>
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 
@@ -55,5 +56,11 @@ struct AssociationConfig {
 /// confirm_after >= 1, provisional_max_misses >= 1, confirmed_max_misses >= 0, finite view margins
 /// >= 0, jcbb_max_nodes >= 1.
 void validate(const AssociationConfig& config);
+
+/// Every setting, under the names association_config_from_json reads (run.json's provenance).
+nlohmann::json to_json(const AssociationConfig& config);
+/// Reads the keys to_json writes over the defaults (missing keys keep them), then validates. An
+/// unknown key or a value of the wrong kind or range is an InputError naming `source`.
+AssociationConfig association_config_from_json(const nlohmann::json& json, const std::string& source);
 
 }  // namespace slamkit

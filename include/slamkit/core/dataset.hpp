@@ -49,6 +49,11 @@ struct Dataset {
   SensorLimits sensor;
   Pose2 initial_pose = Pose2::Zero();
   GroundTruth truth;
+  /// The source's time of the dataset's t = 0 [s] where the reader shifts times to start near 0
+  /// (MRCLAM: the Unix time of the first odometry row); 0 where times are kept as recorded. Whole
+  /// seconds and the fraction apart, so the offset stays exact to the digit the file gives.
+  long time_origin_s = 0;
+  double time_origin_fraction_s = 0.0;
 };
 
 }  // namespace slamkit

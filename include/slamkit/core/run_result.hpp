@@ -3,6 +3,7 @@
 // the estimated trajectory with its pose covariance, the final map, the landmark standard deviations
 // over time (the data of the tutorial's Figure 3) and what the filter did with each observation.
 #include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,13 @@ struct RunResult {
   std::size_t scans = 0;         // observation scans
   std::size_t observations = 0;  // individual landmark observations
   double wall_time_s = 0.0;      // filter time only, not reading or writing files
+  /// The run stopped before the end of the dataset (interrupted); everything above covers the part
+  /// that ran.
+  bool partial = false;
+  /// Where the run came from, as the front end describes it for run.json: the version, the command
+  /// line, every effective setting, the dataset settings' contents (see io/run_io.hpp). Kept as JSON
+  /// so that a new setting reaches run.json without a change here.
+  nlohmann::json provenance = nlohmann::json::object();
 };
 
 }  // namespace slamkit

@@ -5,8 +5,11 @@
 //   dead_reckoning.tum   the controls integrated without any observation, for contrast
 //   map.txt              final map `id x y c_xx c_xy c_yy`
 //   landmark_std.txt     `t id std_x std_y`: landmark standard deviations over time (Figure 3)
-//   run.json             filter, dataset spec, counts, wall time, settings
+//   run.json             filter, dataset spec, counts, wall time, "partial" (true if interrupted),
+//                        and the run's provenance (RunResult::provenance) alongside
 //   metrics.json         the evaluation (written by the evaluation, see eval/evaluation.hpp)
+// Beside them the command line writes truth.tum (the ground truth, same time base), the plots, and
+// with --replay replay.json and replay.html (pipeline/replay.hpp, plot/replay_html.hpp).
 #include <string>
 
 #include "slamkit/core/run_result.hpp"

@@ -5,6 +5,7 @@
 // run.json and metrics.json.
 #include <cstdint>
 #include <memory>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
@@ -57,6 +58,14 @@ std::vector<std::string> filter_names();
 /// Throws std::invalid_argument, one line naming the setting and its range, for settings no filter
 /// could run with (e.g. fewer than one particle). Needs no data: the CLI calls it before reading any.
 void validate(const FilterConfig& config);
+
+/// Every setting by name, as `slamkit run --print-config` shows it and run.json records it; the
+/// association settings are one object (to_json(AssociationConfig)), so settings added there appear
+/// here without a change.
+nlohmann::json to_json(const FilterConfig& config);
+/// Reads the keys to_json writes (missing keys keep their defaults) and validates the result. An
+/// unknown key, a misspelt name or a value out of range is an InputError naming `source`.
+FilterConfig filter_config_from_json(const nlohmann::json& json, const std::string& source);
 
 /// Calls validate(config) and builds the filter for the dataset's models, sensor limits and start.
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset);

@@ -1,0 +1,55 @@
+#pragma once
+// Records a run scan by scan for `slamkit run --replay`: the filter's pose and covariance, its map
+// with covariance ellipses, the scan's observations with what the filter did with each (and, where
+// the truth names every observation's landmark, whether that was wrong), particles, and the pose
+// error against the truth. The recording is JSON (replay.json in the run folder), which
+// plot/replay_html.hpp turns into a self-contained page that plays it back.
+#include <cstddef>
+#include <nlohmann/json.hpp>
+#include <unordered_map>
+#include <vector>
+
+#include "slamkit/core/dataset.hpp"
+#include "slamkit/pipeline/runner.hpp"
+
+namespace slamkit {
+
+struct ReplayOptions {
+  /// Long runs are decimated to about this many frames (every k-th scan), so the page stays smooth;
+  /// the page says so.
+  std::size_t max_frames = 600;
+  /// At most this many particles are drawn per frame (evenly spaced through the filter's set).
+  std::size_t max_particles = 200;
+};
+
+class ReplayRecorder : public RunObserver {
+ public:
+  /// Keeps a reference to `dataset`, which must outlive the recorder.
+  explicit ReplayRecorder(const Dataset& dataset, ReplayOptions options = {});
+
+  void on_scan(const SlamFilter& filter, const ScanEvent& scan, std::size_t events_done,
+               std::size_t events_total) override;
+
+  /// The recording. `truth_from_estimate` (x, y, theta: rotate by theta, then translate) maps the
+  /// estimate's frame onto the truth's, as the evaluation's alignment does; the truth is drawn in
+  /// the estimate's frame through its inverse and the pose error is taken after it, so a truth in
+  /// a frame of its own (Victoria Park's GPS) lines up. Identity where the frames agree.
+  /// {"meta": {...}, "truth": [[t, x, y], ...], "true_landmarks": [[x, y], ...],
+  /// "frames": [{"t", "pose": [x, y, theta], "cov": [xx, xy, yy, tt], "landmarks": [id, x, y, cxx,
+  /// cxy, cyy, ...], "rays": [x, y, decision, ...], "particles": [x, y, ...], "error": [ex, ey,
+  /// etheta] (only with a truth)}]}. Decisions: 0 update, 1 new, 2 discard, 3 wrong update.
+  nlohmann::json to_json(const std::string& filter_name, const Pose2& truth_from_estimate = Pose2::Zero()) const;
+
+ private:
+  const Dataset& dataset_;
+  ReplayOptions options_;
+  std::size_t scans_total_ = 0;
+  std::size_t stride_ = 1;
+  std::size_t scan_index_ = 0;
+  /// Each filter landmark's origin: the true landmark of the observation that started it.
+  std::unordered_map<int, int> origin_;
+  nlohmann::json frames_ = nlohmann::json::array();
+  std::vector<StampedPose> frame_poses_;  // for the pose error, taken once the alignment is known
+};
+
+}  // namespace slamkit

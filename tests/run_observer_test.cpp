@@ -1,0 +1,125 @@
+// The runner's observers: they see every scan in order; a stop request ends the run after the
+// current event with a partial result that the run folder keeps as such; and the replay recorder's
+// frames hold what the filter did with each observation.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <filesystem>
+
+#include "slamkit/io/run_io.hpp"
+#include "slamkit/pipeline/factory.hpp"
+#include "slamkit/pipeline/replay.hpp"
+#include "slamkit/pipeline/runner.hpp"
+#include "slamkit/sim/simulator.hpp"
+
+namespace slamkit {
+namespace {
+
+Dataset default_world() {
+  const Scenario s = scenario("default");
+  return simulate(s.world, s.config);
+}
+
+std::size_t count_scans(const Dataset& d) {
+  std::size_t n = 0;
+  for (const Event& e : d.events) n += std::holds_alternative<ScanEvent>(e);
+  return n;
+}
+
+class StopAfter : public RunObserver {
+ public:
+  StopAfter(std::size_t scans, std::atomic<bool>& stop) : scans_(scans), stop_(stop) {}
+  void on_scan(const SlamFilter&, const ScanEvent& scan, std::size_t done, std::size_t total) override {
+    EXPECT_GT(scan.t, last_t_);
+    EXPECT_LE(done, total);
+    last_t_ = scan.t;
+    if (++seen_ == scans_) stop_.store(true);
+  }
+  std::size_t seen_ = 0;
+
+ private:
+  std::size_t scans_;
+  std::atomic<bool>& stop_;
+  double last_t_ = -1.0;
+};
+
+TEST(RunObserver, StopGivesAPartialResultThatTheRunFolderKeeps) {
+  const Dataset data = default_world();
+  auto filter = make_filter(FilterConfig{}, data);
+  std::atomic<bool> stop{false};
+  StopAfter observer(25, stop);
+  RunOptions options;
+  options.observers.push_back(&observer);
+  options.stop = &stop;
+  RunResult run = run_filter(*filter, data, options);
+  EXPECT_TRUE(run.partial);
+  EXPECT_EQ(run.scans, 25u);
+  EXPECT_EQ(observer.seen_, 25u);
+  EXPECT_LT(run.filtered.back().t, data.truth.poses.back().t);
+  EXPECT_LE(run.dead_reckoning.back().t, run.filtered.back().t);
+
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "slamkit_partial_run_test";
+  write_run(dir.string(), run);
+  const RunResult back = read_run(dir.string());
+  EXPECT_TRUE(back.partial);
+  EXPECT_EQ(back.scans, 25u);
+  std::filesystem::remove_all(dir);
+
+  // Without a stop request the same observers see the whole run.
+  auto whole_filter = make_filter(FilterConfig{}, data);
+  std::atomic<bool> never{false};
+  StopAfter counter(0, never);
+  options.observers = {&counter};
+  options.stop = &never;
+  const RunResult whole = run_filter(*whole_filter, data, options);
+  EXPECT_FALSE(whole.partial);
+  EXPECT_EQ(counter.seen_, count_scans(data));
+}
+
+TEST(ReplayRecorder, FramesHoldTheMapAndEachObservationsDecision) {
+  const Dataset data = default_world();
+  FilterConfig config;
+  config.filter = FilterKind::kFastSlam2;
+  config.particles = 30;
+  config.association.method = AssociationMethod::kNearestNeighbour;
+  auto filter = make_filter(config, data);
+  ReplayOptions replay_options;
+  replay_options.max_frames = 40;
+  replay_options.max_particles = 10;
+  ReplayRecorder recorder(data, replay_options);
+  RunOptions options;
+  options.observers.push_back(&recorder);
+  const RunResult run = run_filter(*filter, data, options);
+  const nlohmann::json replay = recorder.to_json(run.filter);
+
+  const std::size_t scans = count_scans(data);
+  const std::size_t stride = replay.at("meta").at("stride");
+  EXPECT_EQ(stride, (scans + 39) / 40);
+  const nlohmann::json& frames = replay.at("frames");
+  // Every stride-th scan, and the last one.
+  EXPECT_EQ(frames.size(), (scans + stride - 1) / stride + ((scans - 1) % stride != 0));
+  for (std::size_t f = 0; f + 1 < frames.size(); ++f) {
+    const std::size_t k = f * stride;
+    ASSERT_EQ(frames[f].at("t").get<double>(), std::round(run.scan_times[k] * 1000.0) / 1000.0);
+    const nlohmann::json& rays = frames[f].at("rays");
+    ASSERT_EQ(rays.size(), 3 * run.associations[k].size());
+    for (std::size_t i = 0; i < run.associations[k].size(); ++i) {
+      const int code = rays[3 * i + 2];
+      const int recorded = static_cast<int>(run.associations[k][i].decision);
+      // A wrong update (3) is an update the truth disagrees with.
+      EXPECT_TRUE(code == recorded || (code == 3 && recorded == 0)) << "frame " << f << " ray " << i;
+    }
+    EXPECT_EQ(frames[f].at("landmarks").size() % 6, 0u);
+    EXPECT_EQ(frames[f].at("particles").size(), 2 * 10u);
+    EXPECT_EQ(frames[f].at("error").size(), 3u);
+  }
+  EXPECT_EQ(frames.back().at("landmarks").size(), 6 * run.map.size());
+  // The true path, thinned to every k-th sample for k = n / 4000 (at least 1).
+  const std::size_t truth_step = std::max<std::size_t>(1, data.truth.poses.size() / 4000);
+  EXPECT_EQ(replay.at("truth").size(), (data.truth.poses.size() + truth_step - 1) / truth_step);
+  EXPECT_TRUE(replay.at("meta").at("wrong_known").get<bool>());
+}
+
+}  // namespace
+}  // namespace slamkit
