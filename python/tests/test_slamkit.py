@@ -82,7 +82,7 @@ def test_ekf_state_covariance_and_map(sim):
 
 def test_bad_settings_raise_with_the_libraries_message(sim):
     dataset = slamkit.load_dataset(f"sim:{sim / 'sim'}")
-    with pytest.raises(ValueError, match="particles must be an integer >= 1"):
+    with pytest.raises(ValueError, match="particles must be an integer from 1 to 1000000"):
         slamkit.Filter(dataset, {"filter": "fastslam1", "particles": 0})
     with pytest.raises(ValueError, match="unknown key 'particle'"):
         slamkit.run(dataset, {"particle": 5})
