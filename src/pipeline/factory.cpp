@@ -121,7 +121,10 @@ nlohmann::json to_json(const FilterConfig& config) {
 FilterConfig filter_config_from_json(const nlohmann::json& json, const std::string& source) {
   if (!json.is_object()) throw InputError(source, 0, "expected the filter settings as a JSON object");
   FilterConfig config;
-  for (const auto& [key, value] : json.items()) {
+  // Named variables, not a structured binding: clang 14 cannot capture a binding in the lambdas below.
+  for (const auto& item : json.items()) {
+    const std::string& key = item.key();
+    const nlohmann::json& value = item.value();
     const auto name = [&] {
       if (!value.is_string()) throw InputError(source, 0, fmt::format("'{}' must be a name, found {}", key, value.dump()));
       return value.get<std::string>();

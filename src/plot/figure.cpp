@@ -138,7 +138,7 @@ bool Figure::add_ellipse(const Vector2& centre, const Matrix2& cov, double n_sig
 
 void Figure::add_text(const Vector2& at, std::string text, const TextStyle& style) {
   if (!finite(at)) return;
-  items_.emplace_back(std::in_place_type<Text>, at, std::move(text), style);
+  items_.push_back(Text{at, std::move(text), style});
 }
 
 void Figure::add_legend_entry(std::string label, const LineStyle& style) {

@@ -142,7 +142,10 @@ void read_keys(const nlohmann::json& json, const std::string& source, const std:
                std::span<const OptionKey<Options>> keys, Options& options) {
   if (!json.is_object())
     throw InputError(source, 0, fmt::format("expected {} as a JSON object, found {}", what, json.type_name()));
-  for (const auto& [key, value] : json.items()) {
+  // Named variables, not a structured binding: clang 14 cannot capture a binding in the lambdas below.
+  for (const auto& item : json.items()) {
+    const std::string& key = item.key();
+    const nlohmann::json& value = item.value();
     const auto k = std::find_if(keys.begin(), keys.end(), [&](const OptionKey<Options>& o) { return key == o.key; });
     if (k == keys.end())
       throw InputError(source, 0,
