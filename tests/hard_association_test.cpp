@@ -65,6 +65,8 @@ TEST(HardAssociation, JcbbForFastSlamIsRefusedNotReplacedByNearestNeighbour) {
   EXPECT_THROW(validate(config), std::invalid_argument);
   config.filter = FilterKind::kEkf;
   EXPECT_NO_THROW(validate(config));
+  config.filter = FilterKind::kUkf;  // a joint Gaussian too, whose JCBB is the EKF's
+  EXPECT_NO_THROW(validate(config));
 
   const Dataset d = simulate_scenario("sparse", 1);
   FastSlamConfig fs;

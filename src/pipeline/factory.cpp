@@ -70,8 +70,9 @@ void validate(const FilterConfig& config) {
     throw std::invalid_argument(
         fmt::format("EKF variant '{}' applies to the filter 'ekf', not 'ukf'", to_string(config.ekf_variant)));
   validate(config.association);
-  if (config.filter != FilterKind::kEkf && config.association.method == AssociationMethod::kJcbb)
-    throw std::invalid_argument(fmt::format("association jcbb is for the EKF; {} associates per particle with known or nn",
+  const bool particle_filter = config.filter == FilterKind::kFastSlam1 || config.filter == FilterKind::kFastSlam2;
+  if (particle_filter && config.association.method == AssociationMethod::kJcbb)
+    throw std::invalid_argument(fmt::format("association jcbb is for the EKF and the UKF; {} associates per particle with known or nn",
                                             to_string(config.filter)));
 }
 
