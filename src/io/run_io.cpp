@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "slamkit/core/error.hpp"
@@ -74,11 +75,21 @@ void read_associations(const std::string& path, RunResult& run) {
     if (!empty_scan) in.expect_fields(5, "scan t observation decision landmark_id");
     const long scan = in.integer(0, "scan");
     const double t = in.number(1, "t");
-    if (scan < 0 || static_cast<std::size_t>(scan) > run.associations.size())
-      in.fail("expected scans in order, found scan " + std::to_string(scan));
-    if (static_cast<std::size_t>(scan) == run.associations.size()) {
+    // Each line continues the current scan or starts the next: a line of an earlier scan would
+    // otherwise be filed under the current one.
+    const std::size_t next = run.associations.size();
+    const bool starts_scan = scan >= 0 && static_cast<std::size_t>(scan) == next;
+    const bool continues_scan = next > 0 && scan >= 0 && static_cast<std::size_t>(scan) == next - 1;
+    if (!starts_scan && !continues_scan)
+      in.fail(fmt::format("expected scan {}{}, found scan {}", next, next > 0 ? fmt::format(" or {}", next - 1) : "",
+                          scan));
+    if (starts_scan) {
       run.associations.emplace_back();
       run.scan_times.push_back(t);
+    } else if (empty_scan || run.associations.back().empty()) {
+      in.fail(fmt::format("scan {} was already given as having no observations", scan));
+    } else if (t != run.scan_times.back()) {
+      in.fail(fmt::format("scan {} has time {} here and {} on the lines before", scan, t, run.scan_times.back()));
     }
     if (empty_scan) continue;
     const long obs = in.integer(2, "observation");
@@ -95,7 +106,10 @@ void read_associations(const std::string& path, RunResult& run) {
       r.decision = AssociationDecision::kDiscard;
     else
       in.fail("expected a decision (update, new or discard), found '" + std::string(d) + "'");
-    r.landmark_id = static_cast<int>(in.integer(4, "landmark_id"));
+    const long id = in.integer(4, "landmark_id");
+    if (id < -1 || id > std::numeric_limits<int>::max())
+      in.fail(fmt::format("expected a landmark id from -1 to {}, found {}", std::numeric_limits<int>::max(), id));
+    r.landmark_id = static_cast<int>(id);
     records.push_back(r);
   }
 }

@@ -1,0 +1,87 @@
+// Reading a run folder back: associations.txt lines that do not continue the current scan or start
+// the next are errors naming the line (they used to be filed silently under the last scan).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "slamkit/io/run_io.hpp"
+#include "slamkit/pipeline/factory.hpp"
+#include "slamkit/pipeline/runner.hpp"
+#include "slamkit/sim/simulator.hpp"
+#include "test_data.hpp"
+
+namespace slamkit {
+namespace {
+
+namespace fs = std::filesystem;
+
+class RunFolder : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("slamkit_run_folder_" + std::to_string(::getpid()));
+    const Scenario s = scenario("default");
+    const Dataset data = simulate(s.world, s.config);
+    FilterConfig config;
+    config.association.method = AssociationMethod::kNearestNeighbour;
+    auto filter = make_filter(config, data);
+    write_run(dir_.string(), run_filter(*filter, data));
+    std::ifstream in(dir_ / "associations.txt");
+    for (std::string line; std::getline(in, line);) lines_.push_back(line);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Rewrites associations.txt with `lines`; returns the path.
+  std::string rewrite(const std::vector<std::string>& lines) const {
+    const fs::path path = dir_ / "associations.txt";
+    std::ofstream out(path);
+    for (const std::string& line : lines) out << line << "\n";
+    return path.string();
+  }
+  // The index of the first line of scan `k` (the file's own lines, comments included).
+  std::size_t first_line_of_scan(int k) const {
+    const std::string prefix = std::to_string(k) + " ";
+    for (std::size_t i = 0; i < lines_.size(); ++i)
+      if (lines_[i].rfind(prefix, 0) == 0) return i;
+    ADD_FAILURE() << "no scan " << k;
+    return 0;
+  }
+
+  fs::path dir_;
+  std::vector<std::string> lines_;
+};
+
+TEST_F(RunFolder, RoundTripsTheAssociations) {
+  const RunResult back = read_run(dir_.string());
+  EXPECT_GT(back.associations.size(), 100u);
+  EXPECT_EQ(back.associations.size(), back.scan_times.size());
+}
+
+TEST_F(RunFolder, ALineOfAnEarlierScanIsAnErrorNotFiledUnderTheLastOne) {
+  std::vector<std::string> lines = lines_;
+  const std::size_t at = first_line_of_scan(20);
+  lines.insert(lines.begin() + static_cast<long>(at), lines[first_line_of_scan(5)]);  // scan 5 again, inside 20's
+  const std::string path = rewrite(lines);
+  const std::string message = test_data::input_error_at([&] { read_run(dir_.string()); }, path, at + 1);
+  EXPECT_NE(message.find("expected scan"), std::string::npos) << message;
+}
+
+TEST_F(RunFolder, AScanWithTwoTimesIsAnError) {
+  std::vector<std::string> lines = lines_;
+  const std::size_t second = first_line_of_scan(30) + 1;  // the default world's scans see several landmarks
+  ASSERT_EQ(lines[second].rfind("30 ", 0), 0u);
+  std::istringstream fields(lines[second]);
+  std::string scan, t, rest;
+  fields >> scan >> t;
+  std::getline(fields, rest);
+  lines[second] = scan + " 9999.5" + rest;
+  const std::string path = rewrite(lines);
+  const std::string message = test_data::input_error_at([&] { read_run(dir_.string()); }, path, second + 1);
+  EXPECT_NE(message.find("has time 9999.5 here"), std::string::npos) << message;
+}
+
+}  // namespace
+}  // namespace slamkit
