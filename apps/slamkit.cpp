@@ -18,6 +18,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/version.hpp"
@@ -465,7 +466,7 @@ int main(int argc, char** argv) {
                                     : Pose2(metrics.alignment.translation.x(), metrics.alignment.translation.y(),
                                             metrics.alignment.theta);
         const nlohmann::json recording = recorder->to_json(run.filter, alignment);
-        std::ofstream((fs::path(run_out) / "replay.json").string()) << recording.dump() << "\n";
+        write_file_atomically((fs::path(run_out) / "replay.json").string(), recording.dump() + "\n");
         plot::write_replay_html((fs::path(run_out) / "replay.html").string(), recording);
       }
       stage("written and evaluated");

@@ -8,6 +8,7 @@
 #include <unordered_set>
 #include <nlohmann/json.hpp>
 
+#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/version.hpp"
 #include "slamkit/core/error.hpp"
 
@@ -268,9 +269,7 @@ std::optional<double> AssociationMetrics::loop_closure_fraction() const {
 
 void write_metrics(const std::string& dir, const Metrics& metrics) {
   const std::string path = (std::filesystem::path(dir) / "metrics.json").string();
-  std::ofstream out(path);
-  out << to_json(metrics).dump(2) << "\n";
-  if (!out) throw InputError(path, 0, "cannot write file");
+  write_file_atomically(path, to_json(metrics).dump(2) + "\n");
 }
 
 std::string headline(const Metrics& m) {

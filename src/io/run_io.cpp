@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
 #include "slamkit/io/trajectory_io.hpp"
@@ -24,11 +25,11 @@ namespace {
 std::string path_in(const std::string& dir, const char* file) { return (fs::path(dir) / file).string(); }
 
 void write_landmark_std(const std::string& path, const std::vector<LandmarkStdSample>& samples) {
-  std::ofstream out(path);
-  if (!out) throw InputError(path, 0, "cannot open file for writing");
+  AtomicFile file(path);
+  std::ofstream& out = file.stream();
   out << "# t id std_x std_y  (landmark standard deviations [m] over time)\n";
   for (const auto& s : samples) out << fmt::format("{:.6f} {} {:.6g} {:.6g}\n", s.t, s.id, s.std_x, s.std_y);
-  if (!out) throw InputError(path, 0, "write failed");
+  file.commit();
 }
 
 std::vector<LandmarkStdSample> read_landmark_std(const std::string& path) {
@@ -55,8 +56,8 @@ const char* decision_name(AssociationDecision d) {
 
 void write_associations(const std::string& path, const std::vector<double>& times,
                         const std::vector<std::vector<AssociationRecord>>& associations) {
-  std::ofstream out(path);
-  if (!out) throw InputError(path, 0, "cannot open file for writing");
+  AtomicFile file(path);
+  std::ofstream& out = file.stream();
   out << "# scan t observation decision landmark_id  (decision: update | new | discard)\n"
          "# a scan without observations is one line: scan t none\n";
   for (std::size_t k = 0; k < associations.size(); ++k) {
@@ -65,7 +66,7 @@ void write_associations(const std::string& path, const std::vector<double>& time
       out << fmt::format("{} {:.6f} {} {} {}\n", k, times[k], i, decision_name(associations[k][i].decision),
                          associations[k][i].landmark_id);
   }
-  if (!out) throw InputError(path, 0, "write failed");
+  file.commit();
 }
 
 void read_associations(const std::string& path, RunResult& run) {
@@ -115,13 +116,13 @@ void read_associations(const std::string& path, RunResult& run) {
 }
 
 void write_particles(const std::string& path, const std::vector<ParticleSample>& samples) {
-  std::ofstream out(path);
-  if (!out) throw InputError(path, 0, "cannot open file for writing");
+  AtomicFile file(path);
+  std::ofstream& out = file.stream();
   out << "# t x y theta weight  (particle clouds over time)\n";
   for (const auto& s : samples)
     out << fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} {:.6g}\n", s.t, s.particle.pose.x(), s.particle.pose.y(),
                        s.particle.pose.z(), s.particle.weight);
-  if (!out) throw InputError(path, 0, "write failed");
+  file.commit();
 }
 
 std::vector<ParticleSample> read_particles(const std::string& path) {
@@ -181,10 +182,7 @@ void write_run(const std::string& dir, const RunResult& run) {
                {"observations", run.observations},
                {"wall_time_s", run.wall_time_s},
                {"statistics", run.statistics}});
-  const std::string info_path = path_in(dir, "run.json");
-  std::ofstream out(info_path);
-  out << info.dump(2) << "\n";
-  if (!out) throw InputError(info_path, 0, "write failed");
+  write_file_atomically(path_in(dir, "run.json"), info.dump(2) + "\n");
 }
 
 RunResult read_run(const std::string& dir) {

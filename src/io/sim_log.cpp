@@ -15,6 +15,7 @@
 #include <variant>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
 
@@ -45,11 +46,7 @@ void append(Buffer& out, fmt::format_string<Values...> format, Values&&... value
 }
 
 void write_file(const fs::path& path, const Buffer& content) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw InputError(path.string(), 0, "cannot open file for writing");
-  out.write(content.data(), static_cast<std::streamsize>(content.size()));
-  out.close();
-  if (!out) throw InputError(path.string(), 0, "write failed");
+  write_file_atomically(path.string(), std::string_view(content.data(), content.size()));
 }
 
 // A truth file left in the directory by an earlier log would be read as the truth of this one.

@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "slamkit/core/angles.hpp"
+#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/text_reader.hpp"
 
 namespace slamkit {
@@ -22,9 +23,7 @@ namespace {
 /// millions of numbers, and a stream call per number is what would make writing them slow.
 class LineWriter {
  public:
-  explicit LineWriter(const std::string& path) : path_(path), out_(path) {
-    if (!out_) throw InputError(path_, 0, "cannot open file for writing");
-  }
+  explicit LineWriter(const std::string& path) : file_(path) {}
 
   template <typename... Args>
   void line(fmt::format_string<Args...> format, Args&&... args) {
@@ -36,20 +35,18 @@ class LineWriter {
   /// Writes what is left and closes the file; a disk-full or similar failure surfaces here.
   void finish() {
     flush();
-    out_.close();
-    if (!out_) throw InputError(path_, 0, "write failed");
+    file_.commit();
   }
 
  private:
   static constexpr std::size_t kFlushSize = 1 << 16;
 
   void flush() {
-    out_.write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+    file_.stream().write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
     buffer_.clear();
   }
 
-  std::string path_;
-  std::ofstream out_;
+  AtomicFile file_;
   fmt::memory_buffer buffer_;
 };
 

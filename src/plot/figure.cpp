@@ -12,6 +12,7 @@
 
 #include "axes.hpp"
 #include "slamkit/plot/svg_plot.hpp"
+#include "slamkit/core/atomic_file.hpp"
 #include "svg_elements.hpp"
 
 namespace slamkit::plot {
@@ -437,12 +438,7 @@ std::string Figure::to_svg() const {
 }
 
 void Figure::save(const std::string& path) const {
-  const std::string svg = to_svg();
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) throw std::runtime_error(fmt::format("cannot open '{}' for writing the plot", path));
-  file << svg;
-  file.close();
-  if (!file) throw std::runtime_error(fmt::format("cannot write the plot to '{}'", path));
+  write_file_atomically(path, to_svg());
 }
 
 }  // namespace slamkit::plot

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <string_view>
 
+#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit_replay_assets.hpp"
 
@@ -34,10 +35,7 @@ std::string replay_html(const nlohmann::json& recording) {
 }
 
 void write_replay_html(const std::string& path, const nlohmann::json& recording) {
-  std::ofstream out(path);
-  if (!out) throw InputError(path, 0, "cannot open file for writing");
-  out << replay_html(recording);
-  if (!out) throw InputError(path, 0, "write failed");
+  write_file_atomically(path, replay_html(recording));
 }
 
 }  // namespace slamkit::plot

@@ -13,6 +13,7 @@
 #include <unordered_map>
 
 #include "slamkit/core/angles.hpp"
+#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/checked_integer.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/text_reader.hpp"
@@ -140,14 +141,6 @@ class SpacingGrid {
   double cell_;
   std::unordered_map<std::uint64_t, std::vector<int>> cells_;
 };
-
-void write_file(const std::string& path, const fmt::memory_buffer& content) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw InputError(path, 0, "cannot open file for writing");
-  out.write(content.data(), static_cast<std::streamsize>(content.size()));
-  out.close();
-  if (!out) throw InputError(path, 0, "write failed");
-}
 
 }  // namespace
 
@@ -340,7 +333,7 @@ void write_world(const std::string& path, const World& world) {
   for (const Landmark& l : world.landmarks)
     fmt::format_to(it, "landmark {} {} {}\n", l.id, l.position.x(), l.position.y());
   for (const Vector2& w : world.waypoints) fmt::format_to(it, "waypoint {} {}\n", w.x(), w.y());
-  write_file(path, out);
+  write_file_atomically(path, std::string_view(out.data(), out.size()));
 }
 
 }  // namespace slamkit
