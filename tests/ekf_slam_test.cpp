@@ -4,46 +4,16 @@
 #include <Eigen/Dense>
 #include <random>
 
+#include "linear_models.hpp"
 #include "slamkit/core/angles.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/filters/joint_gaussian.hpp"
 
 using namespace slamkit;
+using test_models::LinearMotion;
+using test_models::LinearOffset;
 
 namespace {
-
-/// x' = x + dt u with u = (vx, vy, omega): a linear motion model.
-class LinearMotion final : public MotionModel {
- public:
-  std::string name() const override { return "linear"; }
-  int control_dim() const override { return 3; }
-  Pose2 predict(const Pose2& x, const Control& u, double dt) const override { return x + dt * u; }
-  Matrix3 jacobian_state(const Pose2&, const Control&, double) const override { return Matrix3::Identity(); }
-  ControlJacobian jacobian_control(const Pose2&, const Control&, double dt) const override {
-    return dt * Matrix3::Identity();
-  }
-  ControlCovariance control_noise(const Control&, double) const override {
-    return Eigen::Vector3d(0.04, 0.09, 0.001).asDiagonal();
-  }
-};
-
-/// z = m - (x, y): the landmark's offset from the vehicle in world axes, a linear observation.
-class LinearOffset final : public ObservationModel {
- public:
-  std::string name() const override { return "offset"; }
-  Vector2 predict(const Pose2& x, const Vector2& m) const override { return m - x.head<2>(); }
-  void jacobians(const Pose2&, const Vector2&, Matrix23& hx, Matrix2& hm) const override {
-    hx << -1, 0, 0, 0, -1, 0;
-    hm.setIdentity();
-  }
-  Matrix2 noise() const override { return (Matrix2() << 0.02, 0.005, 0.005, 0.03).finished(); }
-  Vector2 residual(const Vector2& z, const Vector2& zhat) const override { return z - zhat; }
-  Vector2 inverse(const Pose2& x, const Vector2& z) const override { return x.head<2>() + z; }
-  void inverse_jacobians(const Pose2&, const Vector2&, Matrix23& gx, Matrix2& gz) const override {
-    gx << 1, 0, 0, 0, 1, 0;
-    gz.setIdentity();
-  }
-};
 
 /// A textbook Kalman filter on the full joint state, written densely and independently of EkfSlam:
 /// full F, full H, Joseph-form covariance update, augmentation as a linear map of the joint state.
@@ -94,7 +64,7 @@ class LinearGaussian : public ::testing::TestWithParam<bool> {};
 // Both ways of applying a scan (joint, and one observation after another) equal the textbook filter
 // when the models are linear.
 TEST_P(LinearGaussian, EkfSlamEqualsPlainKalmanFilter) {
-  auto motion = std::make_shared<LinearMotion>();
+  auto motion = std::make_shared<LinearMotion>(Eigen::Vector3d(0.04, 0.09, 0.001).asDiagonal().toDenseMatrix());
   auto obs = std::make_shared<LinearOffset>();
   EkfSlamOptions options;
   options.initial_pose = Pose2(1.0, -2.0, 0.1);

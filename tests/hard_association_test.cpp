@@ -4,7 +4,6 @@
 #include <gtest/gtest.h>
 
 #include "slamkit/eval/evaluation.hpp"
-#include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/filters/fastslam.hpp"
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/pipeline/runner.hpp"
@@ -26,12 +25,9 @@ struct EkfRun {
 };
 
 EkfRun run_ekf(const Dataset& d, AssociationMethod method) {
-  EkfSlamOptions options;
-  options.initial_pose = d.initial_pose;
-  options.association.method = method;
-  options.sensor = d.sensor;
-  EkfSlam filter(d.motion, d.observation, options);
-  RunResult run = run_filter(filter, d);
+  FilterConfig config;
+  config.association.method = method;
+  RunResult run = run_filter(*make_filter(config, d), d);
   run.association = to_string(method);
   return {evaluate_run(run, d.truth), run.statistics};
 }

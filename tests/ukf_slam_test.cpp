@@ -2,47 +2,15 @@
 // JointGaussian is exact there), and on a nearly linear one it agrees with the EKF to first order.
 #include <gtest/gtest.h>
 
+#include "linear_models.hpp"
 #include "slamkit/filters/joint_gaussian.hpp"
 #include "slamkit/filters/unscented_joint_gaussian.hpp"
 
 using namespace slamkit;
+using test_models::LinearMotion;
+using test_models::LinearOffset;
 
 namespace {
-
-// x' = x + u dt: linear, with a control noise that does not depend on the state.
-class LinearMotion final : public MotionModel {
- public:
-  std::string name() const override { return "linear"; }
-  int control_dim() const override { return 3; }
-  Pose2 predict(const Pose2& x, const Control& u, double dt) const override { return x + dt * u; }
-  Matrix3 jacobian_state(const Pose2&, const Control&, double) const override { return Matrix3::Identity(); }
-  ControlJacobian jacobian_control(const Pose2&, const Control&, double dt) const override {
-    return dt * Matrix3::Identity();
-  }
-  ControlCovariance control_noise(const Control&, double) const override {
-    ControlCovariance m(3, 3);
-    m << 0.04, 0.01, 0.0, 0.01, 0.09, 0.002, 0.0, 0.002, 0.003;
-    return m;
-  }
-};
-
-// z = m - p: the landmark's offset from the vehicle in the map frame.
-class LinearObservation final : public ObservationModel {
- public:
-  std::string name() const override { return "offset"; }
-  Vector2 predict(const Pose2& x, const Vector2& m) const override { return m - x.head<2>(); }
-  void jacobians(const Pose2&, const Vector2&, Matrix23& hx, Matrix2& hm) const override {
-    hx << -1, 0, 0, 0, -1, 0;
-    hm.setIdentity();
-  }
-  Matrix2 noise() const override { return (Matrix2() << 0.02, 0.005, 0.005, 0.03).finished(); }
-  Vector2 residual(const Vector2& z, const Vector2& zhat) const override { return z - zhat; }
-  Vector2 inverse(const Pose2& x, const Vector2& z) const override { return x.head<2>() + z; }
-  void inverse_jacobians(const Pose2&, const Vector2&, Matrix23& gx, Matrix2& gz) const override {
-    gx << 1, 0, 0, 0, 1, 0;
-    gz.setIdentity();
-  }
-};
 
 Control control(double a, double b, double c) {
   Control u(3);
@@ -73,8 +41,10 @@ void drive(EkfEstimator& f) {
 class UkfOnLinearGaussianSystem : public ::testing::TestWithParam<Matrix3> {};
 
 TEST_P(UkfOnLinearGaussianSystem, EqualsTheKalmanFilter) {
-  auto motion = std::make_shared<LinearMotion>();
-  auto observation = std::make_shared<LinearObservation>();
+  // A control noise with correlations, which the sigma points must carry exactly.
+  auto motion = std::make_shared<LinearMotion>(
+      (Matrix3() << 0.04, 0.01, 0.0, 0.01, 0.09, 0.002, 0.0, 0.002, 0.003).finished());
+  auto observation = std::make_shared<LinearOffset>();
   JointGaussian kalman(motion, observation, Pose2(1.0, -2.0, 0.3), GetParam());
   UnscentedJointGaussian ukf(motion, observation, Pose2(1.0, -2.0, 0.3), GetParam());
   drive(kalman);

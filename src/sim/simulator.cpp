@@ -262,8 +262,9 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
   out.truth.poses_have_heading = true;
   out.truth.landmarks = world.landmarks;
 
+  const double lap_length = route_length(waypoints);
   const auto expected_steps = checked_integer<std::size_t>(
-      1.05 * config.loops * route_length(waypoints) / (config.speed * dt) + 16.0, "the run's number of control steps");
+      1.05 * config.loops * lap_length / (config.speed * dt) + 16.0, "the run's number of control steps");
   // A control event, a true pose, and a scan's share: its event and observations (a dozen landmarks in
   // view and the clutter).
   require_memory(static_cast<double>(expected_steps) *
@@ -271,7 +272,7 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
                       (sizeof(Event) + (12.0 + config.clutter_rate) * sizeof(Observation)) /
                           static_cast<double>(steps_per_scan)),
                  fmt::format("simulating {} laps of a {:.0f} m route at {} m/s every {} s", config.loops,
-                             route_length(waypoints), config.speed, dt));
+                             lap_length, config.speed, dt));
   out.events.reserve(expected_steps + expected_steps / static_cast<std::size_t>(steps_per_scan));
   out.truth.poses.reserve(expected_steps + 1);
   out.truth.poses.push_back(StampedPose{0.0, pose});
