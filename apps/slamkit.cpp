@@ -254,6 +254,45 @@ int main(int argc, char** argv) {
             "EKF: full, compressed (local-area updates, the same result as full with sequential updates), "
             "fej (first-estimates Jacobians) or invariant (right-invariant error); fej and invariant keep "
             "the EKF consistent");
+  // Association and map management: a file holding the keys run.json records under
+  // settings.association, and a flag for each setting, which overrides the file.
+  std::string assoc_config_path, gate_known;
+  AssociationConfig assoc_flags;
+  run_cmd->add_option("--assoc-config", assoc_config_path,
+                      "Association and map-management settings (JSON, the keys of run.json's settings.association); "
+                      "the flags below override it")
+      ->check(CLI::ExistingFile);
+  run_cmd->add_option("--accept-probability", assoc_flags.accept_probability,
+                      "Pair an observation with a landmark only inside this chi-square quantile of its innovation")
+      ->capture_default_str();
+  run_cmd->add_option("--new-landmark-probability", assoc_flags.new_landmark_probability,
+                      "Start a landmark only outside this quantile for every candidate (between: discarded)")
+      ->capture_default_str();
+  run_cmd->add_option("--gate-known", gate_known,
+                      "Known ids: reject an observation beyond the new-landmark gate (default: EKF and UKF on, FastSLAM off)")
+      ->check(CLI::IsMember({"on", "off"}));
+  run_cmd->add_option("--confirm-after", assoc_flags.confirm_after, "Observations that confirm a new landmark")
+      ->capture_default_str()
+      ->check(integer_at_least(1));
+  run_cmd->add_option("--provisional-max-misses", assoc_flags.provisional_max_misses,
+                      "Scans in a row a provisional landmark may be missed in view")
+      ->capture_default_str()
+      ->check(integer_at_least(1));
+  run_cmd->add_option("--confirmed-max-misses", assoc_flags.confirmed_max_misses,
+                      "Scans in a row a confirmed landmark may be missed in view (0: never removed)")
+      ->capture_default_str()
+      ->check(integer_at_least(0));
+  run_cmd->add_option("--view-margin-m", assoc_flags.view_margin_m, "Range margin of \"in view\" for misses [m]")
+      ->capture_default_str();
+  run_cmd->add_option("--view-margin-rad", assoc_flags.view_margin_rad, "Bearing margin of \"in view\" for misses [rad]")
+      ->capture_default_str();
+  run_cmd->add_option("--jcbb-max-nodes", assoc_flags.jcbb_max_nodes, "JCBB: search nodes per scan")
+      ->capture_default_str()
+      ->check(integer_at_least(1));
+  const char* assoc_flag_names[] = {"--assoc-config",         "--accept-probability", "--new-landmark-probability",
+                                    "--gate-known",           "--confirm-after",      "--provisional-max-misses",
+                                    "--confirmed-max-misses", "--view-margin-m",      "--view-margin-rad",
+                                    "--jcbb-max-nodes"};
   run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots");
   std::string repeat_path;
   bool print_config = false, replay = false, quiet = false, verbose = false;
@@ -262,6 +301,7 @@ int main(int argc, char** argv) {
   for (const char* name : {"--filter", "--assoc", "--seed", "--particles", "--resample", "--resample-when",
                            "--threads", "--ekf-update", "--ekf-variant"})
     setting_opts.push_back(run_cmd->get_option(name));
+  for (const char* name : assoc_flag_names) setting_opts.push_back(run_cmd->get_option(name));
   auto* repeat_opt =
       run_cmd
           ->add_option("--config", repeat_path,
@@ -350,6 +390,22 @@ int main(int argc, char** argv) {
         settings_contents = previous.value("dataset_settings_contents", nlohmann::json());
       } else {
         if (data_spec.empty()) return usage_error("--data is required (or --config with an earlier run.json)");
+        if (!assoc_config_path.empty()) {
+          const AssociationMethod method = filter.association.method;
+          filter.association = association_config_from_json(read_json_file(assoc_config_path), assoc_config_path);
+          if (run_cmd->count("--assoc") > 0) filter.association.method = method;
+        }
+        AssociationConfig& a = filter.association;
+        const auto given = [&](const char* name) { return run_cmd->count(name) > 0; };
+        if (given("--accept-probability")) a.accept_probability = assoc_flags.accept_probability;
+        if (given("--new-landmark-probability")) a.new_landmark_probability = assoc_flags.new_landmark_probability;
+        if (given("--gate-known")) a.gate_known = gate_known == "on";
+        if (given("--confirm-after")) a.confirm_after = assoc_flags.confirm_after;
+        if (given("--provisional-max-misses")) a.provisional_max_misses = assoc_flags.provisional_max_misses;
+        if (given("--confirmed-max-misses")) a.confirmed_max_misses = assoc_flags.confirmed_max_misses;
+        if (given("--view-margin-m")) a.view_margin_m = assoc_flags.view_margin_m;
+        if (given("--view-margin-rad")) a.view_margin_rad = assoc_flags.view_margin_rad;
+        if (given("--jcbb-max-nodes")) a.jcbb_max_nodes = assoc_flags.jcbb_max_nodes;
         validate(filter);
         settings_contents = dataset_settings_json(data_config);
       }

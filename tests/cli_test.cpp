@@ -338,6 +338,11 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
       {"--particles 2.5", "--particles: expected an integer >= 1, found 2.5"},
       {"--threads -1", "--threads: expected an integer >= 0, found -1"},
       {"--seed -1", "--seed: expected an integer >= 0, found -1"},
+      {"--accept-probability 1.5", "association setting accept_probability must be in (0, 1), found 1.5"},
+      {"--new-landmark-probability 0.5", "new_landmark_probability must be in [accept_probability, 1) = [0.99, 1)"},
+      {"--gate-known maybe", "--gate-known"},
+      {"--confirm-after 0", "--confirm-after: expected an integer >= 1, found 0"},
+      {"--confirmed-max-misses -1", "--confirmed-max-misses: expected an integer >= 0, found -1"},
   };
   for (const auto& c : cases) {
     const Result r = slamkit("run " + std::string(c.options) + rest, *work_);
@@ -470,6 +475,47 @@ TEST_F(Cli, PrintConfigShowsEveryEffectiveSettingWithoutRunning) {
   EXPECT_EQ(config.at("settings").at("resample"), "systematic");
   EXPECT_TRUE(config.at("settings").at("association").contains("accept_probability"));
   EXPECT_EQ(config.at("dataset"), "sim:" + fs::weakly_canonical(*work_ / "sim").string());
+}
+
+// The association file sets what it names, the flags override it, and run.json records the result.
+TEST_F(Cli, AssociationSettingsComeFromAFileAndFlagsOverrideIt) {
+  const fs::path file = *work_ / "association.json";
+  std::ofstream(file) << R"({"method": "jcbb", "accept_probability": 0.95, "confirm_after": 5, "gate_known": false})";
+  const std::string data = " --data sim:" + (*work_ / "sim").string();
+  const Result printed = slamkit("run --assoc-config " + file.string() + " --confirm-after 4 --gate-known on" + data +
+                                     " --print-config",
+                                 *work_);
+  ASSERT_EQ(printed.exit_code, 0) << printed.err;
+  const nlohmann::json association = nlohmann::json::parse(printed.out).at("settings").at("association");
+  EXPECT_EQ(association.at("method"), "jcbb");
+  EXPECT_EQ(association.at("accept_probability"), 0.95);
+  EXPECT_EQ(association.at("confirm_after"), 4);
+  EXPECT_EQ(association.at("gate_known"), true);
+  EXPECT_EQ(association.at("provisional_max_misses"), 3);  // not named anywhere: the default
+
+  const fs::path out = *work_ / "assoc_flags_run";
+  const Result run = slamkit("run --assoc-config " + file.string() + " --assoc nn --new-landmark-probability 0.999" +
+                                 data + " --out " + out.string(),
+                             *work_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::ifstream run_json(out / "run.json");
+  const nlohmann::json recorded = nlohmann::json::parse(run_json).at("settings").at("association");
+  EXPECT_EQ(recorded.at("method"), "nn");
+  EXPECT_EQ(recorded.at("new_landmark_probability"), 0.999);
+  EXPECT_EQ(recorded.at("confirm_after"), 5);
+
+  // A wrong file is bad input naming it, before any data is read; a repeated run takes none of these.
+  std::ofstream(*work_ / "bad_association.json") << R"({"confirm_afterr": 5})";
+  const Result bad = slamkit("run --assoc-config " + (*work_ / "bad_association.json").string() +
+                                 " --data sim:/nonexistent/log --out " + (*work_ / "never").string(),
+                             *work_);
+  EXPECT_EQ(bad.exit_code, 1) << bad.err;
+  EXPECT_NE(bad.err.find("bad_association.json"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("confirm_afterr"), std::string::npos) << bad.err;
+  const Result repeat = slamkit("run --config " + (out / "run.json").string() + " --confirm-after 2 --out " +
+                                    (*work_ / "never").string(),
+                                *work_);
+  EXPECT_EQ(repeat.exit_code, 2) << repeat.err;
 }
 
 TEST_F(Cli, VersionUnknownSubcommandAndIgnoredOptions) {
