@@ -9,13 +9,13 @@
 #   e.g. scripts/consistency_monte_carlo.sh w1k.txt --config fov150.json --loops 1
 # Environment: SLAMKIT (the binary, default build/slamkit), RUNS (default 50), JOBS (parallel runs,
 # default 2), OUT (scratch folder, default out/consistency-<world>), FILTERS (default
-# "ekf ukf fej invariant").
+# "ekf ukf fej fej-iterated invariant").
 set -euo pipefail
 
 slamkit=${SLAMKIT:-build/slamkit}
 runs=${RUNS:-50}
 jobs=${JOBS:-2}
-filters=${FILTERS:-ekf ukf fej invariant}
+filters=${FILTERS:-ekf ukf fej fej-iterated invariant}
 die() { echo "consistency_monte_carlo.sh: $*" >&2; exit 1; }
 [[ $# -ge 1 ]] || die "usage: $0 default|sparse|WORLD_FILE [simulate options...]"
 [[ -x $slamkit ]] || die "no slamkit binary at $slamkit (set SLAMKIT)"
@@ -32,6 +32,7 @@ filter_args() {
     ekf) echo "--filter ekf" ;;
     ukf) echo "--filter ukf" ;;
     fej) echo "--filter ekf --ekf-variant fej" ;;
+    fej-iterated) echo "--filter ekf --ekf-variant fej --ekf-update iterated" ;;
     invariant) echo "--filter ekf --ekf-variant invariant" ;;
     *) die "unknown filter '$1'" ;;
   esac

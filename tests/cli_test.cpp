@@ -329,7 +329,7 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
       {"--filter ukf --ekf-variant fej", "EKF variant 'fej' applies to the filter 'ekf', not 'ukf'"},
       {"--assoc nearest", "--assoc: unknown association 'nearest'; expected one of: known, nn, jcbb"},
       {"--ekf-variant sparse", "--ekf-variant: unknown EKF variant 'sparse'; expected one of: full, compressed, fej, invariant"},
-      {"--ekf-update both", "--ekf-update: unknown EKF update 'both'; expected one of: joint, sequential"},
+      {"--ekf-update both", "--ekf-update: unknown EKF update 'both'; expected one of: joint, sequential, iterated"},
       {"--resample best", "--resample: unknown resampling method 'best'; expected one of: multinomial"},
       {"--resample-when sometimes", "--resample-when: unknown resampling policy 'sometimes'; expected always"},
       {"--resample-when every:0", "K must be an integer >= 1"},

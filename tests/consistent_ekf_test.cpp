@@ -1,7 +1,7 @@
 // The consistent EKF variants over Monte Carlo runs of the sparse world (35 landmarks, a 640 m loop
 // driven twice, 180-degree field of view), where the plain EKF becomes overconfident: the
 // first-estimates-Jacobians EKF and the invariant EKF are far closer to consistent, and no less
-// accurate. A shorter version of the 50-run experiment of scripts/consistency_monte_carlo.sh.
+// accurate; with the iterated update the first-estimates EKF is consistent. A shorter version of the 50-run experiment of scripts/consistency_monte_carlo.sh.
 #include <gtest/gtest.h>
 
 #include <map>
@@ -24,7 +24,8 @@ struct Summary {
 };
 
 // The same seeds for every filter, so they see the same noise.
-Summary monte_carlo(FilterKind kind, EkfVariant variant, AssociationMethod association = AssociationMethod::kKnown) {
+Summary monte_carlo(FilterKind kind, EkfVariant variant, AssociationMethod association = AssociationMethod::kKnown,
+                    EkfUpdate update = EkfUpdate::kJoint, bool gate_known = false) {
   Summary s;
   for (int run = 0; run < kRuns; ++run) {
     Scenario sparse = scenario("sparse");
@@ -34,9 +35,10 @@ Summary monte_carlo(FilterKind kind, EkfVariant variant, AssociationMethod assoc
     config.filter = kind;
     config.ekf_variant = variant;
     config.association.method = association;
+    config.ekf_update = update;
     // The known-id outlier gate rejects true observations once the plain EKF is overconfident; off,
-    // so that every filter gets the same observations.
-    config.association.gate_known = false;
+    // so that every filter gets the same observations, unless the test is about the default.
+    config.association.gate_known = gate_known;
     auto filter = make_filter(config, d);
     const Metrics m = evaluate_run(run_filter(*filter, d), d.truth);
     EXPECT_TRUE(m.nees_pose.has_value());
@@ -68,4 +70,23 @@ TEST(ConsistentFiltersOnTheSparseWorld, AreFarCloserToConsistentThanThePlainEkfA
     EXPECT_GT(s.in_band, ekf.in_band + 0.1);
     EXPECT_LT(s.ate, 1.1 * ekf.ate);
   }
+}
+
+// The divergent runs of the 50-run table start at the first loop closure, after 640 m of drift: the
+// single linearisation at the drifted pose leaves the filter overconfident, and then the known-id
+// gate rejects true observations. The iterated update closes the loop at the maximum a posteriori
+// estimate: with the default gate, FEJ without it averages a NEES of 8.6 and 83% of steps in the band
+// over these seeds, with it 2.7 and 92% (the 50-run figures are in docs/consistency.md).
+TEST(ConsistentFiltersOnTheSparseWorld, IteratedFirstEstimatesEkfIsConsistentWithTheDefaultGate) {
+  const Summary single = monte_carlo(FilterKind::kEkf, EkfVariant::kFirstEstimates, AssociationMethod::kKnown,
+                                     EkfUpdate::kJoint, true);
+  const Summary iterated = monte_carlo(FilterKind::kEkf, EkfVariant::kFirstEstimates, AssociationMethod::kKnown,
+                                       EkfUpdate::kIterated, true);
+  RecordProperty("fej_mean_nees", std::to_string(single.mean_nees));
+  RecordProperty("fej_iterated_mean_nees", std::to_string(iterated.mean_nees));
+  RecordProperty("fej_iterated_in_band", std::to_string(iterated.in_band));
+  EXPECT_GT(single.mean_nees, 5.0);
+  EXPECT_LE(iterated.mean_nees, 3.5);
+  EXPECT_GE(iterated.in_band, 0.9);
+  EXPECT_LT(iterated.ate, single.ate);
 }

@@ -32,7 +32,7 @@ std::unique_ptr<EkfEstimator> make_estimator(std::shared_ptr<const MotionModel> 
                                       : options.variant == EkfVariant::kInvariant   ? Linearisation::kInvariant
                                                                                     : Linearisation::kStandard;
   return std::make_unique<JointGaussian>(std::move(motion), std::move(observation), options.initial_pose,
-                                         options.initial_covariance, linearisation);
+                                         options.initial_covariance, linearisation, options.update_iterations);
 }
 
 }  // namespace

@@ -2,12 +2,17 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <stdexcept>
+#include <string>
 
 #include "slamkit/core/angles.hpp"
 
 namespace slamkit {
 
 namespace {
+// An iterate that moves no row the batch reads by more than this (metres, radians) has converged.
+constexpr double kIterateTolerance = 1e-6;
+
 // Eigen's matrix-product kernels pack their operands into buffers that live on the stack up to
 // EIGEN_STACK_ALLOCATION_LIMIT (128 KB) and come from the heap above it. A product over the whole
 // covariance (a tall n x k operand) passes that limit once the map has a few hundred landmarks, so
@@ -36,10 +41,15 @@ void downdate_lower(Eigen::Ref<Eigen::MatrixXd> p, const Eigen::Ref<const Eigen:
 
 JointGaussian::JointGaussian(std::shared_ptr<const MotionModel> motion,
                              std::shared_ptr<const ObservationModel> observation, const Pose2& initial_pose,
-                             const Matrix3& initial_covariance, Linearisation linearisation)
+                             const Matrix3& initial_covariance, Linearisation linearisation, int update_iterations)
     : EkfEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance),
       linearisation_(linearisation),
-      predicted_pose_(x_.head<3>()) {}
+      update_iterations_(update_iterations),
+      predicted_pose_(x_.head<3>()) {
+  if (update_iterations_ < 1 || update_iterations_ > kMaxUpdateIterations)
+    throw std::invalid_argument("EKF update iterations must be from 1 to " + std::to_string(kMaxUpdateIterations) +
+                                ", found " + std::to_string(update_iterations_));
+}
 
 Vector2 JointGaussian::landmark_position(std::size_t index) const {
   return x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
@@ -112,6 +122,10 @@ void JointGaussian::covariance_times_jacobian(std::size_t lm_offset, const Matri
 }
 
 bool JointGaussian::update_landmark(std::size_t index, const Vector2& z) {
+  if (update_iterations_ > 1) {
+    const LandmarkObservation one{index, z};
+    return update_landmarks(std::span<const LandmarkObservation>(&one, 1));
+  }
   apply_pending_motion();
   const std::size_t l = landmark_offset(index);
   const auto li = static_cast<Eigen::Index>(l);
@@ -120,7 +134,7 @@ bool JointGaussian::update_landmark(std::size_t index, const Vector2& z) {
   const Vector2 m = x_.segment<2>(li);
   Matrix23 hx;
   Matrix2 hm;
-  observation_jacobians(index, hx, hm);
+  observation_jacobians(index, x_, linearisation_, hx, hm);
   const Vector2 nu = observation_->residual(z, observation_->predict(xv, m));
 
   auto pht = pht_.leftCols<2>().topRows(n);  // two columns known at compile time: 2x2 products stay fixed-size
@@ -163,25 +177,80 @@ void JointGaussian::reserve_joint_update(Eigen::Index k) {
 }
 
 bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch) {
-  if (batch.size() == 1) return update_landmark(batch[0].index, batch[0].z);
   if (batch.empty()) return true;
+  if (batch.size() == 1 && update_iterations_ == 1) return update_landmark(batch[0].index, batch[0].z);
   apply_pending_motion();
   const auto n = static_cast<Eigen::Index>(dim_);
   const auto k = static_cast<Eigen::Index>(2 * batch.size());
-  const Pose2 xv = x_.head<3>();
   reserve_joint_update(k);
   batch_hx_.resize(batch.size());
   batch_hm_.resize(batch.size());
+  if (update_iterations_ == 1) {
+    linearise_batch(batch, x_, linearisation_);
+    return apply_joint_update(k);
+  }
+  // Iterated: relinearise at the update's result until it stops moving. The rows the batch reads
+  // (the vehicle and the observed landmarks) are all an iterate needs.
+  if (iterate_.size() < x_.size()) {
+    iterate_.resize(x_.size());
+    iterate_step_.resize(x_.size());
+  }
+  iterate_.head(n) = x_.head(n);
+  if (iterate_s_.rows() < k) iterate_s_.resize(batch_s_.rows(), batch_s_.cols());
+  // The iterates are Gauss-Newton's, with the Jacobians at each; the first-estimates variant then
+  // makes its update with its own Jacobians about the last iterate (its fixed Jacobians drove the
+  // iterates astray where a landmark's first estimate is poor: Victoria Park ATE 1.70 -> 4.12 m).
+  for (int iteration = 1;; ++iteration) {
+    linearise_batch(batch, iterate_, Linearisation::kStandard);
+    if (iteration == update_iterations_) break;
+    auto s = iterate_s_.topLeftCorner(k, k);
+    s = batch_s_.topLeftCorner(k, k);
+    s.triangularView<Eigen::StrictlyLower>() = 0.5 * (s + s.transpose());
+    const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(s);
+    if (llt.info() != Eigen::Success) break;  // apply_joint_update reports it
+    auto step = iterate_step_.head(k);
+    step = batch_nu_.head(k);
+    llt.solveInPlace(step);
+    // The next iterate: where the update with this linearisation would put the rows, x + W S^-1 nu.
+    double change = 0.0;
+    const auto move = [&](Eigen::Index row) {
+      double next = x_[row] + pht_.row(row).head(k).dot(step);
+      double moved = next - iterate_[row];
+      if (row == 2) {
+        next = wrap_angle(next);
+        moved = wrap_angle(moved);
+      }
+      change = std::max(change, std::abs(moved));
+      iterate_[row] = next;
+    };
+    for (Eigen::Index row = 0; row < 3; ++row) move(row);
+    for (const LandmarkObservation& o : batch)
+      for (Eigen::Index row = 0; row < 2; ++row) move(static_cast<Eigen::Index>(landmark_offset(o.index)) + row);
+    if (change < kIterateTolerance) break;
+  }
+  if (linearisation_ == Linearisation::kFirstEstimates) linearise_batch(batch, iterate_, linearisation_);
+  return apply_joint_update(k);
+}
+
+void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, const Eigen::VectorXd& at,
+                                    Linearisation how) {
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const auto k = static_cast<Eigen::Index>(2 * batch.size());
+  const Pose2 xv = at.head<3>();
+  Pose2 vehicle_offset = x_.head<3>() - xv;
+  vehicle_offset[2] = wrap_angle(vehicle_offset[2]);
   // W = P H^T, two columns per observation, each pair from the two column blocks its row of H touches.
   auto pht = pht_.topLeftCorner(n, k);
   auto nu = batch_nu_.head(k);
   for (std::size_t i = 0; i < batch.size(); ++i) {
-    const auto l = landmark_offset(batch[i].index);
+    const auto l = static_cast<Eigen::Index>(landmark_offset(batch[i].index));
     const auto r = 2 * static_cast<Eigen::Index>(i);
-    const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(l));
-    observation_jacobians(batch[i].index, batch_hx_[i], batch_hm_[i]);
-    nu.segment<2>(r) = observation_->residual(batch[i].z, observation_->predict(xv, m));
-    covariance_times_jacobian(l, batch_hx_[i], batch_hm_[i], pht.middleCols<2>(r));
+    const Vector2 m = at.segment<2>(l);
+    observation_jacobians(batch[i].index, at, how, batch_hx_[i], batch_hm_[i]);
+    // Zero at the estimate; at an iterate, h(x) ~ h(at) + H (x - at) carries it back to the estimate.
+    const Vector2 to_estimate = batch_hx_[i] * vehicle_offset + batch_hm_[i] * (x_.segment<2>(l) - m);
+    nu.segment<2>(r) = observation_->residual(batch[i].z, observation_->predict(xv, m)) - to_estimate;
+    covariance_times_jacobian(static_cast<std::size_t>(l), batch_hx_[i], batch_hm_[i], pht.middleCols<2>(r));
   }
   // S = H P H^T + R, block (i, j) = H_i (P H_j^T).
   auto s = batch_s_.topLeftCorner(k, k);
@@ -191,7 +260,6 @@ bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch)
     s.middleRows<2>(r).noalias() = batch_hx_[i] * pht.topRows<3>() + batch_hm_[i] * pht.middleRows<2>(l);
     s.block<2, 2>(r, r) += observation_->noise();
   }
-  return apply_joint_update(k);
 }
 
 bool JointGaussian::apply_joint_update(Eigen::Index k) {
@@ -227,12 +295,13 @@ bool JointGaussian::apply_joint_update(Eigen::Index k) {
   return true;
 }
 
-void JointGaussian::observation_jacobians(std::size_t index, Matrix23& hx, Matrix2& hm) const {
-  if (linearisation_ == Linearisation::kFirstEstimates) {
+void JointGaussian::observation_jacobians(std::size_t index, const Eigen::VectorXd& at, Linearisation how,
+                                          Matrix23& hx, Matrix2& hm) const {
+  if (how == Linearisation::kFirstEstimates) {
     observation_->jacobians(predicted_pose_, first_estimates_[index], hx, hm);
     return;
   }
-  observation_->jacobians(x_.head<3>(), x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index))), hx, hm);
+  observation_->jacobians(at.head<3>(), at.segment<2>(static_cast<Eigen::Index>(landmark_offset(index))), hx, hm);
 }
 
 void JointGaussian::correct(const Eigen::Ref<const Eigen::VectorXd>& delta) {

@@ -8,8 +8,6 @@
 
 namespace slamkit {
 
-namespace {
-
 // The symmetric sigma-point set of a Gaussian with covariance `cov`: points mean +- o_j, o_j = c a_j
 // for the r columns a_j of a square root A (A A^T = cov), each point of weight 1/(2 c^2), the mean
 // itself taking the rest. The spread c^2 = min(r, 3): 3 matches the Gaussian's fourth moment along
@@ -18,22 +16,22 @@ namespace {
 // covariance is well conditioned (cheap); otherwise the eigen-directions of non-zero variance, so
 // that a singular covariance (the start pose is known exactly) gives points only where there is
 // uncertainty.
-struct SigmaPoints {
-  Eigen::MatrixXd offsets;          // the o_j as columns (d x r)
-  Eigen::MatrixXd inverse_offsets;  // their pseudo-inverse (r x d)
-  double weight = 0.0;              // of each of the 2r points
-};
-
-SigmaPoints sigma_points(const Eigen::MatrixXd& cov) {
+void UnscentedJointGaussian::sigma_points(Transform& t, const Eigen::MatrixXd& cov) {
   const Eigen::Index d = cov.rows();
-  const Eigen::LLT<Eigen::MatrixXd> llt(cov);
+  t.factor = cov;
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(t.factor);
   if (llt.info() == Eigen::Success &&
-      llt.matrixLLT().diagonal().array().square().minCoeff() > 1e-12 * cov.diagonal().maxCoeff()) {
+      t.factor.diagonal().array().square().minCoeff() > 1e-12 * cov.diagonal().maxCoeff()) {
     const double spread = std::min(static_cast<double>(d), 3.0);
     const double c = std::sqrt(spread);
-    SigmaPoints points{c * Eigen::MatrixXd(llt.matrixL()), Eigen::MatrixXd::Identity(d, d) / c, 0.5 / spread};
-    llt.matrixL().solveInPlace(points.inverse_offsets);
-    return points;
+    t.offsets = t.factor.triangularView<Eigen::Lower>();
+    t.offsets *= c;
+    t.inverse_offsets.setIdentity(d, d);
+    t.inverse_offsets /= c;
+    t.factor.triangularView<Eigen::Lower>().solveInPlace(t.inverse_offsets);
+    t.weight = 0.5 / spread;
+    t.triangular = true;
+    return;
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(cov);
   const Eigen::VectorXd& lambda = eigen.eigenvalues();
@@ -43,59 +41,52 @@ SigmaPoints sigma_points(const Eigen::MatrixXd& cov) {
     if (lambda[j] > floor && lambda[j] > 0.0) kept.push_back(j);
   const auto r = static_cast<Eigen::Index>(kept.size());
   const double spread = std::min(static_cast<double>(r), 3.0);
-  SigmaPoints points{Eigen::MatrixXd(d, r), Eigen::MatrixXd(r, d), 0.5 / std::max(spread, 1.0)};
+  t.offsets.resize(d, r);
+  t.inverse_offsets.resize(r, d);
+  t.weight = 0.5 / std::max(spread, 1.0);
+  t.triangular = false;
   for (Eigen::Index j = 0; j < r; ++j) {
     const double length = std::sqrt(spread * lambda[kept[static_cast<std::size_t>(j)]]);
     const auto v = eigen.eigenvectors().col(kept[static_cast<std::size_t>(j)]);
-    points.offsets.col(j) = length * v;
-    points.inverse_offsets.row(j) = v.transpose() / length;  // orthogonal columns
+    t.offsets.col(j) = length * v;
+    t.inverse_offsets.row(j) = v.transpose() / length;  // orthogonal columns
   }
-  return points;
 }
 
-struct Transformed {
-  Eigen::VectorXd mean;  // angular entries not wrapped
-  Eigen::MatrixXd covariance;
-  /// The statistical linearisation P_ys P_ss^+ (the Jacobian, for a linear f).
-  Eigen::MatrixXd linearisation;
-};
-
-// The unscented transform of y = f(s), s ~ N(mean, cov); difference(a, b) is a - b with angular
-// entries wrapped, so that sigma points straddling +-pi average correctly.
-template <class Function, class Difference>
-Transformed unscented(const Eigen::VectorXd& mean, const Eigen::MatrixXd& cov, Function f, Difference difference) {
-  const SigmaPoints points = sigma_points(cov);
-  const Eigen::MatrixXd& offsets = points.offsets;
-  const Eigen::Index r = offsets.cols();
-  const Eigen::VectorXd centre = f(mean);
-  const Eigen::Index m = centre.size();
-  Transformed t{centre, Eigen::MatrixXd::Zero(m, m), Eigen::MatrixXd::Zero(m, mean.size())};
-  if (r == 0) return t;
-  Eigen::MatrixXd plus(m, r), minus(m, r);  // the points' images, less the centre's
+template <class Image, class Subtract>
+void UnscentedJointGaussian::unscented(Transform& t, const Eigen::VectorXd& mean, const Eigen::MatrixXd& cov,
+                                       Eigen::Index m, Image image, Subtract subtract) {
+  sigma_points(t, cov);
+  const Eigen::Index r = t.offsets.cols();
+  t.centre.resize(m);
+  image(mean, Eigen::Index{0}, t.centre);
+  t.mean = t.centre;
+  t.covariance.setZero(m, m);
+  t.linearisation.setZero(m, mean.size());
+  if (r == 0) return;
+  t.plus.resize(m, r);
+  t.minus.resize(m, r);
   for (Eigen::Index j = 0; j < r; ++j) {
-    plus.col(j) = difference(f(mean + offsets.col(j)), centre);
-    minus.col(j) = difference(f(mean - offsets.col(j)), centre);
+    // A column of the Cholesky factor moves the rows from its own down, and only those.
+    const Eigen::Index first_moved = t.triangular ? j : 0;
+    for (const double sign : {1.0, -1.0}) {
+      t.point = mean + sign * t.offsets.col(j);
+      Eigen::Ref<Eigen::VectorXd> y = (sign > 0.0 ? t.plus : t.minus).col(j);
+      y = t.centre;
+      image(t.point, first_moved, y);
+      subtract(y, t.centre);
+    }
   }
-  const double w = points.weight;
-  const Eigen::VectorXd shift = w * (plus.rowwise().sum() + minus.rowwise().sum());
-  t.mean += shift;
+  t.shift.noalias() = t.weight * (t.plus.rowwise().sum() + t.minus.rowwise().sum());
+  t.mean += t.shift;
   // Central differences along the offsets, (y+ - y-) / 2 = J o_j for a linear f, so J = that times
   // the offsets' pseudo-inverse: the regression coefficient of y on s.
-  t.linearisation.noalias() = 0.5 * (plus - minus) * points.inverse_offsets;
+  t.linearisation.noalias() = 0.5 * (t.plus - t.minus) * t.inverse_offsets;
   // The weighted scatter about the new mean, the centre point's term included, is this sum less
   // shift shift^T (the weights add up to one).
-  t.covariance.noalias() = w * (plus * plus.transpose() + minus * minus.transpose());
-  t.covariance.noalias() -= shift * shift.transpose();
-  return t;
+  t.covariance.noalias() = t.weight * (t.plus * t.plus.transpose() + t.minus * t.minus.transpose());
+  t.covariance.noalias() -= t.shift * t.shift.transpose();
 }
-
-Eigen::VectorXd pose_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
-  Eigen::VectorXd d = a - b;
-  d[2] = wrap_angle(d[2]);
-  return d;
-}
-
-}  // namespace
 
 UnscentedJointGaussian::UnscentedJointGaussian(std::shared_ptr<const MotionModel> motion,
                                                std::shared_ptr<const ObservationModel> observation,
@@ -106,17 +97,21 @@ void UnscentedJointGaussian::predict(const Control& u, double dt) {
   const ControlCovariance noise = motion_->control_noise(u, dt);
   const Eigen::Index c = noise.rows();
   // Sigma points over [vehicle, control noise].
-  Eigen::VectorXd mean = Eigen::VectorXd::Zero(3 + c);
-  mean.head<3>() = x_.head<3>();
-  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(3 + c, 3 + c);
-  cov.topLeftCorner<3, 3>() = diagonal_block<3>(0);
-  cov.bottomRightCorner(c, c) = noise;
-  const Transformed t = unscented(
-      mean, cov,
-      [&](const Eigen::VectorXd& a) -> Eigen::VectorXd {
-        return motion_->predict(a.head<3>(), Control(u + a.tail(c)), dt);
+  Transform& t = motion_transform_;
+  sub_mean_.setZero(3 + c);
+  sub_mean_.head<3>() = x_.head<3>();
+  sub_covariance_.setZero(3 + c, 3 + c);
+  sub_covariance_.topLeftCorner<3, 3>() = diagonal_block<3>(0);
+  sub_covariance_.bottomRightCorner(c, c) = noise;
+  unscented(
+      t, sub_mean_, sub_covariance_, 3,
+      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) {
+        y = motion_->predict(a.head<3>(), Control(u + a.tail(c)), dt);
       },
-      pose_difference);
+      [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre) {
+        y -= centre;
+        y[2] = wrap_angle(y[2]);
+      });
   x_.head<3>() = t.mean;
   x_[2] = wrap_angle(x_[2]);
   p_.topLeftCorner<3, 3>() = t.covariance;
@@ -137,11 +132,11 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
   // The sub-state s: the vehicle, then each observed landmark once; at[i] is observation i's
   // landmark's position in s.
   sub_offsets_.assign(1, 0);
-  std::vector<Eigen::Index> at(batch.size());
+  sub_at_.resize(batch.size());
   for (std::size_t i = 0; i < batch.size(); ++i) {
     const std::size_t offset = landmark_offset(batch[i].index);
     const auto found = std::find(sub_offsets_.begin(), sub_offsets_.end(), offset);
-    at[i] = 3 + 2 * static_cast<Eigen::Index>(found - sub_offsets_.begin() - 1);
+    sub_at_[i] = 3 + 2 * static_cast<Eigen::Index>(found - sub_offsets_.begin() - 1);
     if (found == sub_offsets_.end()) sub_offsets_.push_back(offset);
   }
   const auto d = static_cast<Eigen::Index>(1 + 2 * sub_offsets_.size());
@@ -158,18 +153,20 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
               stored_entry(sub_offsets_[a] + static_cast<std::size_t>(i), sub_offsets_[b] + static_cast<std::size_t>(j));
   }
 
-  const Transformed t = unscented(
-      sub_mean_, sub_covariance_,
-      [&](const Eigen::VectorXd& s) {
-        Eigen::VectorXd z(k);
+  Transform& t = scan_transform_;
+  unscented(
+      t, sub_mean_, sub_covariance_, k,
+      [&](const Eigen::VectorXd& s, Eigen::Index first_moved, Eigen::Ref<Eigen::VectorXd> z) {
+        // An observation reads the vehicle and its landmark; the points that move neither leave it
+        // at the centre's prediction (half of the evaluations, the Cholesky factor being triangular).
+        const Pose2 xv = s.head<3>();
         for (std::size_t i = 0; i < batch.size(); ++i)
-          z.segment<2>(2 * static_cast<Eigen::Index>(i)) = observation_->predict(s.head<3>(), s.segment<2>(at[i]));
-        return z;
+          if (first_moved < 3 || sub_at_[i] + 2 > first_moved)
+            z.segment<2>(2 * static_cast<Eigen::Index>(i)) = observation_->predict(xv, s.segment<2>(sub_at_[i]));
       },
-      [&](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
-        Eigen::VectorXd r(k);
-        for (Eigen::Index i = 0; i < k; i += 2) r.segment<2>(i) = observation_->residual(a.segment<2>(i), b.segment<2>(i));
-        return r;
+      [&](Eigen::Ref<Eigen::VectorXd> a, const Eigen::VectorXd& b) {
+        for (Eigen::Index i = 0; i < k; i += 2)
+          a.segment<2>(i) = observation_->residual(a.segment<2>(i), b.segment<2>(i));
       });
 
   reserve_joint_update(k);
@@ -198,15 +195,16 @@ std::size_t UnscentedJointGaussian::add_landmark(const Vector2& z) {
   reserve(dim_ + 2);
   apply_pending_motion();
   // Sigma points over [vehicle, measurement noise], through the inverse observation model.
-  Eigen::VectorXd mean(5);
-  mean << x_.head<3>(), z;
-  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(5, 5);
-  cov.topLeftCorner<3, 3>() = diagonal_block<3>(0);
-  cov.bottomRightCorner<2, 2>() = observation_->noise();
-  const Transformed t = unscented(
-      mean, cov,
-      [&](const Eigen::VectorXd& a) -> Eigen::VectorXd { return observation_->inverse(a.head<3>(), a.tail<2>()); },
-      [](const Eigen::VectorXd& a, const Eigen::VectorXd& b) -> Eigen::VectorXd { return a - b; });
+  Transform& t = landmark_transform_;
+  sub_mean_.resize(5);
+  sub_mean_ << x_.head<3>(), z;
+  sub_covariance_.setZero(5, 5);
+  sub_covariance_.topLeftCorner<3, 3>() = diagonal_block<3>(0);
+  sub_covariance_.bottomRightCorner<2, 2>() = observation_->noise();
+  unscented(
+      t, sub_mean_, sub_covariance_, 2,
+      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) { y = observation_->inverse(a.head<3>(), a.tail<2>()); },
+      [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre) { y -= centre; });
   append_landmark(t.mean, t.linearisation.leftCols<3>(), t.covariance);
   return num_landmarks() - 1;
 }

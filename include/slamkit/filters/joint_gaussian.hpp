@@ -21,6 +21,15 @@
 //    coordinates: the gain and the downdate are the standard ones (S is the same in both), the
 //    correction is applied through the group's exponential, and the covariance is carried to the
 //    corrected estimate's coordinates by a symmetric rank-2 update, one more pass per scan.
+//
+// Iterated update (update_iterations > 1; the full and first-estimates variants): the scan's
+// measurement is relinearised at the update's result until that stops moving, Gauss-Newton on the
+// measurement (the iterated EKF). It matters at a loop closure after a long drift, where the
+// prediction at the drifted pose is metres and degrees from the one at the truth: one
+// linearisation there over- or under-corrects and leaves the filter overconfident. With
+// first-estimates Jacobians the iterates use the Jacobians at each (fixed ones led them astray where
+// a first estimate is poor), and the update itself the first estimates', about the last iterate.
+// An iteration costs O(n k) (W = P H^T), against the one O(n^2 k) downdate at the end.
 #include <vector>
 
 #include "slamkit/filters/ekf_estimator.hpp"
@@ -35,11 +44,12 @@ enum class Linearisation {
 
 class JointGaussian : public EkfEstimator {
  public:
+  static constexpr int kMaxUpdateIterations = 100;
   /// The vehicle at `initial_pose` with `initial_covariance` (the map frame is defined by the start
   /// pose, so by default it is known exactly), and no landmarks.
   JointGaussian(std::shared_ptr<const MotionModel> motion, std::shared_ptr<const ObservationModel> observation,
                 const Pose2& initial_pose = Pose2::Zero(), const Matrix3& initial_covariance = Matrix3::Zero(),
-                Linearisation linearisation = Linearisation::kStandard);
+                Linearisation linearisation = Linearisation::kStandard, int update_iterations = 1);
 
   Matrix3 pose_covariance() const override { return diagonal_block<3>(0); }
   Vector2 landmark_position(std::size_t index) const override;
@@ -82,13 +92,24 @@ class JointGaussian : public EkfEstimator {
   /// (landmark).
   void covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm,
                                  Eigen::Ref<Eigen::MatrixX2d> out) const;
-  /// The observation Jacobians of landmark `index` where the linearisation evaluates them.
-  void observation_jacobians(std::size_t index, Matrix23& hx, Matrix2& hm) const;
+  /// The observation Jacobians of landmark `index` where linearisation `how` evaluates them, the
+  /// state-dependent ones at the point `at` (the estimate, or an iterate of the iterated update).
+  void observation_jacobians(std::size_t index, const Eigen::VectorXd& at, Linearisation how, Matrix23& hx,
+                             Matrix2& hm) const;
+  /// Fills W = P H^T, the innovation and S for the batch linearised about `at` (Jacobians as `how`
+  /// evaluates them); the innovation is taken at the estimate: z - h(at) - H (x - at).
+  void linearise_batch(std::span<const LandmarkObservation> batch, const Eigen::VectorXd& at, Linearisation how);
   /// Adds the correction `delta` (standard coordinates) to the estimate; the invariant variant
   /// applies it through the group's exponential and carries the covariance along.
   void correct(const Eigen::Ref<const Eigen::VectorXd>& delta);
 
   Linearisation linearisation_;
+  // Iterated update (Gauss-Newton on the scan's measurement, Bell and Cathey 1993): at most this many
+  // linearisations per update; 1 is the EKF's single one. iterate_ is the current linearisation
+  // point (the whole state, of which the vehicle and the observed landmarks are read).
+  int update_iterations_;
+  Eigen::VectorXd iterate_, iterate_step_;
+  Eigen::MatrixXd iterate_s_;
   // First-estimates Jacobians: the pose predicted for the current step (before its update), and
   // each landmark's first estimate, by map index.
   Pose2 predicted_pose_;

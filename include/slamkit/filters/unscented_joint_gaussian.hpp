@@ -17,6 +17,8 @@
 // The sigma points are the symmetric set of 2r points at +-sqrt(min(r, 3)) times the columns of a
 // square root of the covariance: its Cholesky factor, or for a singular covariance (the start pose
 // is known exactly) its r eigen-directions of non-zero variance.
+#include <vector>
+
 #include "slamkit/filters/joint_gaussian.hpp"
 
 namespace slamkit {
@@ -34,10 +36,39 @@ class UnscentedJointGaussian final : public JointGaussian {
   std::size_t add_landmark(const Vector2& z) override;
 
  private:
+  /// Buffers of one kind of unscented transform (time update, scan update, new landmark), kept per
+  /// kind so that a step reallocates nothing unless its sizes change (a scan of another size).
+  struct Transform {
+    Eigen::MatrixXd factor;           // the covariance, then its Cholesky factor (lower triangle)
+    Eigen::MatrixXd offsets;          // the sigma points less the mean, as columns (d x r)
+    Eigen::MatrixXd inverse_offsets;  // their pseudo-inverse (r x d)
+    double weight = 0.0;              // of each of the 2r points
+    bool triangular = false;          // offsets from the Cholesky factor: column j is zero above row j
+    Eigen::VectorXd point, centre, shift;
+    Eigen::MatrixXd plus, minus;  // the points' images, less the centre's (m x r)
+    // The result: y's mean (angular entries not wrapped) and covariance, and the statistical
+    // linearisation P_ys P_ss^+ (the Jacobian, for a linear f).
+    Eigen::VectorXd mean;
+    Eigen::MatrixXd covariance, linearisation;
+  };
+
+  /// The sigma points of N(., cov) into t.offsets, t.inverse_offsets, t.weight and t.triangular.
+  static void sigma_points(Transform& t, const Eigen::MatrixXd& cov);
+  /// The unscented transform of y = f(s), s ~ N(mean, cov), into t.mean, t.covariance and
+  /// t.linearisation. image(s, first_moved, y) writes f(s) into y, which holds f(mean) on entry; the
+  /// rows of s before first_moved equal the mean's, so entries of f that read only those may be
+  /// left. subtract(y, c) makes y the difference y - c, angular entries wrapped, so that sigma points
+  /// straddling +-pi average correctly.
+  template <class Image, class Subtract>
+  static void unscented(Transform& t, const Eigen::VectorXd& mean, const Eigen::MatrixXd& cov, Eigen::Index m,
+                        Image image, Subtract subtract);
+
+  Transform motion_transform_, scan_transform_, landmark_transform_;
   // The observation update's sub-state, reused per scan.
   Eigen::VectorXd sub_mean_;
   Eigen::MatrixXd sub_covariance_, gain_basis_;
   std::vector<std::size_t> sub_offsets_;  // state offset of each block of the sub-state
+  std::vector<Eigen::Index> sub_at_;      // where each observation's landmark sits in the sub-state
 };
 
 }  // namespace slamkit

@@ -23,6 +23,7 @@ enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2 };
 enum class EkfUpdate {
   kJoint,       // all at once: one joint innovation, one pass over the covariance
   kSequential,  // one after another
+  kIterated,    // all at once, relinearised at the result until it converges (the iterated EKF)
 };
 
 struct FilterConfig {
@@ -45,7 +46,7 @@ struct FilterConfig {
 /// "ekf", "ukf", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
 FilterKind parse_filter_kind(const std::string& name);
 std::string to_string(FilterKind kind);
-/// "joint" or "sequential"; throws std::invalid_argument naming the accepted values.
+/// "joint", "sequential" or "iterated"; throws std::invalid_argument naming the accepted values.
 EkfUpdate parse_ekf_update(const std::string& name);
 std::string to_string(EkfUpdate update);
 /// "full", "compressed", "fej" or "invariant"; throws std::invalid_argument naming the accepted values.
