@@ -50,8 +50,8 @@ std::unique_ptr<SlamFilter> run(EkfVariant variant, unsigned threads, std::size_
 
 TEST(EkfThreads, SameEstimateBitForBitOnOneAndTwoThreads) {
   for (const EkfVariant variant : {EkfVariant::kFull, EkfVariant::kCompressed}) {
-    const auto one = run(variant, 1, 700);
-    const auto two = run(variant, 2, 700);
+    const auto one = run(variant, 1, 1400);
+    const auto two = run(variant, 2, 1400);
     const EkfEstimator& a = dynamic_cast<const EkfSlam&>(*one).estimator();
     const EkfEstimator& b = dynamic_cast<const EkfSlam&>(*two).estimator();
     ASSERT_EQ(a.threads(), 1U);

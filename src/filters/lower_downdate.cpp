@@ -93,7 +93,8 @@ inline void single_entry(double* p, Eigen::Index ld, Eigen::Index i, Eigen::Inde
 void pack(const Eigen::Ref<const Eigen::MatrixXd>& m, Eigen::VectorXd& panels) {
   const Eigen::Index n = m.rows(), k = m.cols();
   const Eigen::Index size = (n + kLanes - 1) / kLanes * kLanes * k;
-  if (panels.size() < size) panels.resize(size);
+  // Doubling: a scan busier than any before, or a larger map, then rarely needs more.
+  if (panels.size() < size) panels.resize(std::max(size, 2 * panels.size()));
   double* out = panels.data();
   for (Eigen::Index l = 0; l < k; ++l)
     for (Eigen::Index i = 0; i < n; ++i) out[((i / kLanes) * k + l) * kLanes + i % kLanes] = m(i, l);
