@@ -244,7 +244,7 @@ int main(int argc, char** argv) {
             "FastSLAM: multinomial, stratified, systematic or residual");
   add_named(run_cmd, "--resample-when", filter.resample_when, parse_resample_policy,
             "FastSLAM: always, every:K (scans) or ess:F (effective sample size below F*N)");
-  run_cmd->add_option("--threads", filter.threads, "FastSLAM: worker threads (0: all cores)")
+  run_cmd->add_option("--threads", filter.threads, "FastSLAM and EKF: worker threads (0: all cores); the result does not depend on it")
       ->capture_default_str()
       ->check(integer_at_least(0));
   add_named(run_cmd, "--ekf-update", filter.ekf_update, parse_ekf_update,
@@ -444,13 +444,10 @@ int main(int argc, char** argv) {
       fmt::print("wrote {} ({} landmarks)\n", world_out, gen.landmarks);
     } else if (*run_cmd) {
       const auto warn = [&](const std::string& message) { std::cerr << "slamkit: warning: " << message << "\n"; };
-      if (filter.ekf_variant == EkfVariant::kCompressed && filter.ekf_update == EkfUpdate::kJoint &&
-          run_cmd->count("--ekf-update") > 0)
-        warn("the compressed EKF updates one observation at a time; --ekf-update joint is ignored and the run is "
-             "sequential");
       const bool particle_filter = filter.filter == FilterKind::kFastSlam1 || filter.filter == FilterKind::kFastSlam2;
-      for (const char* name : {"--particles", "--resample", "--resample-when", "--threads"})
+      for (const char* name : {"--particles", "--resample", "--resample-when"})
         if (!particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by the EKF and the UKF", name));
+      if (filter.filter == FilterKind::kUkf && run_cmd->count("--threads") > 0) warn("--threads is ignored by the UKF");
       for (const char* name : {"--ekf-update", "--ekf-variant"})
         if (particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by FastSLAM", name));
       if (!particle_filter && run_cmd->count("--seed") > 0)

@@ -151,9 +151,11 @@ INSTANTIATE_TEST_SUITE_P(
     [](const ::testing::TestParamInfo<Mode>& info) { return info.param.name; });
 
 // On a large map the updates' products span a covariance far bigger than Eigen's stack buffers for
-// packed operands (128 KB), which they would then take from the heap on every scan: the downdate
-// and the joint update's solve are tiled to stay below it. 1,500 landmarks (state dimension 3,003)
-// is well past the point where an untiled update allocated (about 300 landmarks).
+// packed operands (128 KB), which they would then take from the heap on every scan: the joint
+// update's solve is tiled to stay below it, and the downdate packs into a workspace it keeps. 1,500
+// landmarks (state dimension 3,003) is well past the point where an untiled update allocated (about
+// 300 landmarks). The downdate is shared out over two threads: handing work to them must not
+// allocate either.
 class EkfLargeMapAllocationFree : public ::testing::TestWithParam<bool> {};
 
 TEST_P(EkfLargeMapAllocationFree, KnownScansMakeNoHeapAllocation) {
@@ -169,6 +171,7 @@ TEST_P(EkfLargeMapAllocationFree, KnownScansMakeNoHeapAllocation) {
     map->add_landmark(Vector2(range(rng), bearing(rng)));
     ids.push_back(i);
   }
+  map->use_threads(2);
   EkfSlamOptions options;
   options.joint_scan_update = GetParam();
   EkfSlam ekf(std::move(map), ids, options);

@@ -31,7 +31,7 @@ CompressedJointGaussian::CompressedJointGaussian(std::shared_ptr<const MotionMod
                                                  const Matrix3& initial_covariance)
     : EkfEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance),
       sensor_range_(sensor_range),
-      area_half_side_(0.5 * (area_side > 0.0 ? area_side : 2.0 * sensor_range)) {}
+      area_half_side_(0.5 * (area_side > 0.0 ? area_side : 3.0 * sensor_range)) {}
 
 // In an open local area the accessors answer from the local state for active landmarks and apply
 // the accumulated update on the fly for the others: O(dim(A0)^2) at most.
@@ -116,14 +116,21 @@ void CompressedJointGaussian::predict(const Control& u, double dt) {
 }
 
 bool CompressedJointGaussian::update_landmark(std::size_t index, const Vector2& z) {
-  activate(index);
-  return update_local(index, z);
+  const LandmarkObservation one{index, z};
+  return update_landmarks({&one, 1});
 }
 
 bool CompressedJointGaussian::update_landmarks(std::span<const LandmarkObservation> batch) {
-  bool all = true;
-  for (const LandmarkObservation& o : batch) all = update_landmark(o.index, o.z) && all;
-  return all;
+  if (batch.empty()) return true;
+  // Inside the square every landmark in view is active; an observation of one that is not (the
+  // area's square is checked before each scan, not after each control) starts a new area early.
+  const bool all_active = std::all_of(batch.begin(), batch.end(),
+                                      [&](const LandmarkObservation& o) { return local_offset(o.index) >= 0; });
+  if (!all_active) {
+    flush_local_area();
+    begin_area(batch);
+  }
+  return update_local(batch);
 }
 
 std::size_t CompressedJointGaussian::add_landmark(const Vector2& z) {
@@ -142,6 +149,8 @@ void CompressedJointGaussian::remove_landmark(std::size_t index) {
 }
 
 void CompressedJointGaussian::begin_scan() {
+  // Leaving the square ends the area even if every landmark seen is still active: the landmarks
+  // added on the way are active too, and an area that never ends would grow into the whole map.
   if (in_area() && (x_.head<2>() - area_centre_).lpNorm<Eigen::Infinity>() > area_half_side_) flush_local_area();
 }
 
@@ -167,21 +176,23 @@ void CompressedJointGaussian::reserve_area(Eigen::Index d) {
   Eigen::VectorXd theta(capacity);
   theta.head(a0_) = theta_.head(a0_);
   theta_.swap(theta);
-  h_phi_.resize(2, capacity);
+  h_phi_.resize(h_phi_.rows(), capacity);
 }
 
-void CompressedJointGaussian::begin_area(long must_include) {
+void CompressedJointGaussian::begin_area(std::span<const LandmarkObservation> must_include) {
   area_centre_ = x_.head<2>();
   // Every landmark the vehicle can see from inside the square is active, so observations made
   // before it leaves the square involve A only.
   const double reach = area_half_side_ + sensor_range_;
   area_offsets_ = {0, 1, 2};
+  constexpr long kMustInclude = 0;  // a marker: no landmark has local offset 0 (the vehicle's)
   local_of_.assign(num_landmarks(), -1);
+  for (const LandmarkObservation& o : must_include) local_of_[o.index] = kMustInclude;
   for (std::size_t i = 0; i < num_landmarks(); ++i) {
     const std::size_t l = landmark_offset(i);
     const Vector2 offset = x_.segment<2>(static_cast<Eigen::Index>(l)) - area_centre_;
     const bool near = offset.lpNorm<Eigen::Infinity>() <= reach;
-    if (!near && static_cast<long>(i) != must_include) continue;
+    if (!near && local_of_[i] != kMustInclude) continue;
     local_of_[i] = static_cast<long>(area_offsets_.size());
     area_offsets_.push_back(l);
     area_offsets_.push_back(l + 1);
@@ -198,12 +209,6 @@ void CompressedJointGaussian::begin_area(long must_include) {
   phi().setIdentity();
   psi().setZero();
   theta().setZero();
-}
-
-void CompressedJointGaussian::activate(std::size_t index) {
-  if (local_offset(index) >= 0) return;
-  flush_local_area();
-  begin_area(static_cast<long>(index));
 }
 
 void CompressedJointGaussian::flush_local_area() {
@@ -231,44 +236,70 @@ void CompressedJointGaussian::predict_local(const Matrix3& f, const Matrix3& q) 
   phi().topRows<3>() = phi_v.transpose();
 }
 
-bool CompressedJointGaussian::update_local(std::size_t index, const Vector2& z) {
-  const auto l = static_cast<Eigen::Index>(local_of_[index]);
-  const Eigen::Index d = d_;
+bool CompressedJointGaussian::update_local(std::span<const LandmarkObservation> batch) {
+  const Eigen::Index d = d_, k = 2 * static_cast<Eigen::Index>(batch.size());
+  reserve_update(k);
   auto pa = this->pa();
   auto phi = this->phi();
   const Pose2 xv = x_.head<3>();
-  const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
-  Matrix23 hx;
-  Matrix2 hm;
-  observation_->jacobians(xv, m, hx, hm);
-  const Vector2 nu = observation_->residual(z, observation_->predict(xv, m));
-
-  auto pht = pht_.leftCols<2>().topRows(d);
-  pht.noalias() = pa.leftCols<3>() * hx.transpose();
-  pht.noalias() += pa.middleCols<2>(l) * hm.transpose();
-  Matrix2 s = hx * pht.topRows<3>() + hm * pht.middleRows<2>(l) + observation_->noise();
-  s(0, 1) = s(1, 0) = 0.5 * (s(0, 1) + s(1, 0));
-  const Eigen::LLT<Matrix2> llt(s);
+  // P_AA H_A^T, two columns per observation from the vehicle's and the landmark's columns, and the
+  // stacked innovation; then S = H_A P_AA H_A^T + R block by block.
+  auto pht = pht_.topLeftCorner(d, k);
+  auto nu = nu_.head(k);
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const auto l = static_cast<Eigen::Index>(local_of_[batch[i].index]);
+    const auto r = 2 * static_cast<Eigen::Index>(i);
+    const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(batch[i].index)));
+    observation_->jacobians(xv, m, hx_[i], hm_[i]);
+    nu.segment<2>(r) = observation_->residual(batch[i].z, observation_->predict(xv, m));
+    pht.middleCols<2>(r).noalias() = pa.leftCols<3>() * hx_[i].transpose();
+    pht.middleCols<2>(r).noalias() += pa.middleCols<2>(l) * hm_[i].transpose();
+  }
+  auto s = s_.topLeftCorner(k, k);
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const auto l = static_cast<Eigen::Index>(local_of_[batch[i].index]);
+    const auto r = 2 * static_cast<Eigen::Index>(i);
+    s.middleRows<2>(r).noalias() = hx_[i] * pht.topRows<3>() + hm_[i] * pht.middleRows<2>(l);
+    s.block<2, 2>(r, r) += observation_->noise();
+  }
+  s.triangularView<Eigen::StrictlyLower>() = 0.5 * (s + s.transpose());
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(s);
   if (llt.info() != Eigen::Success) return false;
+  llt.solveInPlace(nu);  // S^-1 nu
 
-  const Vector2 s_inv_nu = llt.solve(nu);
-  for (Eigen::Index r = 0; r < d; ++r) x_[static_cast<Eigen::Index>(area_offsets_[r])] += pht.row(r).dot(s_inv_nu);
+  for (Eigen::Index r = 0; r < d; ++r) x_[static_cast<Eigen::Index>(area_offsets_[r])] += pht.row(r).dot(nu);
   x_[2] = wrap_angle(x_[2]);
 
-  // With g = L^-1 H_A phi (S = L L^T): theta += (H_A phi)^T S^-1 nu, psi += g^T g and
-  // phi -= W_A H_A phi = P H^T L^-T g, all through one 2 x dim(A0) buffer.
-  auto h_phi = h_phi_.leftCols(a0_);
-  h_phi.noalias() = hx * phi.topRows<3>();
-  h_phi.noalias() += hm * phi.middleRows<2>(l);
-  theta().noalias() += h_phi.transpose() * s_inv_nu;
-  llt.matrixL().solveInPlace(h_phi);
-  psi().noalias() += h_phi.transpose() * h_phi;
-  llt.matrixU().solveInPlace(h_phi);
-  phi.noalias() -= pht * h_phi;
-
-  llt.matrixL().solveInPlace(pht.transpose());  // now C = P H^T L^-T
-  pa.noalias() -= pht * pht.transpose();         // W_A S W_A^T = C C^T
+  // With G = L^-1 H_A phi (S = L L^T) and C = P_AA H_A^T L^-T: theta += (H_A phi)^T S^-1 nu,
+  // psi += G^T G, phi -= W_A H_A phi = C G and P_AA -= W_A S W_A^T = C C^T.
+  auto g = h_phi_.topLeftCorner(k, a0_);
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const auto l = static_cast<Eigen::Index>(local_of_[batch[i].index]);
+    const auto r = 2 * static_cast<Eigen::Index>(i);
+    g.middleRows<2>(r).noalias() = hx_[i] * phi.topRows<3>();
+    g.middleRows<2>(r).noalias() += hm_[i] * phi.middleRows<2>(l);
+  }
+  theta().noalias() += g.transpose() * nu;
+  llt.matrixL().solveInPlace(g);
+  psi().noalias() += g.transpose() * g;
+  llt.matrixU().solveInPlace<Eigen::OnTheRight>(pht);
+  phi.noalias() -= pht * g;
+  pa.noalias() -= pht * pht.transpose();
   return true;
+}
+
+void CompressedJointGaussian::reserve_update(Eigen::Index k) {
+  if (pht_.cols() < k) pht_.resize(pht_.rows(), std::max(k, 2 * pht_.cols()));
+  if (s_.rows() < k) {
+    s_.resize(pht_.cols(), pht_.cols());
+    nu_.resize(pht_.cols());
+  }
+  if (h_phi_.rows() < k || h_phi_.cols() < pa_.cols()) h_phi_.resize(std::max(k, h_phi_.rows()), pa_.cols());
+  const auto observations = static_cast<std::size_t>(k / 2);
+  if (hx_.size() < observations) {
+    hx_.resize(observations);
+    hm_.resize(observations);
+  }
 }
 
 void CompressedJointGaussian::add_local(const Matrix23& gx, const Matrix2& pnew) {
@@ -294,8 +325,13 @@ void CompressedJointGaussian::merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::R
   for (std::size_t i = 0; i < dim_; ++i)
     if (!ws.active[i]) ws.outside.push_back(i);
   const auto n_b = static_cast<Eigen::Index>(ws.outside.size());
-  auto fit = [](Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
-    if (m.rows() < rows || m.cols() < cols) m.resize(std::max(rows, m.rows()), std::max(cols, m.cols()));
+  // The workspace takes the stored state's capacity in rows and grows its columns geometrically: a
+  // flush while the map grows would otherwise reallocate it every time, and the fresh pages' faults
+  // cost more than the flush's arithmetic.
+  const Eigen::Index capacity = p_.rows();
+  auto fit = [capacity](Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
+    if (m.rows() < rows || m.cols() < cols)
+      m.resize(std::max({rows, m.rows(), capacity}), std::max({cols, m.cols() + m.cols() / 2}));
     return m.topLeftCorner(rows, cols);
   };
   auto u_b = fit(ws.u_b, n_b, a0_);
@@ -311,9 +347,9 @@ void CompressedJointGaussian::merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::R
     u.row(static_cast<Eigen::Index>(ws.outside[static_cast<std::size_t>(r)])) = u_b.row(r);
 
   x.noalias() += u * theta();
-  auto psi_ut = fit(ws.psi_ut, a0_, n);
-  psi_ut.noalias() = psi() * u.transpose();
-  p.triangularView<Eigen::Lower>() -= u * psi_ut;
+  auto u_psi = fit(ws.u_psi, n, a0_);
+  u_psi.noalias() = u * psi();
+  ws.downdate.apply(p, u, u_psi, pool_.pool.get());
   auto p_ba = fit(ws.p_ba, n_b, d);
   p_ba.noalias() = u_b * phi().transpose();
   auto pa = this->pa();

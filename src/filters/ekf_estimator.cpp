@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <stdexcept>
+#include <thread>
 
 #include "slamkit/core/angles.hpp"
 
@@ -35,7 +36,9 @@ void EkfEstimator::reserve(std::size_t dim) {
   // 1.56x while the copies, O(capacity^2) each, still amortise to O(1) per landmark added.
   const auto grown = static_cast<Eigen::Index>(std::max(dim, capacity + capacity / 4));
   Eigen::VectorXd x = Eigen::VectorXd::Zero(grown);
-  Eigen::MatrixXd p = Eigen::MatrixXd::Zero(grown, grown);
+  // Not cleared: every entry outside the lower triangle of the leading dim_ x dim_ block is written
+  // before it is read.
+  Eigen::MatrixXd p(grown, grown);
   const auto n = static_cast<Eigen::Index>(dim_);
   if (capacity > 0) {
     x.head(n) = x_.head(n);
@@ -68,6 +71,12 @@ Matrix2 EkfEstimator::place_new_landmark(const Vector2& z, Matrix23& gx) {
   observation_->inverse_jacobians(xv, z, gx, gz);
   x_.segment<2>(l) = observation_->inverse(xv, z);
   return gz * observation_->noise() * gz.transpose();
+}
+
+void EkfEstimator::use_threads(unsigned threads) {
+  if (threads == 0) threads = std::max(1U, std::thread::hardware_concurrency());
+  if (threads == this->threads()) return;
+  pool_.pool = threads > 1 ? std::make_unique<WorkerPool>(threads) : nullptr;
 }
 
 void EkfEstimator::remove_stored_landmark(std::size_t index) {

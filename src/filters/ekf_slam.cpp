@@ -39,7 +39,9 @@ std::unique_ptr<EkfEstimator> make_estimator(std::shared_ptr<const MotionModel> 
 
 EkfSlam::EkfSlam(std::shared_ptr<const MotionModel> motion, std::shared_ptr<const ObservationModel> observation,
                  const EkfSlamOptions& options)
-    : EkfSlam(make_estimator(std::move(motion), std::move(observation), options), {}, options) {}
+    : EkfSlam(make_estimator(std::move(motion), std::move(observation), options), {}, options) {
+  estimator_->use_threads(options.threads);
+}
 
 EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> ids, const EkfSlamOptions& options)
     : estimator_(std::move(estimator)),

@@ -16,27 +16,13 @@ constexpr double kIterateTolerance = 1e-6;
 // Eigen's matrix-product kernels pack their operands into buffers that live on the stack up to
 // EIGEN_STACK_ALLOCATION_LIMIT (128 KB) and come from the heap above it. A product over the whole
 // covariance (a tall n x k operand) passes that limit once the map has a few hundred landmarks, so
-// the two products that span it are cut into row tiles whose packed operands stay below it.
+// the triangular solve that spans it is cut into row tiles whose packed operands stay below it.
 constexpr Eigen::Index kPackedBytes = 96 * 1024;
 Eigen::Index tile_rows(Eigen::Index depth) {
   return std::clamp<Eigen::Index>(kPackedBytes / (static_cast<Eigen::Index>(sizeof(double)) * std::max<Eigen::Index>(depth, 1)),
                                   16, 512);
 }
 
-// The lower triangle of P -= C C^T, tile by tile: still one pass over P, each tile read and written
-// once, with C's few columns re-read from cache.
-void downdate_lower(Eigen::Ref<Eigen::MatrixXd> p, const Eigen::Ref<const Eigen::MatrixXd>& c) {
-  const Eigen::Index n = p.rows();
-  const Eigen::Index tile = tile_rows(c.cols());
-  for (Eigen::Index j = 0; j < n; j += tile) {
-    const Eigen::Index w = std::min(tile, n - j);
-    p.block(j, j, w, w).selfadjointView<Eigen::Lower>().rankUpdate(c.middleRows(j, w), -1.0);
-    for (Eigen::Index i = j + w; i < n; i += tile) {
-      const Eigen::Index h = std::min(tile, n - i);
-      p.block(i, j, h, w).noalias() -= c.middleRows(i, h) * c.middleRows(j, w).transpose();
-    }
-  }
-}
 }  // namespace
 
 JointGaussian::JointGaussian(std::shared_ptr<const MotionModel> motion,
@@ -163,7 +149,7 @@ bool JointGaussian::update_landmark(std::size_t index, const Vector2& z) {
   auto c1 = pht.col(1);
   c1 = a01 * c0 + a11 * c1;
   c0 *= a00;
-  downdate_lower(p_.topLeftCorner(n, n), pht);
+  downdate(pht);
   if (linearisation_ == Linearisation::kInvariant) correct(batch_nu_.head(n));
   return true;
 }
@@ -286,7 +272,7 @@ bool JointGaussian::apply_joint_update(Eigen::Index k) {
   // Row by row independent (C L^T = W), so solved in row tiles for the same reason as the downdate.
   for (Eigen::Index r = 0, tile = tile_rows(k); r < n; r += tile)
     llt.matrixU().solveInPlace<Eigen::OnTheRight>(pht.middleRows(r, std::min(tile, n - r)));
-  downdate_lower(p_.topLeftCorner(n, n), pht);
+  downdate(pht);
   if (linearisation_ == Linearisation::kInvariant) {
     batch_nu_.resize(std::max<Eigen::Index>(batch_nu_.size(), n));
     batch_nu_.head(n) = transport_b_.head(n);

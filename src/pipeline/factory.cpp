@@ -96,8 +96,9 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       options.association = config.association;
       options.sensor = dataset.sensor;
       options.variant = config.filter == FilterKind::kUkf ? EkfVariant::kUnscented : config.ekf_variant;
-      options.joint_scan_update = config.ekf_update != EkfUpdate::kSequential && options.variant != EkfVariant::kCompressed;
+      options.joint_scan_update = config.ekf_update != EkfUpdate::kSequential;
       if (config.ekf_update == EkfUpdate::kIterated) options.update_iterations = kIteratedUpdateLinearisations;
+      options.threads = config.threads;
       return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
     }
     case FilterKind::kFastSlam1:

@@ -3,10 +3,16 @@
 // Not part of slamkit: a separate CMake project that links slamkit's library only to read the log
 // (load_dataset) and to score the result with slamkit's own metrics.
 //
-//   mrpt_ekf_slam --data DIR [--slamkit-run RUN_DIR]
+//   mrpt_ekf_slam --data DIR [--method naive|davison|none] [--slamkit-run RUN_DIR]
 //
-// Prints one JSON object: MRPT's filter time and accuracy, and, with --slamkit-run (a folder written
-// by `slamkit run --filter ekf`), slamkit's accuracy scored the same way (at the same instants).
+// Prints one JSON object: MRPT's filter time and accuracy (ATE, map RMSE, pose NEES), and, with
+// --slamkit-run (a folder written by `slamkit run --filter ekf`), slamkit's accuracy scored the same
+// way (at the same instants).
+//
+// --method: MRPT's update. naive (its default, kfEKFNaive) updates with all of a scan's observations
+// at once through the dense Jacobian of the whole state, O(n^3) per scan; davison (kfEKFAlaDavison)
+// applies them one scalar measurement at a time, O(m n^2), its fastest mode for a large map; none
+// runs no MRPT filter and only scores the --slamkit-run.
 //
 // How the log becomes MRPT input:
 //   * Motion. MRPT's filter takes one odometry increment per scan. The (speed, steer) controls
@@ -49,6 +55,7 @@
 #include "slamkit/eval/metrics.hpp"
 #include "slamkit/io/load_dataset.hpp"
 #include "slamkit/io/trajectory_io.hpp"
+#include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 
 namespace {
@@ -111,21 +118,23 @@ std::string json_score(const char* prefix, const Score& s) {
 }
 
 int usage() {
-  std::cerr << "usage: mrpt_ekf_slam --data SIM_LOG_DIR [--slamkit-run RUN_DIR]\n";
+  std::cerr << "usage: mrpt_ekf_slam --data SIM_LOG_DIR [--method naive|davison|none] [--slamkit-run RUN_DIR]\n";
   return 2;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string data_dir, slamkit_run;
+  std::string data_dir, slamkit_run, method = "naive";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--data" && i + 1 < argc) data_dir = argv[++i];
+    else if (a == "--method" && i + 1 < argc) method = argv[++i];
     else if (a == "--slamkit-run" && i + 1 < argc) slamkit_run = argv[++i];
     else return usage();
   }
-  if (data_dir.empty()) return usage();
+  if (data_dir.empty() || (method != "naive" && method != "davison" && method != "none")) return usage();
+  const bool run_mrpt = method != "none";
 
   try {
     const slamkit::Dataset ds = slamkit::load_dataset("sim:" + data_dir);
@@ -137,13 +146,14 @@ int main(int argc, char** argv) {
     slam.options.std_sensor_range = static_cast<float>(rb->params().sigma_range);
     slam.options.std_sensor_yaw = static_cast<float>(rb->params().sigma_bearing);
     slam.options.create_simplemap = false;
-    slam.KF_options.method = mrpt::bayes::kfEKFNaive;  // the default: a plain EKF update
+    slam.KF_options.method = method == "davison" ? mrpt::bayes::kfEKFAlaDavison : mrpt::bayes::kfEKFNaive;
     slam.KF_options.use_analytic_observation_jacobian = true;
     slam.KF_options.use_analytic_transition_jacobian = true;
     slam.KF_options.enable_profiler = false;
     const mrpt::poses::CPose3D sensor_on_robot(rb->params().offset_x, rb->params().offset_y, 0, 0, 0, 0);
 
     std::vector<StampedPose> estimate;
+    std::vector<Matrix3> estimate_cov;
     std::vector<double> scan_times;
     std::size_t observations = 0;
 
@@ -166,6 +176,10 @@ int main(int argc, char** argv) {
         continue;
       }
       const auto& scan = std::get<slamkit::ScanEvent>(event);
+      if (!run_mrpt) {
+        scan_times.push_back(scan.t);
+        continue;
+      }
       mrpt::math::CMatrixDouble33 cov;
       for (int r = 0; r < 3; ++r)
         for (int k = 0; k < 3; ++k) cov(r, k) = incr_cov(r, k);
@@ -222,6 +236,10 @@ int main(int argc, char** argv) {
       mrpt::poses::CPosePDFGaussian pose;
       slam.getCurrentRobotPose(pose);
       estimate.push_back({scan.t, Pose2(pose.mean.x(), pose.mean.y(), pose.mean.phi())});
+      Matrix3 c;
+      for (int r = 0; r < 3; ++r)
+        for (int k = 0; k < 3; ++k) c(r, k) = pose.cov(r, k);
+      estimate_cov.push_back(c);
       const bool valid = estimate.back().pose.allFinite() && pose.cov.array().isFinite().all() &&
                          pose.cov(0, 0) > 0.0 && pose.cov(1, 1) > 0.0 && pose.cov(2, 2) > 0.0;
       if (!first_invalid && !valid) first_invalid = scan.t;
@@ -250,11 +268,25 @@ int main(int argc, char** argv) {
     }
 
     const auto truth_scans = truth_at(ds.truth.poses, scan_times);
-    std::cout << "{\"scans\": " << scan_times.size() << ", \"observations\": " << observations
+    // MRPT's pose NEES (3 dof, unaligned, as slamkit's metrics.json) at the scans while its estimate is valid.
+    std::vector<double> nees;
+    for (std::size_t i = 0, t = 0; i < estimate.size() && t < truth_scans.size(); ++i) {
+      if (first_invalid && estimate[i].t >= *first_invalid) break;
+      while (t < truth_scans.size() && truth_scans[t].t < estimate[i].t - 1e-6) ++t;
+      if (t < truth_scans.size() && std::abs(truth_scans[t].t - estimate[i].t) <= 1e-6)
+        nees.push_back(slamkit::eval::pose_nees(estimate[i].pose, estimate_cov[i], truth_scans[t].pose));
+    }
+    std::cout << "{\"method\": \"" << method << "\", \"scans\": " << scan_times.size() << ", \"observations\": " << observations
               << ", \"mrpt_landmarks\": " << map.size() << ", \"mrpt_wall_time_s\": " << wall
               << ", \"mrpt_first_invalid_t\": ";
     if (first_invalid) std::cout << *first_invalid; else std::cout << "null";
-    if (!truth_scans.empty()) std::cout << ", " << json_score("mrpt", score(estimate, map, truth_scans, ds.truth.landmarks));
+    if (!nees.empty()) {
+      const auto summary = slamkit::eval::summarize_nees(nees, 3, 0.95);
+      std::cout << ", \"mrpt_nees_pose_mean\": " << summary.mean << ", \"mrpt_nees_pose_in_95_fraction\": "
+                << summary.in_interval_fraction;
+    }
+    if (run_mrpt && !truth_scans.empty())
+      std::cout << ", " << json_score("mrpt", score(estimate, map, truth_scans, ds.truth.landmarks));
     std::vector<StampedPose> sk_traj;
     if (!slamkit_run.empty() && !truth_scans.empty()) {
       sk_traj = slamkit::read_tum(slamkit_run + "/trajectory.tum");

@@ -5,7 +5,9 @@
 // covariance; the effect on the rest B is accumulated in matrices of A's size (phi, psi, theta) and
 // applied to the whole map once, when the vehicle leaves the area: an exact reorganisation of the
 // same products (see src/filters/compressed_joint_gaussian.cpp for the derivation). Accessors answer
-// for B on the fly, so reading never flushes. Observations are applied one at a time.
+// for B on the fly, so reading never flushes. A scan's observations are applied jointly (one
+// innovation, as JointGaussian's), and a flush is one pass of the covariance downdate kernel
+// (lower_downdate.hpp) per area left.
 #include <vector>
 
 #include "slamkit/filters/ekf_estimator.hpp"
@@ -14,7 +16,7 @@ namespace slamkit {
 
 class CompressedJointGaussian final : public EkfEstimator {
  public:
-  /// The local area is a square of side `area_side` [m] (0: 2 x sensor_range) centred on the vehicle
+  /// The local area is a square of side `area_side` [m] (0: 3 x sensor_range) centred on the vehicle
   /// when it opens; its active landmarks are those within `sensor_range` of the square, i.e. every
   /// landmark the vehicle can see from inside it. Leaving the square is checked at begin_scan().
   CompressedJointGaussian(std::shared_ptr<const MotionModel> motion,
@@ -50,12 +52,13 @@ class CompressedJointGaussian final : public EkfEstimator {
   bool in_area() const { return !area_offsets_.empty(); }
   /// Offset of landmark `index` in the local state; -1 when it is in B or no area is open.
   long local_offset(std::size_t index) const;
-  /// Starts an area centred on the vehicle with `must_include` (if a landmark index) active.
-  void begin_area(long must_include = -1);
-  /// Makes landmark `index` active, flushing and starting a new area if it is not.
-  void activate(std::size_t index);
+  /// Starts an area centred on the vehicle with the landmarks of `must_include` active.
+  void begin_area(std::span<const LandmarkObservation> must_include = {});
   void predict_local(const Matrix3& f, const Matrix3& q);
-  bool update_local(std::size_t index, const Vector2& z);
+  /// One joint update of active landmarks.
+  bool update_local(std::span<const LandmarkObservation> batch);
+  /// Sizes the update's workspace for k measurement rows.
+  void reserve_update(Eigen::Index k);
   void add_local(const Matrix23& gx, const Matrix2& pnew);
   /// Makes room for a local state of dimension d, keeping the open area's matrices.
   void reserve_area(Eigen::Index d);
@@ -87,7 +90,8 @@ class CompressedJointGaussian final : public EkfEstimator {
     std::vector<std::size_t> outside;  // stored offsets of B, ascending
     Eigen::MatrixXd u_b;               // P_BA(0): B's rows, A0's columns
     Eigen::MatrixXd u;                 // u_b spread over all rows (zero in A's): n x a0
-    Eigen::MatrixXd psi_ut;            // psi u^T
+    Eigen::MatrixXd u_psi;             // u psi
+    LowerDowndate downdate;
     Eigen::MatrixXd p_ba;              // u_b phi^T: the new P_BA
   };
   /// Writes the accumulated update into x and the lower triangle of p (the stored state's layout).
@@ -95,11 +99,11 @@ class CompressedJointGaussian final : public EkfEstimator {
 
   double sensor_range_;
   double area_half_side_;
+  Vector2 area_centre_ = Vector2::Zero();
   // The local area, empty when none is open. The local state is [vehicle | A0's landmarks |
   // landmarks added since], in which order area_offsets_ lists the stored offsets; pa() is its full
   // symmetric covariance. x_ holds the local state in place. pa_, phi_, psi_ and theta_ are buffers
   // of a capacity that only grows; pa() etc. view them.
-  Vector2 area_centre_ = Vector2::Zero();
   std::vector<std::size_t> area_offsets_;
   std::vector<long> local_of_;  // per landmark: local offset, or -1
   Eigen::MatrixXd pa_;
@@ -108,7 +112,13 @@ class CompressedJointGaussian final : public EkfEstimator {
   Eigen::MatrixXd phi_;    // dim(A) x dim(A0): P_BA = P_BA(0) phi^T
   Eigen::MatrixXd psi_;    // dim(A0) square:   P_BB = P_BB(0) - P_BA(0) psi P_AB(0)
   Eigen::VectorXd theta_;  // dim(A0):          x_B  = x_B(0) + P_BA(0) theta
-  Eigen::Matrix<double, 2, Eigen::Dynamic> h_phi_;  // H_A phi of the current local update
+  // The joint update's workspace, sized for the largest scan so far: H_A phi (k x capacity), S, the
+  // innovation and the observations' Jacobians (P_AA H_A^T goes in pht_).
+  Eigen::MatrixXd h_phi_;
+  Eigen::MatrixXd s_;
+  Eigen::VectorXd nu_;
+  std::vector<Matrix23> hx_;
+  std::vector<Matrix2> hm_;
   MergeWorkspace merge_;
   std::size_t flushes_ = 0;
 };

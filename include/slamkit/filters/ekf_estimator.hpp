@@ -19,6 +19,8 @@
 #include <string>
 
 #include "slamkit/assoc/association.hpp"
+#include "slamkit/filters/lower_downdate.hpp"
+#include "slamkit/filters/worker_pool.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 
@@ -48,9 +50,8 @@ class EkfEstimator : public GaussianMapView {
   /// Eqs. (10)-(11) for one observation z of the landmark at map index `index`. Returns false (and
   /// changes nothing) if the innovation covariance is not positive definite.
   virtual bool update_landmark(std::size_t index, const Vector2& z) = 0;
-  /// Eqs. (10)-(11) for observations of distinct landmarks: JointGaussian stacks them into one
-  /// innovation, CompressedJointGaussian applies them one by one. Returns false if an innovation
-  /// covariance is not positive definite (JointGaussian then changes nothing).
+  /// Eqs. (10)-(11) for observations of distinct landmarks, stacked into one innovation. Returns
+  /// false (and changes nothing) if the innovation covariance is not positive definite.
   virtual bool update_landmarks(std::span<const LandmarkObservation> batch) = 0;
   /// Appends the landmark seen as z from the current pose, with its full cross-covariances; returns
   /// its map index.
@@ -63,6 +64,12 @@ class EkfEstimator : public GaussianMapView {
   virtual void begin_scan() {}
   /// Adds the implementation's own figures to a filter's statistics.
   virtual void add_statistics(std::map<std::string, double>& /*statistics*/) const {}
+
+  /// Shares the covariance's O(n^2) passes out over `threads` threads, the calling one included (1:
+  /// none, 0: every core). Each covariance entry is computed the same way on any thread, so the
+  /// estimate is the same bit for bit whatever the number.
+  void use_threads(unsigned threads);
+  unsigned threads() const { return pool_.pool ? pool_.pool->size() : 1; }
 
   const MotionModel& motion_model() const { return *motion_; }
   const ObservationModel& observation_model() const { return *observation_; }
@@ -92,6 +99,12 @@ class EkfEstimator : public GaussianMapView {
   Matrix2 place_new_landmark(const Vector2& z, Matrix23& gx);
   /// Squeezes landmark `index` out of the stored state and lower triangle, in place.
   void remove_stored_landmark(std::size_t index);
+  /// P -= C C^T on the stored lower triangle, C with dim_ rows (P -= A B^T with b).
+  void downdate(const Eigen::Ref<const Eigen::MatrixXd>& c) { downdate(c, c); }
+  void downdate(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::Ref<const Eigen::MatrixXd>& b) {
+    const auto n = static_cast<Eigen::Index>(dim_);
+    downdate_.apply(p_.topLeftCorner(n, n), a, b, pool_.pool.get());
+  }
 
   std::shared_ptr<const MotionModel> motion_;
   std::shared_ptr<const ObservationModel> observation_;
@@ -101,6 +114,19 @@ class EkfEstimator : public GaussianMapView {
   Eigen::Matrix<double, Eigen::Dynamic, 3> scratch3_;  // capacity x 3, reused by the time updates
   // capacity x 2 per observation of the largest joint update so far: P H^T of the current update.
   Eigen::MatrixXd pht_;
+  LowerDowndate downdate_;
+  /// The threads of use_threads (null: one); a copy of the estimator gets a pool of its own.
+  struct OwnPool {
+    std::unique_ptr<WorkerPool> pool;
+    OwnPool() = default;
+    OwnPool(const OwnPool& other) : pool(other.pool ? std::make_unique<WorkerPool>(other.pool->size()) : nullptr) {}
+    OwnPool& operator=(const OwnPool& other) {
+      if (this != &other) pool = other.pool ? std::make_unique<WorkerPool>(other.pool->size()) : nullptr;
+      return *this;
+    }
+    OwnPool(OwnPool&&) = default;
+    OwnPool& operator=(OwnPool&&) = default;
+  } pool_;
 };
 
 }  // namespace slamkit

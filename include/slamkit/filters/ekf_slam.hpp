@@ -42,18 +42,21 @@ struct EkfSlamOptions {
   SensorLimits sensor;
   EkfVariant variant = EkfVariant::kFull;
   /// Compressed variant: side of the square the vehicle may roam before the accumulated update is
-  /// applied to the whole map and a new area is centred on it [m]; 0 means 2 x sensor.max_range.
+  /// applied to the whole map and a new area is centred on it [m]; 0 means 3 x sensor.max_range.
+  /// Larger areas mean fewer flushes (each O(n^2) times the area's size) and dearer steps inside
+  /// (O(area^2)); on a 1,000-landmark loop with a 30 m sensor, 80 to 100 m was fastest.
   double local_area_side = 0.0;
-  /// Full variants and UKF: update with all of a scan's paired observations at once (one joint innovation
+  /// Every variant: update with all of a scan's paired observations at once (one joint innovation
   /// and one symmetric rank-2k downdate, a single pass over the covariance) instead of one after
   /// another. Equal to the sequential update for linear models; for nonlinear ones every
   /// observation is linearised at the prior of the scan, as in eqs. (10)-(11) with z_k the scan.
   /// On the default world it is both faster and more accurate (ATE 0.199 m against 0.209 m).
-  /// The compressed variant always applies observations one at a time.
   bool joint_scan_update = true;
   /// Full and first-estimates variants: linearisations per update, the next one at the result of
   /// the last until it stops moving (the iterated EKF); 1 is the EKF's single one.
   int update_iterations = 1;
+  /// Threads for the covariance's O(n^2) passes (0: every core); the estimate does not depend on it.
+  unsigned threads = 0;
 };
 
 class EkfSlam final : public SlamFilter {

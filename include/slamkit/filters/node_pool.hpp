@@ -15,10 +15,12 @@
 // those threads. Each thread index has its own free list that needs no lock; a list hands surplus
 // blocks to a shared list, and an empty one refills from it, in batches under a mutex, so the lock
 // is taken once per kBatch blocks.
+#include <Eigen/Core>
 #include <algorithm>
 #include <cstddef>
 #include <memory>
 #include <mutex>
+#include <new>
 #include <vector>
 
 #include "slamkit/filters/worker_pool.hpp"
@@ -27,8 +29,8 @@ namespace slamkit {
 
 class NodePool {
  public:
-  /// Blocks of `block_size` bytes, aligned as operator new aligns (enough for Eigen's fixed-size
-  /// types), for the threads of `threads`, which must outlive the pool.
+  /// Blocks of `block_size` bytes, aligned for Eigen's fixed-size types, for the threads of
+  /// `threads`, which must outlive the pool.
   NodePool(std::size_t block_size, const WorkerPool& threads, std::size_t min_chunk_blocks)
       : block_size_(round_up(std::max(block_size, sizeof(FreeBlock)))),
         min_chunk_(std::max<std::size_t>(min_chunk_blocks, kBatch)),
@@ -66,7 +68,14 @@ class NodePool {
     FreeBlock* head = nullptr;
     std::size_t count = 0;
   };
-  static constexpr std::size_t kAlign = __STDCPP_DEFAULT_NEW_ALIGNMENT__;
+  // Eigen's fixed-size members need the alignment of the build's widest vectors (64 bytes with
+  // AVX-512), more than operator new's default of 16.
+  static constexpr std::size_t kAlign =
+      std::max<std::size_t>(__STDCPP_DEFAULT_NEW_ALIGNMENT__, EIGEN_MAX_STATIC_ALIGN_BYTES);
+  struct ChunkDelete {
+    void operator()(std::byte* chunk) const { ::operator delete[](chunk, std::align_val_t{kAlign}); }
+  };
+  using Chunk = std::unique_ptr<std::byte[], ChunkDelete>;
   static constexpr std::size_t kBatch = 64;
 
   static std::size_t round_up(std::size_t size) { return (size + kAlign - 1) / kAlign * kAlign; }
@@ -102,7 +111,8 @@ class NodePool {
   /// Adds a chunk of at least `blocks` blocks to the shared list; the caller holds the mutex.
   void grow(std::size_t blocks) {
     const std::size_t n = std::max({blocks, min_chunk_, capacity_ / 2});
-    chunks_.push_back(std::make_unique_for_overwrite<std::byte[]>(n * block_size_));
+    Chunk chunk(static_cast<std::byte*>(::operator new[](n * block_size_, std::align_val_t{kAlign})));
+    chunks_.push_back(std::move(chunk));
     std::byte* base = chunks_.back().get();
     // Pushed in reverse so that blocks are handed out in address order.
     for (std::size_t i = n; i-- > 0;) push(shared_, shared_count_, reinterpret_cast<FreeBlock*>(base + i * block_size_));
@@ -117,7 +127,7 @@ class NodePool {
   FreeBlock* shared_ = nullptr;
   std::size_t shared_count_ = 0;
   std::size_t capacity_ = 0;
-  std::vector<std::unique_ptr<std::byte[]>> chunks_;
+  std::vector<Chunk> chunks_;
 };
 
 }  // namespace slamkit
