@@ -16,7 +16,7 @@ TEST_DEB_PACKAGES := pybind11-dev python3-dev python3-numpy python3-pytest pytho
                      chromium chromium-driver
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps test-deps build demo test bench bench-e2e bench-compare clean
+.PHONY: all deps test-deps build demo test bench bench-e2e bench-compare clean sanitize fuzz soak
 
 all: build
 
@@ -82,5 +82,43 @@ bench-compare: build
 	cmake --build $(BUILD_DIR)/mrpt_compare -j $(JOBS)
 	SLAMKIT=$(SLAMKIT) MRPT_TOOL=$(BUILD_DIR)/mrpt_compare/mrpt_ekf_slam scripts/bench_compare.sh
 
+# ---- Reliability: clang with sanitizers, fuzzing, soak (.ci/run runs sanitize and fuzz) ----
+# clang 14 and its runtimes (libFuzzer, AddressSanitizer, UndefinedBehaviorSanitizer).
+CLANG_DEB_PACKAGES := clang-14 libclang-rt-14-dev
+SANITIZE_BUILD_DIR ?= build-sanitize
+# Seconds each fuzz target runs in `make fuzz`; new inputs and findings go to out/fuzz/<target>/.
+FUZZ_SECONDS ?= 20
+# One clang build serves both targets: the whole suite runs on it under AddressSanitizer (leaks
+# included) and UndefinedBehaviorSanitizer, and the fuzz targets link the same library objects, which
+# carry libFuzzer's coverage instrumentation (inert without libFuzzer). Every check aborts at its
+# first finding; warnings are errors.
+SANITIZE_FLAGS := -fsanitize=address,undefined -fsanitize=fuzzer-no-link -fno-sanitize-recover=all \
+                  -fno-omit-frame-pointer -g1
+define configure_sanitize
+	$(call install_missing,$(CLANG_DEB_PACKAGES))
+	cmake -S . -B $(SANITIZE_BUILD_DIR) -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER=clang++-14 \
+	  "-DCMAKE_CXX_FLAGS=$(SANITIZE_FLAGS)" -DSLAMKIT_WARNINGS_AS_ERRORS=ON -DSLAMKIT_BUILD_FUZZ=ON \
+	  -DSLAMKIT_BUILD_BENCH=OFF -DSLAMKIT_PORTABLE=ON
+endef
+
+# The whole suite (the Python module's and the browser test included) built with clang and run under
+# the sanitizers. The allocation-counting tests count through the sanitizer's allocator hooks.
+sanitize: test-deps
+	$(configure_sanitize)
+	cmake --build $(SANITIZE_BUILD_DIR) -j $(JOBS)
+	cd $(SANITIZE_BUILD_DIR) && UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j $(JOBS)
+
+# Each libFuzzer target of fuzz/ for FUZZ_SECONDS, from its seed corpus; fails on any finding.
+fuzz: test-deps
+	$(configure_sanitize)
+	cmake --build $(SANITIZE_BUILD_DIR) -j $(JOBS) --target slamkit_fuzz
+	scripts/fuzz.sh $(SANITIZE_BUILD_DIR) $(FUZZ_SECONDS) out/fuzz
+
+# Long runs that keep no history: 10^6 EKF steps and 10^5 FastSLAM 2.0 steps with 100 particles,
+# with the step rate and the memory as they go (about 10 minutes; not part of CI).
+soak: build
+	$(BUILD_DIR)/slamkit_soak --filter ekf --steps 1000000
+	$(BUILD_DIR)/slamkit_soak --filter fastslam2 --particles 100 --steps 100000
+
 clean:
-	rm -rf $(BUILD_DIR) out
+	rm -rf $(BUILD_DIR) $(SANITIZE_BUILD_DIR) out

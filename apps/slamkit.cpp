@@ -314,6 +314,12 @@ int main(int argc, char** argv) {
                     "Print the effective settings (as run.json records them) and exit without running");
   run_cmd->add_flag("--replay", replay,
                     "Also record the run scan by scan and write replay.html, a page that plays it back");
+  History history = History::kFull;
+  add_named(run_cmd, "--history", history, parse_history,
+            fmt::format("What the run folder keeps: full (every step and scan), decimated (at most {} samples per "
+                        "series, evenly spread; no associations) or none (the start and the final estimate; memory "
+                        "stays flat)",
+                        RunOptions{}.decimated_samples));
   auto* quiet_opt = run_cmd->add_flag("--quiet", quiet, "No progress line and no summary; errors and warnings only");
   run_cmd->add_flag("--verbose", verbose, "Also print the effective settings and the time of each stage")
       ->excludes(quiet_opt);
@@ -417,6 +423,8 @@ int main(int argc, char** argv) {
       return kExitBadInput;
     }
     if (run_out.empty() && !print_config) return usage_error("--out is required");
+    if (replay && history != History::kFull)
+      return usage_error("--replay records every scan; it needs --history full");
   }
 
   try {
@@ -498,6 +506,7 @@ int main(int argc, char** argv) {
       std::optional<ReplayRecorder> recorder;
       if (replay) options.observers.push_back(&recorder.emplace(dataset));
       options.stop = &g_interrupted;
+      options.history = history;
       std::signal(SIGINT, on_interrupt);
       RunResult run = run_filter(*slam, dataset, options);
       std::signal(SIGINT, SIG_DFL);

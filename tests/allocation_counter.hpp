@@ -1,7 +1,8 @@
 #pragma once
 // Counts heap allocations made anywhere in the test binary, so tests can prove that a filter's
 // per-step hot path does not allocate. allocation_counter.cpp interposes glibc's malloc family
-// (operator new and Eigen both end there), which is why it must be linked into the test executable.
+// (operator new and Eigen both end there), which is why it must be linked into the test executable;
+// under AddressSanitizer, which owns malloc, it counts through the sanitizer's allocator hooks.
 
 #include <cstdint>
 

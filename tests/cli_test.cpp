@@ -559,3 +559,24 @@ TEST_F(Cli, ReplayPageIsSelfContainedAndRewrittenFromItsRecording) {
   ASSERT_EQ(again.exit_code, 0) << again.err;
   EXPECT_EQ(read_file(out / "replay.html"), page);
 }
+
+// --history none keeps the run folder to the start and the final estimate, which evaluate reads back
+// and scores; --replay needs every scan, so it is a usage error with another history.
+TEST_F(Cli, HistoryNoneWritesTheFinalEstimateAndReplayNeedsFullHistory) {
+  const fs::path out = *work_ / "history_none";
+  const std::string data = " --data sim:" + (*work_ / "sim").string();
+  const Result r = slamkit("run --filter ekf --history none" + data + " --out " + out.string(), *work_);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(count_lines(read_file(out / "trajectory.tum")), 3u);  // the header, the start, the end
+  EXPECT_EQ(read_json(out / "run.json")["history"], "none");
+  EXPECT_TRUE(read_json(out / "metrics.json").contains("final_position_error_m"));
+  const Result e = slamkit("evaluate " + out.string(), *work_);
+  EXPECT_EQ(e.exit_code, 0) << e.err;
+
+  const Result replay = slamkit("run --history decimated --replay" + data + " --out " + out.string(), *work_);
+  EXPECT_EQ(replay.exit_code, 2);
+  EXPECT_NE(replay.err.find("--replay records every scan; it needs --history full"), std::string::npos) << replay.err;
+  const Result unknown = slamkit("run --history some" + data + " --out " + out.string(), *work_);
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_NE(unknown.err.find("expected one of: full, decimated, none"), std::string::npos) << unknown.err;
+}

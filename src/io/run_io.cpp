@@ -177,6 +177,7 @@ void write_run(const std::string& dir, const RunResult& run) {
                {"dataset_settings", run.dataset_settings},
                {"association", run.association},
                {"partial", run.partial},
+               {"history", run.history},
                {"steps", run.steps},
                {"scans", run.scans},
                {"observations", run.observations},
@@ -202,6 +203,9 @@ RunResult read_run(const std::string& dir) {
     run.dataset_settings = info.value("dataset_settings", "");
     run.statistics = info.value("statistics", std::map<std::string, double>{});
     run.partial = info.value("partial", false);
+    run.history = info.value("history", "full");
+    if (run.history != "full" && run.history != "decimated" && run.history != "none")
+      throw InputError(info_path, 0, "expected 'history' to be full, decimated or none, found '" + run.history + "'");
     run.provenance = info;
   } catch (const nlohmann::json::exception& e) {
     throw InputError(info_path, 0, std::string("expected a run description: ") + e.what());
@@ -223,7 +227,8 @@ RunResult read_run(const std::string& dir) {
   run.landmark_std = read_landmark_std(path_in(dir, "landmark_std.txt"));
   read_associations(path_in(dir, "associations.txt"), run);
   if (fs::exists(path_in(dir, "particles.txt"))) run.particles = read_particles(path_in(dir, "particles.txt"));
-  if (run.associations.size() != run.scans)
+  // Only a run that kept its full history has every scan's associations.
+  if (run.history == "full" && run.associations.size() != run.scans)
     throw InputError(path_in(dir, "associations.txt"), 0,
                      fmt::format("expected the associations of {} scans, found {}", run.scans, run.associations.size()));
   return run;

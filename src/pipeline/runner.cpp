@@ -1,8 +1,12 @@
 #include "slamkit/pipeline/runner.hpp"
 
+#include <fmt/format.h>
+
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 
+#include "slamkit/core/error.hpp"
 #include "slamkit/models/motion_model.hpp"
 
 namespace slamkit {
@@ -20,24 +24,159 @@ double start_time(const Dataset& dataset) {
   return dataset.events.empty() ? 0.0 : event_time(dataset.events.front());
 }
 
+bool within(double v, double limit) { return std::abs(v) <= limit; }  // false for NaN
+
+/// Keeps a series of samples to at most `capacity` distinct times, evenly spread over the run: the
+/// sample times taken are every stride-th one offered, and when the kept ones exceed the capacity,
+/// every other kept time is dropped and the stride doubles. Samples sharing a time go together.
+class Thinning {
+ public:
+  explicit Thinning(std::size_t capacity) : capacity_(std::max<std::size_t>(capacity, 2)) {}
+
+  /// Whether samples at time `t` (offered in time order) are kept.
+  bool take(double t) {
+    if (t != last_t_) {
+      last_t_ = t;
+      taking_ = offered_++ % stride_ == 0;
+      kept_ += taking_;
+    }
+    return taking_;
+  }
+
+  /// Called after samples are kept in `series` (and their twins in `companion`, same index); halves
+  /// the series when it holds more than the capacity's times.
+  template <typename T, typename U = int>
+  void limit(std::vector<T>& series, std::vector<U>* companion = nullptr) {
+    if (kept_ <= capacity_) return;
+    std::size_t ordinal = 0, out = 0;
+    for (std::size_t i = 0; i < series.size(); ++i) {
+      if (i > 0 && series[i].t != series[i - 1].t) ++ordinal;
+      if (ordinal % 2 != 0) continue;
+      series[out] = std::move(series[i]);
+      if (companion != nullptr) (*companion)[out] = std::move((*companion)[i]);
+      ++out;
+    }
+    series.resize(out);
+    if (companion != nullptr) companion->resize(out);
+    kept_ = (kept_ + 1) / 2;
+    stride_ *= 2;
+  }
+
+ private:
+  std::size_t capacity_;
+  std::size_t stride_ = 1;
+  std::size_t offered_ = 0;
+  std::size_t kept_ = 0;
+  double last_t_ = NAN;
+  bool taking_ = false;
+};
+
+/// Dead reckoning under the run's history: every pose, thinned, or the start and the end.
+std::vector<StampedPose> dead_reckoning(const Dataset& dataset, const RunOptions& options) {
+  std::vector<StampedPose> out;
+  Thinning thinning(options.decimated_samples);
+  Pose2 pose = dataset.initial_pose;
+  out.push_back({start_time(dataset), pose});
+  StampedPose last = out.back();
+  for (const Event& event : dataset.events) {
+    const auto* control = std::get_if<ControlEvent>(&event);
+    if (control == nullptr) continue;
+    pose = dataset.motion->predict(pose, control->u, control->dt);
+    switch (options.history) {
+      case History::kFull: out.push_back({control->t, pose}); break;
+      case History::kDecimated:
+        if (thinning.take(control->t)) {
+          out.push_back({control->t, pose});
+          thinning.limit(out);
+        }
+        break;
+      case History::kNone:
+        if (out.size() == 2) out.pop_back();
+        out.push_back({control->t, pose});
+        break;
+    }
+    last = {control->t, pose};
+  }
+  if (out.back().t != last.t) out.push_back(last);  // thinning keeps the start; the end goes too
+  return out;
+}
+
 }  // namespace
 
+History parse_history(const std::string& name) {
+  if (name == "full") return History::kFull;
+  if (name == "decimated") return History::kDecimated;
+  if (name == "none") return History::kNone;
+  throw std::invalid_argument("unknown history '" + name + "'; expected one of: full, decimated, none");
+}
+
+std::string to_string(History history) {
+  switch (history) {
+    case History::kFull: return "full";
+    case History::kDecimated: return "decimated";
+    case History::kNone: return "none";
+  }
+  return "full";
+}
+
+void check_events(const Dataset& dataset) {
+  const int control_dim = dataset.motion ? dataset.motion->control_dim() : -1;
+  double previous = -INFINITY;
+  for (std::size_t i = 0; i < dataset.events.size(); ++i) {
+    const Event& event = dataset.events[i];
+    const double t = event_time(event);
+    const auto refuse = [&](const std::string& what) {
+      throw InputError(dataset.spec, 0, fmt::format("event {} (t = {}): expected {}", i, t, what));
+    };
+    if (!within(t, kMaxAbsTime)) refuse(fmt::format("a time within +-{:g} s", kMaxAbsTime));
+    if (t < previous) refuse(fmt::format("a time not before the previous event's ({})", previous));
+    previous = t;
+    if (const auto* control = std::get_if<ControlEvent>(&event)) {
+      if (!(control->dt >= 0.0 && control->dt <= kMaxAbsTime))
+        refuse(fmt::format("a control interval dt from 0 to {:g} s, found {}", kMaxAbsTime, control->dt));
+      if (control->u.size() != control_dim)
+        refuse(fmt::format("a control of {} values for the motion model, found {}", control_dim, control->u.size()));
+      for (Eigen::Index k = 0; k < control->u.size(); ++k)
+        if (!within(control->u(k), kMaxAbsValue))
+          refuse(fmt::format("control values within +-{:g}, found {}", kMaxAbsValue, control->u(k)));
+    } else {
+      for (const Observation& o : std::get<ScanEvent>(event).observations)
+        if (!within(o.z.x(), kMaxAbsValue) || !within(o.z.y(), kMaxAbsValue))
+          refuse(fmt::format("observations within +-{:g}, found ({}, {})", kMaxAbsValue, o.z.x(), o.z.y()));
+    }
+  }
+}
+
 RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOptions& options) {
+  check_events(dataset);
   RunResult result;
   result.filter = filter.name();
   result.dataset = dataset.spec;
-  result.filtered.reserve(dataset.events.size() + 1);
-  result.pose_covariances.reserve(dataset.events.size() + 1);
+  result.history = to_string(options.history);
+  if (options.history == History::kFull) {
+    result.filtered.reserve(dataset.events.size() + 1);
+    result.pose_covariances.reserve(dataset.events.size() + 1);
+  }
 
+  Thinning filtered_thinning(options.decimated_samples), std_thinning(options.decimated_samples),
+      particle_thinning(options.decimated_samples);
+  double last_time = start_time(dataset);
   auto record = [&](double t) {
+    last_time = t;
     // Several events can share a time (a control then the scan taken there): keep the latest state.
     if (!result.filtered.empty() && result.filtered.back().t == t) {
       result.filtered.back().pose = filter.pose();
       result.pose_covariances.back() = filter.pose_covariance();
       return;
     }
+    if (options.history == History::kNone && result.filtered.size() == 2) {
+      result.filtered.pop_back();
+      result.pose_covariances.pop_back();
+    }
+    if (options.history == History::kDecimated && !filtered_thinning.take(t)) return;
     result.filtered.push_back({t, filter.pose()});
     result.pose_covariances.push_back(filter.pose_covariance());
+    if (options.history == History::kDecimated) filtered_thinning.limit(result.filtered, &result.pose_covariances);
   };
 
   double last_std_time = -INFINITY;
@@ -58,44 +197,47 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
       const auto& scan = std::get<ScanEvent>(event);
       filter.update(scan);
       ++result.scans;
-      result.scan_times.push_back(scan.t);
-      result.associations.push_back(filter.last_associations());
+      if (options.history == History::kFull) {
+        result.scan_times.push_back(scan.t);
+        result.associations.push_back(filter.last_associations());
+      }
       result.observations += scan.observations.size();
       record(scan.t);
-      if (scan.t - last_std_time >= options.std_interval_s) {
+      if (options.history != History::kNone && scan.t - last_std_time >= options.std_interval_s) {
         last_std_time = scan.t;
-        for (const Landmark& lm : filter.landmarks())
-          result.landmark_std.push_back({scan.t, lm.id, std::sqrt(std::max(0.0, lm.covariance(0, 0))),
-                                         std::sqrt(std::max(0.0, lm.covariance(1, 1)))});
-        for (const WeightedPose& p : filter.pose_samples()) result.particles.push_back({scan.t, p});
+        const bool full = options.history == History::kFull;
+        if (full || std_thinning.take(scan.t)) {
+          for (const Landmark& lm : filter.landmarks())
+            result.landmark_std.push_back({scan.t, lm.id, std::sqrt(std::max(0.0, lm.covariance(0, 0))),
+                                           std::sqrt(std::max(0.0, lm.covariance(1, 1)))});
+          if (!full) std_thinning.limit(result.landmark_std);
+        }
+        if (full || particle_thinning.take(scan.t)) {
+          for (const WeightedPose& p : filter.pose_samples()) result.particles.push_back({scan.t, p});
+          if (!full) particle_thinning.limit(result.particles);
+        }
       }
       for (RunObserver* observer : options.observers)
         observer->on_scan(filter, scan, events_done, dataset.events.size());
     }
   }
+  if (result.filtered.back().t != last_time) {  // thinned away: the final estimate always goes
+    result.filtered.push_back({last_time, filter.pose()});
+    result.pose_covariances.push_back(filter.pose_covariance());
+  }
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
   result.map = filter.landmarks();
-  result.trajectory = filter.smoothed_trajectory();
+  // A particle filter's smoothed trajectory is a whole path: only a run that keeps everything takes it.
+  if (options.history == History::kFull) result.trajectory = filter.smoothed_trajectory();
   result.smoothed = !result.trajectory.empty();
   if (!result.smoothed) result.trajectory = result.filtered;
   result.statistics = filter.statistics();
-  result.dead_reckoning = dead_reckoning(dataset);
+  result.dead_reckoning = dead_reckoning(dataset, options);
   if (result.partial)
     std::erase_if(result.dead_reckoning, [&](const StampedPose& p) { return p.t > result.filtered.back().t; });
   return result;
 }
 
-std::vector<StampedPose> dead_reckoning(const Dataset& dataset) {
-  std::vector<StampedPose> out;
-  Pose2 pose = dataset.initial_pose;
-  out.push_back({start_time(dataset), pose});
-  for (const Event& event : dataset.events) {
-    if (const auto* control = std::get_if<ControlEvent>(&event)) {
-      pose = dataset.motion->predict(pose, control->u, control->dt);
-      out.push_back({control->t, pose});
-    }
-  }
-  return out;
-}
+std::vector<StampedPose> dead_reckoning(const Dataset& dataset) { return dead_reckoning(dataset, RunOptions{}); }
 
 }  // namespace slamkit

@@ -341,8 +341,12 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
       const Landmark& landmark = world.landmarks[static_cast<std::size_t>(i)];
       const Vector2 z = sensor.predict(pose, landmark.position);
       if (z[0] > config.max_range || std::abs(z[1]) > config.fov / 2.0) continue;
-      const Vector2 noisy(z[0] + config.sigma_range * sensor_noise(),
-                          wrap_angle(z[1] + config.sigma_bearing * sensor_noise()));
+      // The draws in a fixed order, not as a call's arguments (whose order gcc and clang differ in);
+      // bearing first, the order gcc gave the existing logs.
+      const double bearing_noise = sensor_noise();
+      const double range_noise = sensor_noise();
+      const Vector2 noisy(z[0] + config.sigma_range * range_noise,
+                          wrap_angle(z[1] + config.sigma_bearing * bearing_noise));
       if (uniform01(detection_rng) >= config.detection_probability) continue;
       // Only a landmark almost on top of the sensor can come out at a negative range: no real
       // sensor reports one, so it counts as missed.

@@ -236,7 +236,11 @@ World generate_world(const WorldGenOptions& o) {
   long outside_band_in_a_row = 0;
   world.landmarks.reserve(static_cast<std::size_t>(o.landmarks));
   while (world.landmarks.size() < static_cast<std::size_t>(o.landmarks)) {
-    const Vector2 p(x0 + (x1 - x0) * uniform01(rng), y0 + (y1 - y0) * uniform01(rng));
+    // The two draws in a fixed order (the order of a call's arguments is unspecified: gcc and clang
+    // differ, and the worlds with them); y first, the order gcc gave the existing worlds.
+    const double uy = uniform01(rng);
+    const double ux = uniform01(rng);
+    const Vector2 p(x0 + (x1 - x0) * ux, y0 + (y1 - y0) * uy);
     const double d = route.distance(p);
     if (d < o.band_inner || d > o.band_outer) {
       if (++outside_band_in_a_row == kMaxOutsideBand)

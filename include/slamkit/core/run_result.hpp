@@ -53,6 +53,9 @@ struct RunResult {
   std::size_t scans = 0;         // observation scans
   std::size_t observations = 0;  // individual landmark observations
   double wall_time_s = 0.0;      // filter time only, not reading or writing files
+  /// What the run kept of its course: "full", "decimated" (series thinned, no associations) or
+  /// "none" (the start and the final estimate only); see pipeline/runner.hpp.
+  std::string history = "full";
   /// The run stopped before the end of the dataset (interrupted); everything above covers the part
   /// that ran.
   bool partial = false;
