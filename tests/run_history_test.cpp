@@ -11,6 +11,7 @@
 #include <set>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/eval/evaluation.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/pipeline/runner.hpp"
@@ -65,6 +66,22 @@ TEST(RunHistory, NoneKeepsTheStartAndTheFinalEstimateOnly) {
   EXPECT_TRUE(none.landmark_std.empty());
   EXPECT_EQ(none.history, "none");
   expect_same_end(none, full);
+}
+
+// Two kept poses fit any SE(2) alignment exactly: scoring them would report an ATE near zero.
+TEST(RunHistory, WithoutHistoryTheTrajectoryMetricsAreLeftEmptyNotNearZero) {
+  const Metrics full = evaluate_run(run_with(History::kFull), one_lap().truth);
+  const Metrics none = evaluate_run(run_with(History::kNone), one_lap().truth);
+  ASSERT_TRUE(full.ate_rmse_m.has_value());
+  EXPECT_GT(*full.ate_rmse_m, 0.05);
+  EXPECT_FALSE(none.ate_rmse_m.has_value());
+  EXPECT_FALSE(none.nees_pose.has_value());
+  EXPECT_FALSE(none.map_rmse_m.has_value());
+  EXPECT_EQ(none.landmarks, full.landmarks);
+  const nlohmann::json j = to_json(none);
+  EXPECT_EQ(j.at("history"), "none");
+  EXPECT_TRUE(j.at("ate_rmse_m").is_null());
+  EXPECT_TRUE(j.contains("history_note"));
 }
 
 TEST(RunHistory, DecimatedKeepsAtMostItsCapacityEvenlySpreadAndTheEnd) {

@@ -130,6 +130,8 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
   const std::optional<OriginTable> origins = score_associations(run, truth, options.revisit_gap_s);
   if (origins) m.association = origins->metrics;
   const std::optional<std::vector<Landmark>> map = map_with_true_ids(run, origins);
+  m.history = run.history;
+  if (run.history == "none") return m;
   if (truth.poses.empty()) {
     // A truth of landmarks only (a surveyed map): the map frame is the truth frame, no alignment.
     if (!truth.landmarks.empty() && map) {
@@ -225,6 +227,11 @@ nlohmann::json to_json(const Metrics& m) {
         "Nieto and Nebot, 'Consistency of the FastSLAM algorithm', the tutorial's reference [2]), so a NEES far "
         "above 3 says the cloud is over-confident, not that the estimate diverged; judge accuracy by ate_rmse_m";
   }
+  j["history"] = m.history;
+  if (m.history == "none")
+    j["history_note"] =
+        "run with --history none: only the start and the final estimate were kept, so the trajectory metrics "
+        "(ATE, NEES, map RMSE after alignment) are not computed; rerun with --history full or decimated";
   j["association"] = m.association_method;
   if (m.association) {
     const AssociationMetrics& a = *m.association;
@@ -246,6 +253,9 @@ nlohmann::json to_json(const Metrics& m) {
        "position RMSE of the per-step (filtered) estimates over time-matched truth samples after SE(2) "
        "least-squares alignment"},
       {"smoothed_ate_rmse_m", "the same for the smoothed trajectory (FastSLAM: the final best particle's path)"},
+      {"history",
+       "what the run kept (--history): full, decimated (trajectory metrics over at most 10,000 evenly spread "
+       "samples) or none (no trajectory metrics)"},
       {"final_position_error_m", "position error at the last matched truth sample, same alignment"},
       {"map_rmse_m", "landmark position RMSE over landmarks paired with the truth, same alignment"},
       {"nees_pose_in_95_fraction",

@@ -69,6 +69,10 @@ struct Metrics {
   std::vector<Vector2> nees_pose_series;
   std::optional<AssociationMetrics> association;
   std::string association_method;
+  /// The run's history mode. With "none" only the start and the final estimate were kept: two poses
+  /// that any SE(2) alignment fits, so the trajectory metrics (ATE, NEES, map after alignment) are
+  /// left empty rather than reported near zero; "decimated" scores its evenly spread samples.
+  std::string history = "full";
   double revisit_gap_s = 0.0;  // the EvaluationOptions' return gap the association metrics used
   std::map<std::string, double> filter_statistics;
 
