@@ -129,7 +129,7 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
   apply_pending_motion();
   const auto n = static_cast<Eigen::Index>(dim_);
   const auto k = static_cast<Eigen::Index>(2 * batch.size());
-  // The sub-state s: the vehicle, then each observed landmark once; at[i] is observation i's
+  // The sub-state s: the vehicle, then each observed landmark once; sub_at_[i] is observation i's
   // landmark's position in s.
   sub_offsets_.assign(1, 0);
   sub_at_.resize(batch.size());
