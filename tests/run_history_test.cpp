@@ -124,6 +124,22 @@ TEST(RunHistory, ParticleFiltersKeepTheirCloudsThinnedAndNoPathWithoutFullHistor
   const RunResult none = run_with(History::kNone, 50, FilterKind::kFastSlam2);
   EXPECT_TRUE(none.particles.empty());
   EXPECT_EQ(none.trajectory.size(), 2u);
+  // The paths the particles stop keeping only ever served the smoothed trajectory.
+  expect_same_end(none, run_with(History::kFull, 50, FilterKind::kFastSlam2));
+}
+
+TEST(RunHistory, AParticleFilterToldToForgetItsPathsKeepsNone) {
+  FilterConfig config;
+  config.filter = FilterKind::kFastSlam1;
+  config.particles = 10;
+  auto filter = make_filter(config, one_lap());
+  RunOptions options;
+  options.history = History::kDecimated;
+  run_filter(*filter, one_lap(), options);
+  EXPECT_TRUE(filter->smoothed_trajectory().empty());
+  auto kept = make_filter(config, one_lap());
+  run_filter(*kept, one_lap());
+  EXPECT_GT(kept->smoothed_trajectory().size(), 1000u);
 }
 
 TEST(RunHistory, TheRunFolderKeepsTheModeAndReadsBack) {

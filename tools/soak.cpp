@@ -88,6 +88,7 @@ class ReportingFilter : public SlamFilter {
   std::vector<Landmark> landmarks() const override { return filter_.landmarks(); }
   const std::vector<AssociationRecord>& last_associations() const override { return filter_.last_associations(); }
   std::vector<StampedPose> smoothed_trajectory() const override { return filter_.smoothed_trajectory(); }
+  void forget_smoothed_trajectory() override { filter_.forget_smoothed_trajectory(); }
   std::vector<WeightedPose> pose_samples() const override { return filter_.pose_samples(); }
   std::map<std::string, double> statistics() const override { return filter_.statistics(); }
 

@@ -104,7 +104,7 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
 }
 
 void FastSlam::Impl::start(double t) {
-  if (!particles.front().path.empty()) return;
+  if (!keep_paths || !particles.front().path.empty()) return;
   const ParticlePath root(path_nodes, t, particles.front().pose);
   for (Particle& p : particles) p.path = root;
 }
@@ -119,7 +119,7 @@ void FastSlam::Impl::predict_particle(std::size_t i, const ControlEvent& c) {
     p.pose_cov = symmetric(f * p.pose_cov * f.transpose() + motion->process_noise(p.pose, c.u, c.dt));
     p.pose = motion->predict(p.pose, c.u, c.dt);
   }
-  p.path.extend(c.t, p.pose);
+  if (keep_paths) p.path.extend(c.t, p.pose);
 }
 
 void FastSlam::Impl::plan_known_association(const ScanEvent& scan, std::size_t scan_index) {
@@ -254,7 +254,7 @@ FastSlam::~FastSlam() = default;
 std::string FastSlam::name() const { return impl_->config.version == 1 ? "fastslam1" : "fastslam2"; }
 
 void FastSlam::reserve(std::size_t steps, std::size_t landmarks) {
-  impl_->path_nodes.reserve(steps);
+  if (impl_->keep_paths) impl_->path_nodes.reserve(steps);
   impl_->origins.reserve(impl_->origins.size() + landmarks);
 }
 
@@ -341,6 +341,11 @@ std::vector<Landmark> FastSlam::landmarks() const {
 const std::vector<AssociationRecord>& FastSlam::last_associations() const { return impl_->last_records; }
 
 std::vector<StampedPose> FastSlam::smoothed_trajectory() const { return impl_->best_particle().path.poses(); }
+
+void FastSlam::forget_smoothed_trajectory() {
+  impl_->keep_paths = false;
+  for (Impl::Particle& p : impl_->particles) p.path = ParticlePath();
+}
 
 std::vector<WeightedPose> FastSlam::pose_samples() const {
   const Impl& s = *impl_;

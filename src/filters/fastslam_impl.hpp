@@ -125,6 +125,7 @@ struct FastSlam::Impl {
   WorkerPool pool;
   LandmarkTree::NodeStorage map_nodes;
   ParticlePath::NodeStorage path_nodes;
+  bool keep_paths = true;
   std::shared_ptr<const MotionModel> motion;
   std::shared_ptr<const ObservationModel> observation;
   Matrix2 r;

@@ -194,7 +194,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
     }
     p.pose = sample_gaussian(mu, sigma, s.rng);
     p.pose_cov.setZero();
-    p.path.replace_newest(p.pose);
+    if (!p.path.empty()) p.path.replace_newest(p.pose);
   }
 
   // Landmark updates at the particle's final pose; for FastSLAM 1.0 they also give the weight.

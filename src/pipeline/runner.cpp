@@ -153,6 +153,7 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
   result.filter = filter.name();
   result.dataset = dataset.spec;
   result.history = to_string(options.history);
+  if (options.history != History::kFull) filter.forget_smoothed_trajectory();
   if (options.history == History::kFull) {
     result.filtered.reserve(dataset.events.size() + 1);
     result.pose_covariances.reserve(dataset.events.size() + 1);

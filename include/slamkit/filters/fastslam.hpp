@@ -140,6 +140,8 @@ class FastSlam final : public SlamFilter {
   const std::vector<AssociationRecord>& last_associations() const override;
   /// The highest-weight particle's path: the start, then one pose per predict() at the control's t.
   std::vector<StampedPose> smoothed_trajectory() const override;
+  /// Drops the particles' paths and stops extending them.
+  void forget_smoothed_trajectory() override;
   std::vector<WeightedPose> pose_samples() const override;
   /// "particles", "ess_mean" (mean ESS over scans, before resampling), "resamples",
   /// "weight_collapses" (scans in which every particle's likelihood was zero or undefined).

@@ -34,6 +34,10 @@ class SlamFilter {
   /// The whole trajectory as the filter now believes it, where that differs from the sequence of
   /// its per-step estimates (FastSLAM: the highest-weight particle's path). Empty otherwise.
   virtual std::vector<StampedPose> smoothed_trajectory() const { return {}; }
+  /// From now on keeps nothing for smoothed_trajectory(), which then returns nothing: a run that
+  /// will not read it holds its memory flat however long it goes (FastSLAM's paths grow by a pose
+  /// per step). Filters that keep nothing for it have nothing to do.
+  virtual void forget_smoothed_trajectory() {}
   /// Pose samples with their normalised weights (particle filters); empty for Gaussian filters.
   virtual std::vector<WeightedPose> pose_samples() const { return {}; }
   /// Filter-specific figures for metrics.json, e.g. {"particles": 100, "ess_mean": 61.2}.

@@ -52,8 +52,9 @@ struct RunOptions {
 
 /// Runs `filter` over every event of `dataset`. One trajectory sample per distinct event time,
 /// taken after all events at that time (control, then scan) are applied (thinned as
-/// options.history says). Throws InputError, before running, for an event stream check_events
-/// refuses.
+/// options.history says). Without full history the filter is told to forget its smoothed trajectory
+/// (SlamFilter::forget_smoothed_trajectory), which such a run never reads. Throws InputError, before
+/// running, for an event stream check_events refuses.
 RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOptions& options = {});
 
 /// Throws InputError naming the dataset and the first event no filter can be fed: a time that is not
