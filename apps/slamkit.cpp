@@ -269,6 +269,13 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--new-landmark-probability", assoc_flags.new_landmark_probability,
                       "Start a landmark only outside this quantile for every candidate (between: discarded)")
       ->capture_default_str();
+  run_cmd->add_option("--min-pairing-probability", assoc_flags.min_pairing_probability,
+                      "Pair an observation only if that landmark explains it with at least this probability against "
+                      "the other candidates and clutter (0: off)")
+      ->capture_default_str();
+  run_cmd->add_option("--clutter-per-scan", assoc_flags.clutter_per_scan,
+                      "Expected false detections per scan, for --min-pairing-probability")
+      ->capture_default_str();
   run_cmd->add_option("--gate-known", gate_known,
                       "Known ids: reject an observation beyond the new-landmark gate (default: EKF and UKF on, FastSLAM off)")
       ->check(CLI::IsMember({"on", "off"}));
@@ -291,6 +298,7 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(integer_at_least(1));
   const char* assoc_flag_names[] = {"--assoc-config",         "--accept-probability", "--new-landmark-probability",
+                                    "--min-pairing-probability", "--clutter-per-scan",
                                     "--gate-known",           "--confirm-after",      "--provisional-max-misses",
                                     "--confirmed-max-misses", "--view-margin-m",      "--view-margin-rad",
                                     "--jcbb-max-nodes"};
@@ -407,6 +415,8 @@ int main(int argc, char** argv) {
         if (given("--accept-probability")) a.accept_probability = assoc_flags.accept_probability;
         if (given("--new-landmark-probability")) a.new_landmark_probability = assoc_flags.new_landmark_probability;
         if (given("--gate-known")) a.gate_known = gate_known == "on";
+        if (given("--min-pairing-probability")) a.min_pairing_probability = assoc_flags.min_pairing_probability;
+        if (given("--clutter-per-scan")) a.clutter_per_scan = assoc_flags.clutter_per_scan;
         if (given("--confirm-after")) a.confirm_after = assoc_flags.confirm_after;
         if (given("--provisional-max-misses")) a.provisional_max_misses = assoc_flags.provisional_max_misses;
         if (given("--confirmed-max-misses")) a.confirmed_max_misses = assoc_flags.confirmed_max_misses;

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Data association where it is hard, as a Markdown table: the `sparse` and `sparse-cluttered`
 # scenarios over several seeds, for EKF-SLAM with nearest neighbour and with JCBB and for FastSLAM
-# 1.0 and 2.0 (nearest neighbour per particle), all without identities. Per scenario and filter:
+# 1.0 and 2.0 (nearest neighbour per particle), all without identities, and the EKF with JCBB as
+# recommended for cluttered worlds (first-estimates Jacobians, iterated updates, the settings of
+# config/association-cluttered.json). Per scenario and filter:
 # loops closed (metrics.json "loop_closed": loop_closure_fraction at least 0.8, see README), the
 # median and range of loop_closure_fraction, wrong pairings and spurious landmarks, the mean ATE of
 # the per-step estimates and the median pose NEES.
@@ -21,20 +23,29 @@ die() { echo "association_table.sh: $*" >&2; exit 1; }
 [[ -x $slamkit ]] || die "no slamkit binary at $slamkit (run make build, or set SLAMKIT)"
 command -v python3 > /dev/null || die "python3 is needed for the summary"
 
-runs=("ekf:nn" "ekf:jcbb" "fastslam1:nn" "fastslam2:nn")
+config_dir=$(cd "$(dirname "$0")/../config" && pwd)
+# label=run options; the EKF ignores --seed and --particles, so they are given to the particle filters only.
+runs=("ekf nn=--filter ekf --assoc nn"
+      "ekf jcbb=--filter ekf --assoc jcbb"
+      "ekf jcbb fej iterated=--filter ekf --assoc jcbb --ekf-variant fej --ekf-update iterated"
+      "ekf jcbb fej iterated cluttered=--filter ekf --ekf-variant fej --ekf-update iterated --assoc-config $config_dir/association-cluttered.json"
+      "fastslam1 nn=--filter fastslam1 --assoc nn --particles $particles --threads $threads"
+      "fastslam2 nn=--filter fastslam2 --assoc nn --particles $particles --threads $threads")
 for scenario in sparse sparse-cluttered; do
   for seed in $seeds; do
     log=$out/$scenario/log-$seed
     "$slamkit" simulate --scenario "$scenario" --seed "$seed" --out "$log" > /dev/null
     for run in "${runs[@]}"; do
-      filter=${run%%:*} assoc=${run##*:}
-      "$slamkit" run --filter "$filter" --assoc "$assoc" --data "sim:$log" --seed "$seed" \
-        --particles "$particles" --threads "$threads" --out "$out/$scenario/$filter-$assoc-$seed" > /dev/null
+      label=${run%%=*} options=${run#*=}
+      extra=()
+      [[ $options == *fastslam* ]] && extra=(--seed "$seed")
+      # shellcheck disable=SC2086  # the options are words
+      "$slamkit" run $options "${extra[@]}" --data "sim:$log" --quiet --out "$out/$scenario/${label// /-}-$seed"
     done
   done
 done
 
-python3 - "$out" "${runs[@]}" <<'EOF'
+python3 - "$out" "${runs[@]%%=*}" <<'EOF'
 import json, statistics, sys
 from pathlib import Path
 
@@ -44,13 +55,12 @@ def span(values, fmt="{:g}"):
 print("| scenario | filter | loops closed | loop_closure_fraction | wrong pairings | spurious landmarks | ATE [m] mean | pose NEES median |")
 print("|---|---|---|---|---|---|---|---|")
 for scenario in ["sparse", "sparse-cluttered"]:
-    for run in runs:
-        filter, assoc = run.split(":")
-        metrics = [json.loads(p.read_text()) for p in sorted((out / scenario).glob(f"{filter}-{assoc}-*/metrics.json"))]
+    for label in runs:
+        metrics = [json.loads(p.read_text()) for p in sorted((out / scenario).glob(f"{label.replace(' ', '-')}-[0-9]*/metrics.json"))]
         if not metrics:
             continue
         fractions = [m["loop_closure_fraction"] or 0.0 for m in metrics]
-        print(f"| {scenario} | {filter} {assoc} | {sum(bool(m['loop_closed']) for m in metrics)}/{len(metrics)} "
+        print(f"| {scenario} | {label} | {sum(bool(m['loop_closed']) for m in metrics)}/{len(metrics)} "
               f"| {span(fractions, '{:.2f}')} | {span([m['association_wrong'] for m in metrics])} "
               f"| {span([m['spurious_landmarks'] for m in metrics])} "
               f"| {statistics.mean(m['ate_rmse_m'] for m in metrics):.2f} "

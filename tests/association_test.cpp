@@ -6,6 +6,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <numbers>
 #include <random>
 
 #include "slamkit/core/angles.hpp"
@@ -74,6 +75,8 @@ TEST(AssociationConfig, ValidateNamesTheSettingOutOfRange) {
       {"view_margin_m", [](AssociationConfig& c) { c.view_margin_m = -0.5; }},
       {"view_margin_rad", [](AssociationConfig& c) { c.view_margin_rad = std::numeric_limits<double>::infinity(); }},
       {"jcbb_max_nodes", [](AssociationConfig& c) { c.jcbb_max_nodes = 0; }},
+      {"min_pairing_probability", [](AssociationConfig& c) { c.min_pairing_probability = 1.0; }},
+      {"clutter_per_scan", [](AssociationConfig& c) { c.clutter_per_scan = -1.0; }},
   };
   for (const auto& [setting, spoil] : cases) {
     AssociationConfig c;
@@ -219,6 +222,40 @@ TEST(Association, GatesDecideBetweenUpdateNewAndDiscard) {
     EXPECT_EQ(out[0].decision, AssociationDecision::kUpdate);
     EXPECT_EQ(out[1].decision, AssociationDecision::kNew);
     EXPECT_EQ(out[2].decision, AssociationDecision::kDiscard) << to_string(method);
+  }
+}
+
+// The pairing probability: a landmark's innovation likelihood against every candidate's and the
+// clutter density. An observation midway between two landmarks inside both gates is paired by the
+// gates alone (with one of them), but not when a pairing must be 90% probable; one near a single
+// landmark is paired unless false detections are dense enough to explain it as well.
+TEST(Association, MinPairingProbabilityLeavesAmbiguousObservationsUnpaired) {
+  const std::vector<Vector2> map = {{10.0, -0.5}, {10.0, 0.5}, {30.0, 30.0}};
+  const FakeBelief belief(Pose2::Zero(), Eigen::Vector3d(0.3, 0.3, 1e-4).asDiagonal(), map, 0.05);
+  const RangeBearingModel model;
+  const SensorLimits sensor{30.0, std::numbers::pi};
+  const std::vector<Observation> scan = {{model.predict(Pose2::Zero(), Vector2(10.0, 0.05)), kUnknownId},
+                                         {model.predict(Pose2::Zero(), Vector2(30.2, 30.0)), kUnknownId}};
+  const std::vector<std::size_t> candidates = {0, 1, 2};
+  for (const auto method : {AssociationMethod::kNearestNeighbour, AssociationMethod::kJcbb}) {
+    AssociationConfig config = config_for(method);
+    const auto gated = associate(scan, candidates, belief, model, config);
+    ASSERT_EQ(gated[0].decision, AssociationDecision::kUpdate) << to_string(method);
+    EXPECT_LT(gated[0].landmark, 2u);
+    ASSERT_EQ(gated[1].decision, AssociationDecision::kUpdate);
+
+    config.min_pairing_probability = 0.9;
+    const auto unique = associate(scan, candidates, belief, model, config);
+    EXPECT_EQ(unique[0].decision, AssociationDecision::kDiscard) << "A and B explain it about as well";
+    ASSERT_EQ(unique[1].decision, AssociationDecision::kUpdate) << "only C is near";
+    EXPECT_EQ(unique[1].landmark, 2u);
+
+    config.clutter_per_scan = 1.0;
+    const auto sparse_clutter = associate(scan, candidates, belief, model, config, nullptr, clutter_density(config, sensor));
+    EXPECT_EQ(sparse_clutter[1].decision, AssociationDecision::kUpdate) << "one false detection per scan is rare here";
+    config.clutter_per_scan = 1e4;
+    const auto dense_clutter = associate(scan, candidates, belief, model, config, nullptr, clutter_density(config, sensor));
+    EXPECT_EQ(dense_clutter[1].decision, AssociationDecision::kDiscard) << "clutter explains it as well";
   }
 }
 

@@ -501,6 +501,18 @@ TEST_F(Cli, AssociationSettingsComeFromAFileAndFlagsOverrideIt) {
   EXPECT_EQ(recorded.at("new_landmark_probability"), 0.999);
   EXPECT_EQ(recorded.at("confirm_after"), 5);
 
+  // The shipped settings for cluttered worlds load, and the clutter term's flags override them.
+  const fs::path cluttered = fs::path(SLAMKIT_SOURCE_DIR) / "config" / "association-cluttered.json";
+  const Result clutter = slamkit("run --assoc-config " + cluttered.string() + " --clutter-per-scan 2" + data +
+                                     " --print-config",
+                                 *work_);
+  ASSERT_EQ(clutter.exit_code, 0) << clutter.err;
+  const nlohmann::json clutter_settings = nlohmann::json::parse(clutter.out).at("settings").at("association");
+  EXPECT_EQ(clutter_settings.at("min_pairing_probability"), 0.9);
+  EXPECT_EQ(clutter_settings.at("clutter_per_scan"), 2.0);
+  EXPECT_EQ(slamkit("run --min-pairing-probability 1" + data + " --out " + (*work_ / "never").string(), *work_).exit_code,
+            2);
+
   // A wrong file is bad input naming it, before any data is read; a repeated run takes none of these.
   std::ofstream(*work_ / "bad_association.json") << R"({"confirm_afterr": 5})";
   const Result bad = slamkit("run --assoc-config " + (*work_ / "bad_association.json").string() +

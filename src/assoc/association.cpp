@@ -2,9 +2,12 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <cmath>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 
+#include "slamkit/assoc/sensor_view.hpp"
 #include "slamkit/core/chi_square.hpp"
 
 namespace slamkit {
@@ -26,6 +29,7 @@ struct PairTerms {
   Vector2 innovation = Vector2::Zero();
   Matrix2 s = Matrix2::Zero();  // individual innovation covariance
   double d2 = kInfinity;
+  double likelihood = 0.0;  // of the innovation, N(innovation; 0, s)
   Matrix23 hx = Matrix23::Zero();
   Matrix2 hm = Matrix2::Zero();
   Matrix23 a = Matrix23::Zero();  // hx Pvv + hm P(m, v): the vehicle part of this pair's row of H P
@@ -37,6 +41,7 @@ struct AssociationWorkspace::Impl {
   // The compatibility table.
   std::vector<PairTerms> pairs;
   std::vector<double> min_d2;  // per observation, the smallest distance to any candidate
+  std::vector<double> explained;  // per observation, the sum of every candidate's likelihood
   // Pairs inside the acceptance gate: by distance (NN), or by observation then distance (JCBB).
   std::vector<const PairTerms*> accepted;
   std::vector<std::size_t> used_landmarks;
@@ -86,6 +91,7 @@ void build_compatibility(std::span<const Observation> observations, std::span<co
                          const GaussianMapView& belief, const ObservationModel& model, Workspace& ws) {
   ws.pairs.clear();
   ws.min_d2.assign(observations.size(), kInfinity);
+  ws.explained.assign(observations.size(), 0.0);
   const Pose2 x = belief.pose();
   const Matrix3 pvv = belief.pose_covariance();
   const Matrix2 r = model.noise();
@@ -103,22 +109,27 @@ void build_compatibility(std::span<const Observation> observations, std::span<co
     const Matrix2 s_sym = 0.5 * (s + s.transpose());
     const Eigen::LLT<Matrix2> llt(s_sym);
     if (llt.info() != Eigen::Success) continue;
+    const double normaliser = 2.0 * std::numbers::pi * llt.matrixL().determinant();  // 2 pi sqrt(det S)
     for (std::size_t i = 0; i < observations.size(); ++i) {
       t.observation = i;
       t.innovation = model.residual(observations[i].z, zhat);
       t.s = s_sym;
       t.d2 = t.innovation.dot(llt.solve(t.innovation));
+      t.likelihood = std::exp(-0.5 * t.d2) / normaliser;
       ws.min_d2[i] = std::min(ws.min_d2[i], t.d2);
+      ws.explained[i] += t.likelihood;
       ws.pairs.push_back(t);
     }
   }
 }
 
-/// The pairs inside the acceptance gate, into ws.accepted, in table order.
-void collect_accepted(Workspace& ws, const Gates& gates) {
+/// The pairs inside the acceptance gate that are probable enough (see
+/// AssociationConfig::min_pairing_probability), into ws.accepted, in table order.
+void collect_accepted(Workspace& ws, const Gates& gates, double min_probability, double clutter) {
   ws.accepted.clear();
   for (const PairTerms& p : ws.pairs)
-    if (p.d2 < gates.accept) ws.accepted.push_back(&p);
+    if (p.d2 < gates.accept && p.likelihood >= min_probability * (clutter + ws.explained[p.observation]))
+      ws.accepted.push_back(&p);
 }
 
 /// Observations left unpaired are new if far from every candidate, else ambiguous.
@@ -129,8 +140,9 @@ void decide_unpaired(std::vector<Pairing>& out, const Workspace& ws, const Gates
           ws.min_d2[i] > gates.new_landmark ? AssociationDecision::kNew : AssociationDecision::kDiscard;
 }
 
-void nearest_neighbour(Workspace& ws, const Gates& gates, std::vector<Pairing>& out) {
-  collect_accepted(ws, gates);
+void nearest_neighbour(Workspace& ws, const Gates& gates, double min_probability, double clutter,
+                       std::vector<Pairing>& out) {
+  collect_accepted(ws, gates, min_probability, clutter);
   std::sort(ws.accepted.begin(), ws.accepted.end(),
             [](const PairTerms* a, const PairTerms* b) { return a->d2 < b->d2; });
   ws.used_landmarks.clear();
@@ -147,9 +159,10 @@ void nearest_neighbour(Workspace& ws, const Gates& gates, std::vector<Pairing>& 
 /// and factor live in the workspace, sized for the largest scan so far.
 class Jcbb {
  public:
-  Jcbb(std::size_t n_obs, Workspace& ws, const GaussianMapView& belief, std::size_t max_nodes)
+  Jcbb(std::size_t n_obs, Workspace& ws, const GaussianMapView& belief, std::size_t max_nodes,
+       double min_probability, double clutter)
       : ws_(ws), belief_(belief), max_nodes_(max_nodes) {
-    collect_accepted(ws, ws.gates);
+    collect_accepted(ws, ws.gates, min_probability, clutter);
     // Grouped by observation, each group by distance: the nearest options are tried first.
     std::sort(ws.accepted.begin(), ws.accepted.end(), [](const PairTerms* a, const PairTerms* b) {
       return a->observation != b->observation ? a->observation < b->observation : a->d2 < b->d2;
@@ -266,9 +279,14 @@ class Jcbb {
 
 }  // namespace
 
+double clutter_density(const AssociationConfig& config, const SensorLimits& sensor) {
+  validate(sensor);
+  return config.clutter_per_scan / (sensor.max_range * sensor.fov);
+}
+
 void associate(std::span<const Observation> observations, std::span<const std::size_t> candidates,
                const GaussianMapView& belief, const ObservationModel& model, const AssociationConfig& config,
-               AssociationWorkspace& workspace, std::vector<Pairing>& out, AssociationStats* stats) {
+               AssociationWorkspace& workspace, std::vector<Pairing>& out, AssociationStats* stats, double clutter) {
   if (config.method != AssociationMethod::kNearestNeighbour && config.method != AssociationMethod::kJcbb)
     throw std::invalid_argument("associate() needs the nn or jcbb method; known identities need no search");
   Workspace& ws = workspace.impl();
@@ -277,19 +295,20 @@ void associate(std::span<const Observation> observations, std::span<const std::s
   if (stats) stats->candidate_pairs += ws.pairs.size();
   out.assign(observations.size(), Pairing{});
   if (config.method == AssociationMethod::kNearestNeighbour) {
-    nearest_neighbour(ws, gates, out);
+    nearest_neighbour(ws, gates, config.min_pairing_probability, clutter, out);
     return;
   }
-  Jcbb(observations.size(), ws, belief, config.jcbb_max_nodes).solve(stats, out);
+  Jcbb(observations.size(), ws, belief, config.jcbb_max_nodes, config.min_pairing_probability, clutter)
+      .solve(stats, out);
   decide_unpaired(out, ws, gates);
 }
 
 std::vector<Pairing> associate(std::span<const Observation> observations, std::span<const std::size_t> candidates,
                                const GaussianMapView& belief, const ObservationModel& model,
-                               const AssociationConfig& config, AssociationStats* stats) {
+                               const AssociationConfig& config, AssociationStats* stats, double clutter) {
   AssociationWorkspace workspace;
   std::vector<Pairing> out;
-  associate(observations, candidates, belief, model, config, workspace, out, stats);
+  associate(observations, candidates, belief, model, config, workspace, out, stats, clutter);
   return out;
 }
 

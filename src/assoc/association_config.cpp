@@ -17,6 +17,8 @@ namespace {
 constexpr OptionKey<AssociationConfig> kNumericKeys[] = {
     {"accept_probability", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.accept_probability; }, option_ranges::kFinite}},
     {"new_landmark_probability", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.new_landmark_probability; }, option_ranges::kFinite}},
+    {"min_pairing_probability", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.min_pairing_probability; }, option_ranges::kFinite}},
+    {"clutter_per_scan", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.clutter_per_scan; }, option_ranges::kFinite}},
     {"confirm_after", IntegerOption<AssociationConfig, int>{[](AssociationConfig& c) -> int& { return c.confirm_after; }, 1}},
     {"provisional_max_misses", IntegerOption<AssociationConfig, int>{[](AssociationConfig& c) -> int& { return c.provisional_max_misses; }, 1}},
     {"confirmed_max_misses", IntegerOption<AssociationConfig, int>{[](AssociationConfig& c) -> int& { return c.confirmed_max_misses; }, 0}},
@@ -52,6 +54,10 @@ void validate(const AssociationConfig& c) {
   if (!(c.new_landmark_probability >= c.accept_probability && c.new_landmark_probability < 1.0))
     fail("new_landmark_probability", fmt::format("in [accept_probability, 1) = [{}, 1)", c.accept_probability),
          c.new_landmark_probability);
+  if (!(c.min_pairing_probability >= 0.0 && c.min_pairing_probability < 1.0))
+    fail("min_pairing_probability", "in [0, 1)", c.min_pairing_probability);
+  if (!(std::isfinite(c.clutter_per_scan) && c.clutter_per_scan >= 0.0))
+    fail("clutter_per_scan", "finite and >= 0", c.clutter_per_scan);
   if (c.confirm_after < 1) fail("confirm_after", ">= 1", c.confirm_after);
   if (c.provisional_max_misses < 1) fail("provisional_max_misses", ">= 1", c.provisional_max_misses);
   if (c.confirmed_max_misses < 0) fail("confirmed_max_misses", ">= 0 (0: never remove)", c.confirmed_max_misses);

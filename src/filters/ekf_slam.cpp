@@ -49,6 +49,7 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
       gates_(Gates::from(options.association)),
       gate_known_(options.association.gate_known.value_or(true)),
       association_view_((validate(options.sensor), association_view(options.sensor, options.association))),
+      clutter_density_(clutter_density(options.association, options.sensor)),
       existence_rule_(options.association, options.sensor),
       // Cells of a third of the sensor range: a query touches a few dozen cells at most.
       grid_(std::max(5.0, options.sensor.max_range / 3.0)),
@@ -226,7 +227,7 @@ void EkfSlam::find_candidates(const SensorView& view) {
 const std::vector<Pairing>& EkfSlam::associate_scan(const ScanEvent& scan) {
   find_candidates(association_view_);
   associate(scan.observations, candidates_, *estimator_, estimator_->observation_model(), association_,
-            association_workspace_, pairings_, &association_stats_);
+            association_workspace_, pairings_, &association_stats_, clutter_density_);
   return pairings_;
 }
 

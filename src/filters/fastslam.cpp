@@ -77,6 +77,7 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
       gates(Gates::from(cfg.association)),
       gate_known(cfg.association.gate_known.value_or(false)),
       association_view(slamkit::association_view(cfg.sensor, cfg.association)),
+      clutter_density(slamkit::clutter_density(cfg.association, cfg.sensor)),
       existence(cfg.association, cfg.sensor),
       resample_rng(splitmix64(cfg.seed ^ 0x526573616d706c65ULL)),
       grid(std::max(5.0, 0.5 * cfg.sensor.max_range)) {

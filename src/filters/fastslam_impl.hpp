@@ -75,6 +75,7 @@ struct FastSlam::Impl {
     std::uint32_t index;
     Vector2 zhat;
     Matrix2 s_inverse;
+    double log_normaliser;  // log(2 pi sqrt(det S)): the innovation likelihood is exp(-d2 / 2) over it
     bool taken = false;  // paired with an observation of this scan
   };
 
@@ -86,6 +87,7 @@ struct FastSlam::Impl {
     std::vector<Candidate> candidates;
     std::vector<std::tuple<double, std::uint32_t, std::uint32_t>> pairs;  // d2, observation, candidate
     std::vector<double> min_d2;
+    std::vector<double> explained;  // per observation: the clutter density plus every candidate's likelihood
     std::vector<std::uint32_t> observed;
     // (mean, index) of each landmark this scan created or moved into another grid cell.
     std::vector<std::pair<Vector2, std::uint32_t>> grid_entries;
@@ -132,6 +134,7 @@ struct FastSlam::Impl {
   Gates gates;
   bool gate_known;
   SensorView association_view;
+  double clutter_density;  // of config.association over the sensor's view
   ExistenceRule existence;
   double log_p0 = 0.0;
 

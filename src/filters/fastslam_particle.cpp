@@ -73,13 +73,16 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
     Matrix2 inverse;
     double log_det = 0.0;
     if (invert_spd(symmetric(innovation_covariance(p, lm, hx, hm)), inverse, log_det))
-      s.candidates.push_back({index, zhat, inverse});
+      s.candidates.push_back({index, zhat, inverse, kLog2Pi + 0.5 * log_det});
   }
 
   s.pairs.clear();
   make_room(s.pairs, n_obs * s.candidates.size());
   make_room(s.min_d2, n_obs);
   s.min_d2.assign(n_obs, std::numeric_limits<double>::infinity());
+  const bool weigh_clutter = config.association.min_pairing_probability > 0.0;
+  make_room(s.explained, n_obs);
+  s.explained.assign(n_obs, clutter_density);
   for (std::size_t k = 0; k < n_obs; ++k) {
     if (!valid[k]) continue;
     const Vector2& z = scan.observations[k].z;
@@ -87,9 +90,18 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
       const Vector2 nu = observation->residual(z, s.candidates[c].zhat);
       const double d2 = nu.dot(s.candidates[c].s_inverse * nu);
       s.min_d2[k] = std::min(s.min_d2[k], d2);
+      if (weigh_clutter) s.explained[k] += std::exp(-0.5 * d2 - s.candidates[c].log_normaliser);
       if (d2 < gates.accept) s.pairs.emplace_back(d2, static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(c));
     }
   }
+  // A pairing that another candidate or clutter explains about as well is not made (see
+  // AssociationConfig::min_pairing_probability).
+  if (weigh_clutter)
+    std::erase_if(s.pairs, [&](const auto& pair) {
+      const auto& [d2, k, c] = pair;
+      return std::exp(-0.5 * d2 - s.candidates[c].log_normaliser) <
+             config.association.min_pairing_probability * s.explained[k];
+    });
   // Greedy by distance: the most certain pairings first, each observation and landmark once.
   std::sort(s.pairs.begin(), s.pairs.end());
   make_room(s.pairings, n_obs);

@@ -12,6 +12,9 @@
 //    includes the correlations through the vehicle and the map, which is what rejects pairings that
 //    are individually plausible but jointly inconsistent. The joint distance is extended by one
 //    block Cholesky step per node, O(k^2) per node for k pairings.
+//  - Both consider only the pairs inside the acceptance gate whose pairing probability (see
+//    AssociationConfig::min_pairing_probability) is high enough: an observation that two landmarks,
+//    or a landmark and clutter, explain about as well is not paired by either.
 #include <Eigen/Core>
 #include <memory>
 #include <span>
@@ -76,16 +79,22 @@ class AssociationWorkspace {
   std::unique_ptr<Impl> impl_;
 };
 
+/// False detections per scan per unit of measurement space (1 / (m rad)): config.clutter_per_scan
+/// spread uniformly over the sensor's range and field of view.
+double clutter_density(const AssociationConfig& config, const SensorLimits& sensor);
+
 /// Pairs each of `observations` with one of `candidates` (map indices of landmarks that can be in
 /// view) or decides it is new or ambiguous, into `out` (one entry per observation). `method` must be
-/// kNearestNeighbour or kJcbb.
+/// kNearestNeighbour or kJcbb. `clutter` is the clutter density (see clutter_density()).
 void associate(std::span<const Observation> observations, std::span<const std::size_t> candidates,
                const GaussianMapView& belief, const ObservationModel& model, const AssociationConfig& config,
-               AssociationWorkspace& workspace, std::vector<Pairing>& out, AssociationStats* stats = nullptr);
+               AssociationWorkspace& workspace, std::vector<Pairing>& out, AssociationStats* stats = nullptr,
+               double clutter = 0.0);
 
 /// The same with storage of its own, for one-off calls.
 std::vector<Pairing> associate(std::span<const Observation> observations, std::span<const std::size_t> candidates,
                                const GaussianMapView& belief, const ObservationModel& model,
-                               const AssociationConfig& config, AssociationStats* stats = nullptr);
+                               const AssociationConfig& config, AssociationStats* stats = nullptr,
+                               double clutter = 0.0);
 
 }  // namespace slamkit

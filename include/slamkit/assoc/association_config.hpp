@@ -29,6 +29,16 @@ struct AssociationConfig {
   /// An unpaired observation starts a new landmark only if it lies outside this quantile for every
   /// candidate (0.9999 -> 18.4); between the two gates it is ambiguous and discarded.
   double new_landmark_probability = 0.9999;
+  /// An observation inside the acceptance gate of a landmark is paired with it only if the pairing's
+  /// probability is at least this: the landmark's innovation likelihood over the sum of every
+  /// candidate's and the clutter density (clutter_per_scan). Below it the observation could as well
+  /// be another landmark or a false detection, and is discarded: at a loop closure after a long
+  /// drift the gates hold several landmarks, and a wrong pairing there corrupts the map for good
+  /// while a discarded one costs one update. 0 keeps every pairing the gates and the search allow.
+  double min_pairing_probability = 0.0;
+  /// Expected false detections per scan, uniform over the sensor's view (range x bearing): the
+  /// clutter density of min_pairing_probability.
+  double clutter_per_scan = 0.0;
   /// With known identities, an observation whose innovation lies beyond the new-landmark gate is
   /// rejected as an outlier: an identity does not make a wild measurement right. Unset, each filter
   /// keeps its own default: the EKF gates (one wild update corrupts its single Gaussian for good),
@@ -53,6 +63,7 @@ struct AssociationConfig {
 
 /// Throws std::invalid_argument naming the first setting out of its range and the range:
 /// 0 < accept_probability < 1, accept_probability <= new_landmark_probability < 1,
+/// 0 <= min_pairing_probability < 1, finite clutter_per_scan >= 0,
 /// confirm_after >= 1, provisional_max_misses >= 1, confirmed_max_misses >= 0, finite view margins
 /// >= 0, jcbb_max_nodes >= 1.
 void validate(const AssociationConfig& config);

@@ -130,6 +130,7 @@ class EkfSlam final : public SlamFilter {
   Gates gates_;  // from association_, computed once
   bool gate_known_;
   SensorView association_view_;
+  double clutter_density_;  // of association_ over the sensor's view
   ExistenceRule existence_rule_;
   LandmarkGrid grid_;
   double drift_since_rebuild_ = 0.0;  // vehicle corrections since the grid was last rebuilt [m]
