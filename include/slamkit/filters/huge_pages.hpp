@@ -6,7 +6,7 @@
 //
 // The cost is resident memory: a 2 MiB page is resident as soon as any byte of it is written, so
 // the square buffer's unwritten upper triangle, which 4 KiB pages mostly left unbacked, is resident
-// too (about the whole capacity x dim block, at most twice the lower triangle's bytes).
+// too: about the whole capacity x dim block, up to 2.5 times the lower triangle's bytes.
 #include <cstddef>
 
 namespace slamkit {
