@@ -45,8 +45,9 @@ mkdir -p "$out"
 
 median() { printf '%s\n' "$@" | sort -g | sed -n "$(( ($# + 1) / 2 ))p"; }
 # A number field of a JSON object by key: metrics.json (one key per line) or the tool's one-line output.
-# (metrics.json also describes each key in a string of the same name: those do not match.)
-json_number() { grep -o "\"$2\": *-\?[0-9][-0-9.eE+]*" "$1" | head -1 | sed 's/.*: *//'; }
+# (metrics.json also describes each key in a string of the same name: those do not match.) Empty,
+# not a failure, for a key that is absent or null (pipefail would otherwise end the script there).
+json_number() { { grep -o "\"$2\": *-\?[0-9][-0-9.eE+]*" "$1" || true; } | head -1 | sed 's/.*: *//'; }
 fmt3() { if [[ -z $1 || $1 == nan ]]; then echo "n/a"; else printf '%.3f' "$1"; fi; }
 fmt2() { if [[ -z $1 ]]; then echo "n/a"; else printf '%.2f' "$1"; fi; }
 percent() { if [[ -z $1 ]]; then echo "n/a"; else awk -v f="$1" 'BEGIN { printf "%.0f%%", 100 * f }'; fi; }

@@ -12,6 +12,7 @@
 #include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/filters/joint_gaussian.hpp"
 #include "slamkit/pipeline/factory.hpp"
+#include "slamkit/pipeline/runner.hpp"
 #include "slamkit/sim/simulator.hpp"
 #include "slamkit/sim/world.hpp"
 
@@ -210,6 +211,59 @@ TEST(EkfCompressed, AccessorsAnswerForTheWholeMapInsideAnArea) {
   }
   // Reading changed nothing: the area is still open.
   EXPECT_EQ(pair.compressed().statistics().at("local_area_flushes"), flushes);
+}
+
+TEST(EkfCompressed, WholeMapReadEqualsLandmarkByLandmarkInsideAnArea) {
+  // landmark_marginals answers for the landmarks outside the area with products over all of them;
+  // it must give what the per-landmark accessors give, and the full EKF's marginals.
+  const Dataset data = simulate(default_world(), SimulatorConfig{});
+  VariantPair pair(data, AssociationMethod::kKnown);
+  std::size_t scans = 0;
+  for (const Event& e : data.events)
+    if (pair.step(e) && ++scans == 400) break;
+  const EkfEstimator& full = pair.full().estimator();
+  const EkfEstimator& compressed = pair.compressed().estimator();
+  std::vector<Vector2> means, full_means;
+  std::vector<Matrix2> covariances, full_covariances;
+  compressed.landmark_marginals(means, covariances);
+  full.landmark_marginals(full_means, full_covariances);
+  const std::size_t n = compressed.num_landmarks();
+  ASSERT_EQ(means.size(), n);
+  ASSERT_EQ(covariances.size(), n);
+  ASSERT_EQ(full_means.size(), n);
+  ASSERT_GT(pair.compressed().statistics().at("local_area_flushes"), 0.0);  // landmark 0 is left behind
+  for (std::size_t i = 0; i < n; ++i) {
+    EXPECT_LT((means[i] - compressed.landmark_position(i)).cwiseAbs().maxCoeff(), 1e-12) << i;
+    EXPECT_LT((covariances[i] - compressed.landmark_covariance(i)).cwiseAbs().maxCoeff(), 1e-12) << i;
+    EXPECT_LT((covariances[i] - covariances[i].transpose()).cwiseAbs().maxCoeff(), 1e-12) << i;
+    EXPECT_LT((means[i] - full_means[i]).cwiseAbs().maxCoeff(), kTolerance) << i;
+    EXPECT_LT((covariances[i] - full_covariances[i]).cwiseAbs().maxCoeff(), kTolerance) << i;
+  }
+}
+
+TEST(EkfCompressed, RunRecordsTheFullEkfsLandmarkDeviations) {
+  // The runner reads every landmark's standard deviation each second (landmark_std.txt, the
+  // tutorial's Figure 3): through the compressed EKF, with areas open at most reads, the series must
+  // be the full EKF's.
+  const Dataset data = simulate(default_world(), SimulatorConfig{});
+  VariantPair pair(data, AssociationMethod::kKnown);
+  const RunResult full = run_filter(*pair.full_filter, data);
+  const RunResult compressed = run_filter(*pair.compressed_filter, data);
+  ASSERT_EQ(compressed.landmark_std.size(), full.landmark_std.size());
+  ASSERT_GT(full.landmark_std.size(), 1000u);
+  double largest = 0.0;
+  for (std::size_t k = 0; k < full.landmark_std.size(); ++k) {
+    const LandmarkStdSample& a = full.landmark_std[k];
+    const LandmarkStdSample& b = compressed.landmark_std[k];
+    ASSERT_EQ(a.t, b.t) << k;
+    ASSERT_EQ(a.id, b.id) << k;
+    largest = std::max({largest, std::abs(a.std_x - b.std_x), std::abs(a.std_y - b.std_y)});
+  }
+  EXPECT_LT(largest, kTolerance);
+  ASSERT_EQ(compressed.map.size(), full.map.size());
+  for (std::size_t i = 0; i < full.map.size(); ++i)
+    EXPECT_LT((compressed.map[i].covariance - full.map[i].covariance).cwiseAbs().maxCoeff(), kTolerance);
+  EXPECT_GT(pair.compressed().statistics().at("local_area_flushes"), 2.0);
 }
 
 TEST(EkfCompressed, RemovalFlushesAndStaysExact) {

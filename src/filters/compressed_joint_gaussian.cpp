@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "slamkit/core/angles.hpp"
+#include "slamkit/filters/huge_pages.hpp"
 
 namespace slamkit {
 
@@ -31,7 +32,7 @@ CompressedJointGaussian::CompressedJointGaussian(std::shared_ptr<const MotionMod
                                                  const Matrix3& initial_covariance)
     : EkfEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance),
       sensor_range_(sensor_range),
-      area_half_side_(0.5 * (area_side > 0.0 ? area_side : 3.0 * sensor_range)) {}
+      area_half_side_(0.5 * (area_side > 0.0 ? area_side : 2.0 * sensor_range)) {}
 
 // In an open local area the accessors answer from the local state for active landmarks and apply
 // the accumulated update on the fly for the others: O(dim(A0)^2) at most.
@@ -65,6 +66,40 @@ Matrix2 CompressedJointGaussian::landmark_covariance(std::size_t index) const {
   if (!in_area()) return diagonal_block<2>(landmark_offset(index));
   if (const long a = local_offset(index); a >= 0) return pa_.block<2, 2>(a, a);
   return diagonal_block<2>(landmark_offset(index)) - start_cross_quadratic(index, index);
+}
+
+void CompressedJointGaussian::landmark_marginals(std::vector<Vector2>& means,
+                                                 std::vector<Matrix2>& covariances) const {
+  means.resize(num_landmarks());
+  covariances.resize(num_landmarks());
+  for (std::size_t i = 0; i < num_landmarks(); ++i)
+    if (local_offset(i) >= 0 || !in_area()) {
+      means[i] = landmark_position(i);
+      covariances[i] = landmark_covariance(i);
+    }
+  if (!in_area() || outside_.empty()) return;
+  // B's means x_B(0) + U theta, and its 2x2 diagonal blocks of P_BB(0) - U psi U^T. psi is symmetric:
+  // with psi = L + D + L^T (L strictly lower) and V = U L, which costs half of U psi,
+  // U_r psi U_s^T = V_r . U_s + V_s . U_r + sum_c U_rc psi_cc U_sc. Both are column-major, so the rows'
+  // dot products are summed a column at a time.
+  const auto u = start_cross_block();
+  const Eigen::Index n_b = u.rows();
+  const Eigen::VectorXd shift = u * theta();
+  const Eigen::MatrixXd v = u * psi().triangularView<Eigen::StrictlyLower>();
+  Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(n_b), below = Eigen::VectorXd::Zero(n_b / 2);
+  for (Eigen::Index c = 0; c < a0_; ++c) {
+    const double psi_cc = psi()(c, c);
+    diagonal += (2.0 * v.col(c) + psi_cc * u.col(c)).cwiseProduct(u.col(c));
+    for (Eigen::Index r = 0; r < n_b; r += 2)
+      below[r / 2] += v(r, c) * u(r + 1, c) + v(r + 1, c) * u(r, c) + psi_cc * u(r, c) * u(r + 1, c);
+  }
+  for (Eigen::Index r = 0; r < n_b; r += 2) {
+    const std::size_t l = outside_[static_cast<std::size_t>(r)], index = (l - 3) / 2;
+    means[index] = x_.segment<2>(static_cast<Eigen::Index>(l)) + shift.segment<2>(r);
+    Matrix2 quadratic;
+    quadratic << diagonal[r], below[r / 2], below[r / 2], diagonal[r + 1];
+    covariances[index] = diagonal_block<2>(l) - quadratic;
+  }
 }
 
 Matrix2 CompressedJointGaussian::landmark_cross_covariance(std::size_t i, std::size_t j) const {
@@ -209,6 +244,31 @@ void CompressedJointGaussian::begin_area(std::span<const LandmarkObservation> mu
   phi().setIdentity();
   psi().setZero();
   theta().setZero();
+  gather_start_cross();
+}
+
+void CompressedJointGaussian::gather_start_cross() {
+  // area_offsets_ is ascending (begin_area takes the landmarks in map order): B is its complement.
+  outside_.clear();
+  auto next_active = area_offsets_.begin();
+  for (std::size_t i = 0; i < dim_; ++i) {
+    if (next_active != area_offsets_.end() && *next_active == i)
+      ++next_active;
+    else
+      outside_.push_back(i);
+  }
+  const auto n_b = static_cast<Eigen::Index>(outside_.size());
+  // Rows for the stored state's capacity, columns grown geometrically: reallocating while the map
+  // grows would cost the fresh pages' faults at every area.
+  if (u_b_.rows() < n_b || u_b_.cols() < a0_) {
+    u_b_.resize(std::max({n_b, u_b_.rows(), p_.rows()}), std::max(a0_, u_b_.cols() + u_b_.cols() / 2));
+    advise_huge_pages(u_b_.data(), sizeof(double) * static_cast<std::size_t>(u_b_.size()));
+  }
+  auto u = u_b_.topLeftCorner(n_b, a0_);
+  for (Eigen::Index c = 0; c < a0_; ++c) {
+    const std::size_t a = area_offsets_[static_cast<std::size_t>(c)];
+    for (Eigen::Index r = 0; r < n_b; ++r) u(r, c) = stored_entry(outside_[static_cast<std::size_t>(r)], a);
+  }
 }
 
 void CompressedJointGaussian::flush_local_area() {
@@ -319,32 +379,25 @@ void CompressedJointGaussian::add_local(const Matrix23& gx, const Matrix2& pnew)
 
 void CompressedJointGaussian::merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::MatrixXd> p, MergeWorkspace& ws) const {
   const Eigen::Index n = x.size(), d = d_;
-  ws.active.assign(dim_, 0);
-  for (const std::size_t a : area_offsets_) ws.active[a] = 1;
-  ws.outside.clear();
-  for (std::size_t i = 0; i < dim_; ++i)
-    if (!ws.active[i]) ws.outside.push_back(i);
-  const auto n_b = static_cast<Eigen::Index>(ws.outside.size());
+  const auto u_b = start_cross_block();
+  const Eigen::Index n_b = u_b.rows();
   // The workspace takes the stored state's capacity in rows and grows its columns geometrically: a
   // flush while the map grows would otherwise reallocate it every time, and the fresh pages' faults
   // cost more than the flush's arithmetic.
   const Eigen::Index capacity = p_.rows();
   auto fit = [capacity](Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
-    if (m.rows() < rows || m.cols() < cols)
+    if (m.rows() < rows || m.cols() < cols) {
       m.resize(std::max({rows, m.rows(), capacity}), std::max({cols, m.cols() + m.cols() / 2}));
+      advise_huge_pages(m.data(), sizeof(double) * static_cast<std::size_t>(m.size()));
+    }
     return m.topLeftCorner(rows, cols);
   };
-  auto u_b = fit(ws.u_b, n_b, a0_);
-  for (Eigen::Index c = 0; c < a0_; ++c) {
-    const std::size_t a = area_offsets_[static_cast<std::size_t>(c)];
-    for (Eigen::Index r = 0; r < n_b; ++r) u_b(r, c) = stored_entry(ws.outside[static_cast<std::size_t>(r)], a);
-  }
   // P_BA(0) spread over all n rows, zero in A's: the P_BB downdate is then one triangular product
   // on the stored layout, leaving A's rows untouched.
   auto u = fit(ws.u, n, a0_);
   u.setZero();
   for (Eigen::Index r = 0; r < n_b; ++r)
-    u.row(static_cast<Eigen::Index>(ws.outside[static_cast<std::size_t>(r)])) = u_b.row(r);
+    u.row(static_cast<Eigen::Index>(outside_[static_cast<std::size_t>(r)])) = u_b.row(r);
 
   x.noalias() += u * theta();
   auto u_psi = fit(ws.u_psi, n, a0_);
@@ -356,7 +409,7 @@ void CompressedJointGaussian::merge_area(Eigen::Ref<Eigen::VectorXd> x, Eigen::R
   for (Eigen::Index c = 0; c < d; ++c) {
     const auto a = static_cast<Eigen::Index>(area_offsets_[c]);
     for (Eigen::Index r = 0; r < n_b; ++r) {
-      const auto b = static_cast<Eigen::Index>(ws.outside[static_cast<std::size_t>(r)]);
+      const auto b = static_cast<Eigen::Index>(outside_[static_cast<std::size_t>(r)]);
       (b > a ? p(b, a) : p(a, b)) = p_ba(r, c);
     }
     for (Eigen::Index r = 0; r < d; ++r) {

@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "slamkit/core/angles.hpp"
+#include "slamkit/filters/huge_pages.hpp"
 
 namespace slamkit {
 
@@ -39,6 +40,7 @@ void EkfEstimator::reserve(std::size_t dim) {
   // Not cleared: every entry outside the lower triangle of the leading dim_ x dim_ block is written
   // before it is read.
   Eigen::MatrixXd p(grown, grown);
+  advise_huge_pages(p.data(), sizeof(double) * static_cast<std::size_t>(p.size()));
   const auto n = static_cast<Eigen::Index>(dim_);
   if (capacity > 0) {
     x.head(n) = x_.head(n);
@@ -48,6 +50,15 @@ void EkfEstimator::reserve(std::size_t dim) {
   p_.swap(p);
   scratch3_.resize(grown, 3);
   pht_.resize(grown, std::max<Eigen::Index>(2, pht_.cols()));
+}
+
+void EkfEstimator::landmark_marginals(std::vector<Vector2>& means, std::vector<Matrix2>& covariances) const {
+  means.resize(num_landmarks());
+  covariances.resize(num_landmarks());
+  for (std::size_t i = 0; i < num_landmarks(); ++i) {
+    means[i] = landmark_position(i);
+    covariances[i] = landmark_covariance(i);
+  }
 }
 
 void EkfEstimator::innovation(std::size_t index, Vector2& zhat, Matrix2& s) const {

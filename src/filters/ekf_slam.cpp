@@ -67,11 +67,13 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
 }
 
 std::vector<Landmark> EkfSlam::landmarks() const {
+  std::vector<Vector2> means;
+  std::vector<Matrix2> covariances;
+  estimator_->landmark_marginals(means, covariances);
   std::vector<Landmark> out;
   out.reserve(ids_.size());
   for (std::size_t i = 0; i < ids_.size(); ++i)
-    if (existence_rule_.confirmed(existence_[i]))
-      out.push_back(Landmark{ids_[i], estimator_->landmark_position(i), estimator_->landmark_covariance(i)});
+    if (existence_rule_.confirmed(existence_[i])) out.push_back(Landmark{ids_[i], means[i], covariances[i]});
   return out;
 }
 

@@ -11,7 +11,7 @@ namespace {
 constexpr std::size_t kChunkNodes = 8192;
 }  // namespace
 
-ParticlePath::NodeStorage::NodeStorage(const WorkerPool& threads) : pool_(sizeof(Node), threads, kChunkNodes) {}
+ParticlePath::NodeStorage::NodeStorage(const WorkerPool& threads) : pool_(sizeof(Node), alignof(Node), threads, kChunkNodes) {}
 
 // Releases the nodes this path alone keeps alive one at a time: a recursive release would nest one
 // call per step of a path thousands of steps long.

@@ -16,7 +16,7 @@ namespace slamkit {
 
 class CompressedJointGaussian final : public EkfEstimator {
  public:
-  /// The local area is a square of side `area_side` [m] (0: 3 x sensor_range) centred on the vehicle
+  /// The local area is a square of side `area_side` [m] (0: 2 x sensor_range) centred on the vehicle
   /// when it opens; its active landmarks are those within `sensor_range` of the square, i.e. every
   /// landmark the vehicle can see from inside it. Leaving the square is checked at begin_scan().
   CompressedJointGaussian(std::shared_ptr<const MotionModel> motion,
@@ -27,6 +27,9 @@ class CompressedJointGaussian final : public EkfEstimator {
   Matrix3 pose_covariance() const override;
   Vector2 landmark_position(std::size_t index) const override;
   Matrix2 landmark_covariance(std::size_t index) const override;
+  /// For the landmarks outside the area, two products over all of them (U_B theta, U_B psi) instead
+  /// of O(dim(A0)^2) scalar work per landmark.
+  void landmark_marginals(std::vector<Vector2>& means, std::vector<Matrix2>& covariances) const override;
   Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override;
   Matrix23 landmark_pose_covariance(std::size_t index) const override;
   Eigen::VectorXd state() const override;
@@ -84,12 +87,13 @@ class CompressedJointGaussian final : public EkfEstimator {
                                                                            std::size_t index) const;
   /// U_i psi U_j^T for landmarks i and j in B.
   Matrix2 start_cross_quadratic(std::size_t i, std::size_t j) const;
+  /// Fills outside_ and u_b_ for the area just begun.
+  void gather_start_cross();
+  /// P_BA(0), B's rows and A0's columns (a view of u_b_).
+  auto start_cross_block() const { return u_b_.topLeftCorner(static_cast<Eigen::Index>(outside_.size()), a0_); }
   /// Reused by merge_area; a flush makes room in it once and then reuses it.
   struct MergeWorkspace {
-    std::vector<char> active;          // per stored offset: in A
-    std::vector<std::size_t> outside;  // stored offsets of B, ascending
-    Eigen::MatrixXd u_b;               // P_BA(0): B's rows, A0's columns
-    Eigen::MatrixXd u;                 // u_b spread over all rows (zero in A's): n x a0
+    Eigen::MatrixXd u;                 // P_BA(0) spread over all rows (zero in A's): n x a0
     Eigen::MatrixXd u_psi;             // u psi
     LowerDowndate downdate;
     Eigen::MatrixXd p_ba;              // u_b phi^T: the new P_BA
@@ -112,6 +116,10 @@ class CompressedJointGaussian final : public EkfEstimator {
   Eigen::MatrixXd phi_;    // dim(A) x dim(A0): P_BA = P_BA(0) phi^T
   Eigen::MatrixXd psi_;    // dim(A0) square:   P_BB = P_BB(0) - P_BA(0) psi P_AB(0)
   Eigen::VectorXd theta_;  // dim(A0):          x_B  = x_B(0) + P_BA(0) theta
+  // B's stored offsets (ascending) and P_BA(0), gathered when the area begins: neither changes while
+  // it is open (landmarks added join A), and the flush and every read of the whole map use them.
+  std::vector<std::size_t> outside_;
+  Eigen::MatrixXd u_b_;  // rows: the stored state's capacity; columns: the largest A0 so far
   // The joint update's workspace, sized for the largest scan so far: H_A phi (k x capacity), S, the
   // innovation and the observations' Jacobians (P_AA H_A^T goes in pht_).
   Eigen::MatrixXd h_phi_;

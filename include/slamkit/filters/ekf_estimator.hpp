@@ -17,6 +17,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "slamkit/assoc/association.hpp"
 #include "slamkit/filters/lower_downdate.hpp"
@@ -38,6 +39,9 @@ class EkfEstimator : public GaussianMapView {
   std::size_t state_dim() const { return dim_; }
   std::size_t num_landmarks() const { return (dim_ - 3) / 2; }
   virtual Matrix2 landmark_covariance(std::size_t index) const = 0;
+  /// landmark_position and landmark_covariance of every landmark, in map order, into `means` and
+  /// `covariances` (resized): the whole map at once, as the runner reads it every second.
+  virtual void landmark_marginals(std::vector<Vector2>& means, std::vector<Matrix2>& covariances) const;
   /// The whole state vector (a copy).
   virtual Eigen::VectorXd state() const = 0;
   /// The full symmetric covariance (a copy: O(n^2); for tests and exports, not for the hot path).

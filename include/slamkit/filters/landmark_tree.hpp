@@ -73,7 +73,8 @@ class BasicLandmarkTree {
   class NodeStorage {
    public:
     explicit NodeStorage(const WorkerPool& threads)
-        : leaves_(sizeof(Leaf), threads, kChunkNodes), inners_(sizeof(Inner), threads, kChunkNodes) {}
+        : leaves_(sizeof(Leaf), alignof(Leaf), threads, kChunkNodes),
+          inners_(sizeof(Inner), alignof(Inner), threads, kChunkNodes) {}
 
    private:
     friend class BasicLandmarkTree;

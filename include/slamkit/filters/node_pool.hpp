@@ -15,7 +15,6 @@
 // those threads. Each thread index has its own free list that needs no lock; a list hands surplus
 // blocks to a shared list, and an empty one refills from it, in batches under a mutex, so the lock
 // is taken once per kBatch blocks.
-#include <Eigen/Core>
 #include <algorithm>
 #include <cstddef>
 #include <memory>
@@ -29,10 +28,12 @@ namespace slamkit {
 
 class NodePool {
  public:
-  /// Blocks of `block_size` bytes, aligned for Eigen's fixed-size types, for the threads of
-  /// `threads`, which must outlive the pool.
-  NodePool(std::size_t block_size, const WorkerPool& threads, std::size_t min_chunk_blocks)
-      : block_size_(round_up(std::max(block_size, sizeof(FreeBlock)))),
+  /// Blocks of `block_size` bytes aligned to `alignment` (a node type's size and alignof: Eigen's
+  /// fixed-size members may need up to 64 bytes with AVX-512), for the threads of `threads`, which
+  /// must outlive the pool.
+  NodePool(std::size_t block_size, std::size_t alignment, const WorkerPool& threads, std::size_t min_chunk_blocks)
+      : align_(std::max(alignment, alignof(FreeBlock))),
+        block_size_(round_up(std::max(block_size, sizeof(FreeBlock)), align_)),
         min_chunk_(std::max<std::size_t>(min_chunk_blocks, kBatch)),
         threads_(&threads),
         slots_(std::make_unique<Slot[]>(threads.size())) {}
@@ -68,17 +69,17 @@ class NodePool {
     FreeBlock* head = nullptr;
     std::size_t count = 0;
   };
-  // Eigen's fixed-size members need the alignment of the build's widest vectors (64 bytes with
-  // AVX-512), more than operator new's default of 16.
-  static constexpr std::size_t kAlign =
-      std::max<std::size_t>(__STDCPP_DEFAULT_NEW_ALIGNMENT__, EIGEN_MAX_STATIC_ALIGN_BYTES);
+  // Blocks are as aligned as the node type needs and no more: rounding every block up to the widest
+  // vector (64 bytes with AVX-512) made an inner node of a landmark tree 128 bytes instead of 72,
+  // and FastSLAM copies those nodes at every step.
   struct ChunkDelete {
-    void operator()(std::byte* chunk) const { ::operator delete[](chunk, std::align_val_t{kAlign}); }
+    std::align_val_t align;
+    void operator()(std::byte* chunk) const { ::operator delete[](chunk, align); }
   };
   using Chunk = std::unique_ptr<std::byte[], ChunkDelete>;
   static constexpr std::size_t kBatch = 64;
 
-  static std::size_t round_up(std::size_t size) { return (size + kAlign - 1) / kAlign * kAlign; }
+  static std::size_t round_up(std::size_t size, std::size_t align) { return (size + align - 1) / align * align; }
   static void push(FreeBlock*& head, std::size_t& count, FreeBlock* block) {
     block->next = head;
     head = block;
@@ -111,7 +112,8 @@ class NodePool {
   /// Adds a chunk of at least `blocks` blocks to the shared list; the caller holds the mutex.
   void grow(std::size_t blocks) {
     const std::size_t n = std::max({blocks, min_chunk_, capacity_ / 2});
-    Chunk chunk(static_cast<std::byte*>(::operator new[](n * block_size_, std::align_val_t{kAlign})));
+    const std::align_val_t align{align_};
+    Chunk chunk(static_cast<std::byte*>(::operator new[](n * block_size_, align)), ChunkDelete{align});
     chunks_.push_back(std::move(chunk));
     std::byte* base = chunks_.back().get();
     // Pushed in reverse so that blocks are handed out in address order.
@@ -119,6 +121,7 @@ class NodePool {
     capacity_ += n;
   }
 
+  const std::size_t align_;
   const std::size_t block_size_;
   const std::size_t min_chunk_;
   const WorkerPool* const threads_;

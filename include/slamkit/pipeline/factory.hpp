@@ -33,8 +33,8 @@ struct FilterConfig {
   // EKF and UKF.
   EkfUpdate ekf_update = EkfUpdate::kJoint;
   // EKF only.
-  /// The compressed variant works on its local state one observation at a time, so with it
-  /// ekf_update is always sequential (it then equals the full EKF with sequential updates).
+  /// The compressed variant takes joint and sequential updates alike and equals the full EKF with
+  /// the same ekf_update.
   EkfVariant ekf_variant = EkfVariant::kFull;
   // Particle filters only.
   int particles = 100;
