@@ -222,13 +222,13 @@ TYPED_TEST(MotionModelProperties, JacobianBetweenTheStepsPosesMatchesCentralDiff
 TYPED_TEST(MotionModelProperties, CarriesTheInvariantErrorUnchanged) {
   this->for_each_case([](const TypeParam& model, const Pose2& x, const Control& u, double dt) {
     const Pose2 next = model.predict(x, u, dt);
-    const auto error_after = [&](const Eigen::VectorXd& xi) -> Vector3 {
+    const auto error_after = [&](const Eigen::VectorXd& xi) -> Eigen::Vector3d {
       const Pose2 moved = model.predict(group_retract(x, xi), u, dt);
       const double phi = wrap_angle(moved[2] - next[2]);
       const Vector2 xi_p = exp_translation(phi).inverse() * (moved.head<2>() - rotation(phi) * next.head<2>());
-      return Vector3(xi_p[0], xi_p[1], phi);
+      return Eigen::Vector3d(xi_p[0], xi_p[1], phi);
     };
-    EXPECT_TRUE(jacobian_matches(Matrix3::Identity(), numeric_jacobian<3>(error_after, Vector3::Zero(), {2})));
+    EXPECT_TRUE(jacobian_matches(Matrix3::Identity(), numeric_jacobian<3>(error_after, Eigen::Vector3d::Zero(), {2})));
     const Matrix3 carried = to_invariant(next) * model.jacobian_state(x, u, dt) * to_invariant(x).inverse();
     EXPECT_TRUE(jacobian_matches(carried, Matrix3::Identity()));
   });
