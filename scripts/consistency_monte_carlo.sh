@@ -9,17 +9,21 @@
 #   e.g. scripts/consistency_monte_carlo.sh w1k.txt --config fov150.json --loops 1
 # Environment: SLAMKIT (the binary, default build/slamkit), RUNS (default 50), JOBS (parallel runs,
 # default 2), OUT (scratch folder, default out/consistency-<world>), FILTERS (default
-# "ekf ukf fej fej-iterated invariant").
+# "ekf ukf fej fej-iterated invariant invariant-iterated"; also ekf-iterated), FIRST_SEED (default 1:
+# seeds FIRST_SEED .. FIRST_SEED + RUNS - 1; choices are made on other seeds than the table's).
 set -euo pipefail
 
 slamkit=${SLAMKIT:-build/slamkit}
 runs=${RUNS:-50}
 jobs=${JOBS:-2}
-filters=${FILTERS:-ekf ukf fej fej-iterated invariant}
+filters=${FILTERS:-ekf ukf fej fej-iterated invariant invariant-iterated}
+first_seed=${FIRST_SEED:-1}
 die() { echo "consistency_monte_carlo.sh: $*" >&2; exit 1; }
 [[ $# -ge 1 ]] || die "usage: $0 default|sparse|WORLD_FILE [simulate options...]"
 [[ -x $slamkit ]] || die "no slamkit binary at $slamkit (set SLAMKIT)"
 [[ $runs =~ ^[1-9][0-9]*$ ]] || die "RUNS must be a positive integer, not '$runs'"
+[[ $first_seed =~ ^[0-9]+$ ]] || die "FIRST_SEED must be a non-negative integer, not '$first_seed'"
+seeds=$(seq "$first_seed" $((first_seed + runs - 1)))
 command -v jq >/dev/null || die "jq not found (Debian package 'jq')"
 world=$1
 shift
@@ -34,6 +38,8 @@ filter_args() {
     fej) echo "--filter ekf --ekf-variant fej" ;;
     fej-iterated) echo "--filter ekf --ekf-variant fej --ekf-update iterated" ;;
     invariant) echo "--filter ekf --ekf-variant invariant" ;;
+    invariant-iterated) echo "--filter ekf --ekf-variant invariant --ekf-update iterated" ;;
+    ekf-iterated) echo "--filter ekf --ekf-update iterated" ;;
     *) die "unknown filter '$1'" ;;
   esac
 }
@@ -51,17 +57,17 @@ one_seed() {  # simulate seed $1 and run every filter on it; a seed already done
 export -f one_seed filter_args die
 export slamkit out filters
 export SOURCE_ARGS="${source_args[*]} $*"
-seq 1 "$runs" | xargs -P "$jobs" -I{} bash -c 'set -euo pipefail; source_args=($SOURCE_ARGS); one_seed {}' 
+echo "$seeds" | xargs -P "$jobs" -I{} bash -c 'set -euo pipefail; source_args=($SOURCE_ARGS); one_seed {}' 
 
 echo "| filter | runs | mean pose NEES | steps in 95% band | ATE [m] | time [s] |"
 echo "|---|---|---|---|---|---|"
 for f in $filters; do
   files=()
-  for seed in $(seq 1 "$runs"); do files+=("$out/$f-$seed/metrics.json"); done
+  for seed in $seeds; do files+=("$out/$f-$seed/metrics.json"); done
   jq -s -r --arg f "$f" '
     def mean(f): (map(f) | add) / length;
     "| \($f) | \(length) | \(mean(.nees_pose_mean) * 100 | round / 100) | \(mean(.nees_pose_in_95_fraction) * 1000 | round / 10)% | \(mean(.ate_rmse_m) * 1000 | round / 1000) | \(mean(.wall_time_s) * 100 | round / 100) |"' "${files[@]}"
   dirs=()
-  for seed in $(seq 1 "$runs"); do dirs+=("$out/$f-$seed"); done
+  for seed in $seeds; do dirs+=("$out/$f-$seed"); done
   "$slamkit" plot-nees "${dirs[@]}" --title "$f on $name: pose NEES averaged over $runs runs" --out "$out/nees_$f.svg" >/dev/null
 done

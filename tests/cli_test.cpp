@@ -107,13 +107,14 @@ TEST_F(Cli, RunWritesResultsAndSlamBeatsDeadReckoning) {
   EXPECT_NEAR(m2["nees_pose_mean"].get<double>(), m["nees_pose_mean"].get<double>(), 1e-6);
 }
 
-// The UKF and the consistent EKF variants run from the command line like the EKF, each leaving
-// nees.svg; plot-nees draws their NEES averaged over runs.
+// The UKF and the consistent EKF variants (the invariant one iterated too) run from the command
+// line like the EKF, each leaving nees.svg; plot-nees draws their NEES averaged over runs.
 TEST_F(Cli, UkfAndConsistentVariantsRunAndPlotNees) {
   const std::string data = " --data sim:" + (*work_ / "sim").string();
   std::string dirs;
   int run = 0;
-  for (const char* filter : {"--filter ukf", "--filter ekf --ekf-variant fej", "--filter ekf --ekf-variant invariant"}) {
+  for (const char* filter : {"--filter ukf", "--filter ekf --ekf-variant fej", "--filter ekf --ekf-variant invariant",
+                             "--filter ekf --ekf-variant invariant --ekf-update iterated"}) {
     const fs::path out = *work_ / ("consistent-" + std::to_string(++run));
     const Result r = slamkit("run " + std::string(filter) + data + " --out " + out.string(), *work_);
     ASSERT_EQ(r.exit_code, 0) << filter << ": " << r.err;
@@ -129,7 +130,7 @@ TEST_F(Cli, UkfAndConsistentVariantsRunAndPlotNees) {
   ASSERT_EQ(p.exit_code, 0) << p.err;
   std::ifstream in(svg);
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text.find("95% interval of the 3-run mean"), std::string::npos);
+  EXPECT_NE(text.find("95% interval of the 4-run mean"), std::string::npos);
 }
 
 TEST_F(Cli, SameSeedSameLog) {

@@ -145,6 +145,7 @@ INSTANTIATE_TEST_SUITE_P(
                       Mode{"NearestNeighbour", AssociationMethod::kNearestNeighbour, "joint", "full"},
                       Mode{"Jcbb", AssociationMethod::kJcbb, "joint", "full"},
                       Mode{"KnownIteratedFej", AssociationMethod::kKnown, "iterated", "fej"},
+                      Mode{"KnownIteratedInvariant", AssociationMethod::kKnown, "iterated", "invariant"},
                       Mode{"CompressedKnown", AssociationMethod::kKnown, "joint", "compressed"},
                       Mode{"CompressedNearestNeighbour", AssociationMethod::kNearestNeighbour, "joint", "compressed"},
                       Mode{"CompressedJcbb", AssociationMethod::kJcbb, "joint", "compressed"}),

@@ -97,12 +97,12 @@ TEST(IteratedEkfUpdate, IsRefusedWhereItIsNotImplemented) {
   FilterConfig config;
   config.ekf_update = EkfUpdate::kIterated;
   EXPECT_NO_THROW(validate(config));
-  config.ekf_variant = EkfVariant::kFirstEstimates;
-  EXPECT_NO_THROW(validate(config));
-  for (const EkfVariant refused : {EkfVariant::kCompressed, EkfVariant::kInvariant}) {
-    config.ekf_variant = refused;
-    EXPECT_THROW(validate(config), std::invalid_argument);
+  for (const EkfVariant variant : {EkfVariant::kFirstEstimates, EkfVariant::kInvariant}) {
+    config.ekf_variant = variant;
+    EXPECT_NO_THROW(validate(config));
   }
+  config.ekf_variant = EkfVariant::kCompressed;
+  EXPECT_THROW(validate(config), std::invalid_argument);
   config.ekf_variant = EkfVariant::kFull;
   config.filter = FilterKind::kUkf;
   EXPECT_THROW(validate(config), std::invalid_argument);

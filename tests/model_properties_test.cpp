@@ -81,6 +81,33 @@ bool wrapped(double angle) { return angle > -kPi && angle <= kPi; }
   return ::testing::AssertionSuccess();
 }
 
+/// exp(xi) X on SE_{1+n}(2) for a state [x y theta | m1 | ...]: the heading turns by xi_theta, every
+/// position p goes to R(xi_theta) p + V(xi_theta) xi_p (the invariant EKF's retraction).
+Matrix2 rotation(double phi) { return (Matrix2() << std::cos(phi), -std::sin(phi), std::sin(phi), std::cos(phi)).finished(); }
+/// V(phi), which takes xi_p to the translation of exp(xi).
+Matrix2 exp_translation(double phi) {
+  if (std::abs(phi) < 1e-12) return Matrix2::Identity();
+  const double a = std::sin(phi) / phi, b = (1 - std::cos(phi)) / phi;
+  return (Matrix2() << a, -b, b, a).finished();
+}
+Eigen::VectorXd group_retract(const Eigen::VectorXd& x, const Eigen::VectorXd& xi) {
+  const double phi = xi[2];
+  Eigen::VectorXd out = x;
+  for (Eigen::Index o = 0; o < x.size(); o += (o == 0 ? 3 : 2))
+    out.segment<2>(o) = rotation(phi) * x.segment<2>(o) + exp_translation(phi) * xi.segment<2>(o);
+  out[2] = wrap_angle(x[2] + phi);
+  return out;
+}
+
+/// The standard error d of a pose in the right-invariant error's coordinates, xi = T(x) d:
+/// xi_theta = d_theta, xi_p = d_p - d_theta J p.
+Matrix3 to_invariant(const Pose2& x) {
+  Matrix3 t = Matrix3::Identity();
+  t(0, 2) = x[1];
+  t(1, 2) = -x[0];
+  return t;
+}
+
 // ---- Motion models ------------------------------------------------------------------------------
 
 /// For each motion model: `models()` its instances, `controls()` and `periods()` the inputs it is
@@ -185,6 +212,25 @@ TYPED_TEST(MotionModelProperties, JacobianBetweenTheStepsPosesMatchesCentralDiff
     const Eigen::MatrixXd numeric =
         numeric_jacobian<3>([&](const Eigen::VectorXd& s) { return model.predict(s, u, dt); }, x, {2});
     EXPECT_TRUE(jacobian_matches(MotionModel::jacobian_between(x, model.predict(x, u, dt)), numeric));
+  });
+}
+
+// The invariant EKF takes the motion to carry the right-invariant error unchanged (the model moves
+// the vehicle by an increment in its own frame): the time update's Jacobian in the invariant error,
+// by central differences through the group's exponential, and T(x') F T(x)^-1 with the model's F,
+// are the identity. For the ACFR car it must hold with the laser's pose as the state.
+TYPED_TEST(MotionModelProperties, CarriesTheInvariantErrorUnchanged) {
+  this->for_each_case([](const TypeParam& model, const Pose2& x, const Control& u, double dt) {
+    const Pose2 next = model.predict(x, u, dt);
+    const auto error_after = [&](const Eigen::VectorXd& xi) -> Eigen::Vector3d {
+      const Pose2 moved = model.predict(group_retract(x, xi), u, dt);
+      const double phi = wrap_angle(moved[2] - next[2]);
+      const Vector2 xi_p = exp_translation(phi).inverse() * (moved.head<2>() - rotation(phi) * next.head<2>());
+      return Eigen::Vector3d(xi_p[0], xi_p[1], phi);
+    };
+    EXPECT_TRUE(jacobian_matches(Matrix3::Identity(), numeric_jacobian<3>(error_after, Eigen::Vector3d::Zero(), {2})));
+    const Matrix3 carried = to_invariant(next) * model.jacobian_state(x, u, dt) * to_invariant(x).inverse();
+    EXPECT_TRUE(jacobian_matches(carried, Matrix3::Identity()));
   });
 }
 
@@ -305,6 +351,34 @@ TYPED_TEST(ObservationModelProperties, MeasurementJacobiansMatchCentralDifferenc
         hx, numeric_jacobian<2>([&](const Eigen::VectorXd& s) { return model.predict(s, m); }, x, angles)));
     EXPECT_TRUE(jacobian_matches(
         hm, numeric_jacobian<2>([&](const Eigen::VectorXd& l) { return model.predict(x, l); }, m, angles)));
+  });
+}
+
+// Turning the whole scene about the origin (the invariant error's heading direction, which no
+// observation can see) leaves the measurement unchanged, with the sensor off the vehicle's origin
+// too: the observation Jacobian in the invariant error has a zero heading column, and it is the
+// standard one times T(x)^-1.
+TYPED_TEST(ObservationModelProperties, InvariantErrorJacobianHasNoHeadingColumn) {
+  this->for_each_case([](const TypeParam& model, const Pose2& x, const Vector2& m) {
+    Eigen::VectorXd state(5);
+    state << x, m;
+    const Eigen::MatrixXd numeric = numeric_jacobian<2>(
+        [&](const Eigen::VectorXd& xi) {
+          const Eigen::VectorXd moved = group_retract(state, xi);
+          return model.predict(moved.head<3>(), moved.tail<2>());
+        },
+        Eigen::VectorXd::Zero(5), ObservationTraits<TypeParam>::angular_rows());
+    EXPECT_LT(numeric.col(2).cwiseAbs().maxCoeff(), 1e-7) << numeric;
+    Matrix23 hx;
+    Matrix2 hm;
+    model.jacobians(x, m, hx, hm);
+    Eigen::Matrix<double, 2, 5> h;
+    h << hx, hm;
+    Eigen::Matrix<double, 5, 5> t = Eigen::Matrix<double, 5, 5>::Identity();
+    t.topLeftCorner<3, 3>() = to_invariant(x);
+    t(3, 2) = m[1];
+    t(4, 2) = -m[0];
+    EXPECT_TRUE(jacobian_matches(h * t.inverse(), numeric));
   });
 }
 

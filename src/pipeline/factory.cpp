@@ -72,13 +72,9 @@ void validate(const FilterConfig& config) {
   if (config.filter == FilterKind::kUkf && config.ekf_variant != EkfVariant::kFull)
     throw std::invalid_argument(
         fmt::format("EKF variant '{}' applies to the filter 'ekf', not 'ukf'", to_string(config.ekf_variant)));
-  // The invariant EKF's covariance is carried to the corrected estimate's coordinates with the
-  // Jacobian of the prior estimate; relinearised at the posterior it lost consistency (sparse world:
-  // median NEES 3.2 -> 5.0), and an iteration in the group's coordinates is not implemented.
   if (config.ekf_update == EkfUpdate::kIterated &&
-      (config.filter != FilterKind::kEkf ||
-       (config.ekf_variant != EkfVariant::kFull && config.ekf_variant != EkfVariant::kFirstEstimates)))
-    throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full or fej");
+      (config.filter != FilterKind::kEkf || config.ekf_variant == EkfVariant::kCompressed))
+    throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full, fej or invariant");
   validate(config.association);
   const bool particle_filter = config.filter == FilterKind::kFastSlam1 || config.filter == FilterKind::kFastSlam2;
   if (particle_filter && config.association.method == AssociationMethod::kJcbb)
