@@ -248,7 +248,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(integer_at_least(0));
   add_named(run_cmd, "--ekf-update", filter.ekf_update, parse_ekf_update,
-            "EKF and UKF: joint (a scan at once) or sequential (one observation after another). EKF full, fej or invariant: iterated (joint, relinearised at the "
+            "EKF and UKF: joint (a scan at once) or sequential (one observation after another). "
+            "EKF full, fej or invariant: iterated (joint, relinearised at the "
             "result until it converges; keeps a loop closure after a long drift consistent)");
   add_named(run_cmd, "--ekf-variant", filter.ekf_variant, parse_ekf_variant,
             "EKF: full, compressed (local-area updates, the same result as full), "
