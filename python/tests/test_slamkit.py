@@ -13,18 +13,22 @@ import slamkit
 
 CLI = os.environ["SLAMKIT_CLI"]
 SOURCE = os.environ["SLAMKIT_SOURCE_DIR"]
+# A sanitized build preloads the sanitizer's runtime for the interpreter (CMakeLists.txt); the command
+# line links its own, and refuses to start with a second one.
+CLI_ENV = {name: value for name, value in os.environ.items() if name != "LD_PRELOAD"}
 
 
 @pytest.fixture(scope="module")
 def sim(tmp_path_factory):
     work = tmp_path_factory.mktemp("sim")
-    subprocess.run([CLI, "simulate", "--seed", "4", "--out", str(work / "sim")], check=True, capture_output=True)
+    subprocess.run([CLI, "simulate", "--seed", "4", "--out", str(work / "sim")], check=True, capture_output=True,
+                   env=CLI_ENV)
     return work
 
 
 def cli_metrics(work, name, args):
     subprocess.run([CLI, "run", "--data", f"sim:{work / 'sim'}", "--out", str(work / name), "--quiet", *args],
-                   check=True, capture_output=True)
+                   check=True, capture_output=True, env=CLI_ENV)
     with open(work / name / "metrics.json") as f:
         return json.load(f)
 
