@@ -31,15 +31,22 @@ Eigen::MatrixXd to_invariant(const Eigen::VectorXd& x) {
   return t;
 }
 
+// The rotation by phi and SE(2)'s V(phi), which takes xi_p to the translation of exp(xi).
+struct TurnAndV {
+  Matrix2 rot, v;
+  explicit TurnAndV(double phi) {
+    rot << std::cos(phi), -std::sin(phi), std::sin(phi), std::cos(phi);
+    if (std::abs(phi) < 1e-12)
+      v.setIdentity();
+    else
+      v << std::sin(phi) / phi, -(1 - std::cos(phi)) / phi, (1 - std::cos(phi)) / phi, std::sin(phi) / phi;
+  }
+};
+
 // exp(xi) X: heading + phi, every position p -> R(phi) p + V(phi) xi_p.
 Eigen::VectorXd retract(const Eigen::VectorXd& x, const Eigen::VectorXd& xi) {
   const double phi = xi[2];
-  Matrix2 rot, v;
-  rot << std::cos(phi), -std::sin(phi), std::sin(phi), std::cos(phi);
-  if (std::abs(phi) < 1e-12)
-    v.setIdentity();
-  else
-    v << std::sin(phi) / phi, -(1 - std::cos(phi)) / phi, (1 - std::cos(phi)) / phi, std::sin(phi) / phi;
+  const auto [rot, v] = TurnAndV(phi);
   Eigen::VectorXd out = x;
   for (const Eigen::Index o : position_offsets(x.size()))
     out.segment<2>(o) = rot * x.segment<2>(o) + v * xi.segment<2>(o);
@@ -50,12 +57,7 @@ Eigen::VectorXd retract(const Eigen::VectorXd& x, const Eigen::VectorXd& xi) {
 // The inverse of retract: the xi with retract(x, xi) = y.
 Eigen::VectorXd unretract(const Eigen::VectorXd& x, const Eigen::VectorXd& y) {
   const double phi = wrap_angle(y[2] - x[2]);
-  Matrix2 rot, v;
-  rot << std::cos(phi), -std::sin(phi), std::sin(phi), std::cos(phi);
-  if (std::abs(phi) < 1e-12)
-    v.setIdentity();
-  else
-    v << std::sin(phi) / phi, -(1 - std::cos(phi)) / phi, (1 - std::cos(phi)) / phi, std::sin(phi) / phi;
+  const auto [rot, v] = TurnAndV(phi);
   Eigen::VectorXd xi(x.size());
   for (const Eigen::Index o : position_offsets(x.size()))
     xi.segment<2>(o) = v.inverse() * (y.segment<2>(o) - rot * x.segment<2>(o));
