@@ -86,9 +86,12 @@ namespace {
 
 using Workspace = AssociationWorkspace::Impl;
 
-/// Individual compatibility of every observation with every candidate, into ws.pairs and ws.min_d2.
+/// Individual compatibility of every observation with every candidate, into ws.pairs and ws.min_d2;
+/// with weigh_pairings also each pair's likelihood and ws.explained (one exp per pair, which the
+/// default min_pairing_probability of 0 does not need).
 void build_compatibility(std::span<const Observation> observations, std::span<const std::size_t> candidates,
-                         const GaussianMapView& belief, const ObservationModel& model, Workspace& ws) {
+                         const GaussianMapView& belief, const ObservationModel& model, bool weigh_pairings,
+                         Workspace& ws) {
   ws.pairs.clear();
   ws.min_d2.assign(observations.size(), kInfinity);
   ws.explained.assign(observations.size(), 0.0);
@@ -115,9 +118,11 @@ void build_compatibility(std::span<const Observation> observations, std::span<co
       t.innovation = model.residual(observations[i].z, zhat);
       t.s = s_sym;
       t.d2 = t.innovation.dot(llt.solve(t.innovation));
-      t.likelihood = std::exp(-0.5 * t.d2) / normaliser;
       ws.min_d2[i] = std::min(ws.min_d2[i], t.d2);
-      ws.explained[i] += t.likelihood;
+      if (weigh_pairings) {
+        t.likelihood = std::exp(-0.5 * t.d2) / normaliser;
+        ws.explained[i] += t.likelihood;
+      }
       ws.pairs.push_back(t);
     }
   }
@@ -291,7 +296,7 @@ void associate(std::span<const Observation> observations, std::span<const std::s
     throw std::invalid_argument("associate() needs the nn or jcbb method; known identities need no search");
   Workspace& ws = workspace.impl();
   const Gates& gates = ws.gates_for(config);
-  build_compatibility(observations, candidates, belief, model, ws);
+  build_compatibility(observations, candidates, belief, model, config.min_pairing_probability > 0.0, ws);
   if (stats) stats->candidate_pairs += ws.pairs.size();
   out.assign(observations.size(), Pairing{});
   if (config.method == AssociationMethod::kNearestNeighbour) {
