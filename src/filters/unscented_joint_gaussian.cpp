@@ -74,7 +74,7 @@ void UnscentedJointGaussian::unscented(Transform& t, const Eigen::VectorXd& mean
       Eigen::Ref<Eigen::VectorXd> y = (sign > 0.0 ? t.plus : t.minus).col(j);
       y = t.centre;
       image(t.point, first_moved, y);
-      subtract(y, t.centre);
+      subtract(y, t.centre, first_moved);
     }
   }
   t.shift.noalias() = t.weight * (t.plus.rowwise().sum() + t.minus.rowwise().sum());
@@ -108,7 +108,7 @@ void UnscentedJointGaussian::predict(const Control& u, double dt) {
       [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) {
         y.head<3>() = motion_->predict(a.head<3>(), Control(u + a.tail(c)), dt);
       },
-      [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre) {
+      [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre, Eigen::Index) {
         y -= centre;
         y[2] = wrap_angle(y[2]);
       });
@@ -153,20 +153,33 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
               stored_entry(sub_offsets_[a] + static_cast<std::size_t>(i), sub_offsets_[b] + static_cast<std::size_t>(j));
   }
 
+  // Whether a sigma point that leaves the sub-state's rows before first_moved at the mean moves
+  // observation i (the vehicle's rows or its landmark's).
+  const auto moves = [&](std::size_t i, Eigen::Index first_moved) { return first_moved < 3 || sub_at_[i] + 2 > first_moved; };
   Transform& t = scan_transform_;
   unscented(
       t, sub_mean_, sub_covariance_, k,
       [&](const Eigen::VectorXd& s, Eigen::Index first_moved, Eigen::Ref<Eigen::VectorXd> z) {
         // An observation reads the vehicle and its landmark; the points that move neither leave it
         // at the centre's prediction (half of the evaluations, the Cholesky factor being triangular).
-        const Pose2 xv = s.head<3>();
+        // The others are predicted together, from the one pose.
+        moved_landmarks_.clear();
         for (std::size_t i = 0; i < batch.size(); ++i)
-          if (first_moved < 3 || sub_at_[i] + 2 > first_moved)
-            z.segment<2>(2 * static_cast<Eigen::Index>(i)) = observation_->predict(xv, s.segment<2>(sub_at_[i]));
+          if (moves(i, first_moved)) moved_landmarks_.push_back(s.segment<2>(sub_at_[i]));
+        moved_predictions_.resize(moved_landmarks_.size());
+        observation_->predict_many(s.head<3>(), moved_landmarks_, moved_predictions_);
+        for (std::size_t i = 0, j = 0; i < batch.size(); ++i)
+          if (moves(i, first_moved)) z.segment<2>(2 * static_cast<Eigen::Index>(i)) = moved_predictions_[j++];
       },
-      [&](Eigen::Ref<Eigen::VectorXd> a, const Eigen::VectorXd& b) {
-        for (Eigen::Index i = 0; i < k; i += 2)
-          a.segment<2>(i) = observation_->residual(a.segment<2>(i), b.segment<2>(i));
+      [&](Eigen::Ref<Eigen::VectorXd> a, const Eigen::VectorXd& b, Eigen::Index first_moved) {
+        // The residual of a prediction left at the centre's is exactly zero.
+        for (std::size_t i = 0; i < batch.size(); ++i) {
+          auto ai = a.segment<2>(2 * static_cast<Eigen::Index>(i));
+          if (moves(i, first_moved))
+            ai = observation_->residual(ai, b.segment<2>(2 * static_cast<Eigen::Index>(i)));
+          else
+            ai.setZero();
+        }
       });
 
   reserve_joint_update(k);
@@ -206,7 +219,7 @@ std::size_t UnscentedJointGaussian::add_landmark(const Vector2& z) {
   unscented(
       t, sub_mean_, sub_covariance_, 2,
       [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) { y.head<2>() = observation_->inverse(a.head<3>(), a.tail<2>()); },
-      [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre) { y -= centre; });
+      [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre, Eigen::Index) { y -= centre; });
   append_landmark(t.mean, t.linearisation.leftCols<3>(), t.covariance);
   return num_landmarks() - 1;
 }
