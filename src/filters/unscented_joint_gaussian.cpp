@@ -26,9 +26,6 @@ void UnscentedJointGaussian::sigma_points(Transform& t, const Eigen::MatrixXd& c
     const double c = std::sqrt(spread);
     t.offsets = t.factor.triangularView<Eigen::Lower>();
     t.offsets *= c;
-    t.inverse_offsets.setIdentity(d, d);
-    t.inverse_offsets /= c;
-    t.factor.triangularView<Eigen::Lower>().solveInPlace(t.inverse_offsets);
     t.weight = 0.5 / spread;
     t.triangular = true;
     return;
@@ -64,27 +61,31 @@ void UnscentedJointGaussian::unscented(Transform& t, const Eigen::VectorXd& mean
   t.covariance.setZero(m, m);
   t.linearisation.setZero(m, mean.size());
   if (r == 0) return;
-  t.plus.resize(m, r);
-  t.minus.resize(m, r);
+  t.images.resize(m, 2 * r);
   for (Eigen::Index j = 0; j < r; ++j) {
     // A column of the Cholesky factor moves the rows from its own down, and only those.
     const Eigen::Index first_moved = t.triangular ? j : 0;
     for (const double sign : {1.0, -1.0}) {
       t.point = mean + sign * t.offsets.col(j);
-      Eigen::Ref<Eigen::VectorXd> y = (sign > 0.0 ? t.plus : t.minus).col(j);
+      Eigen::Ref<Eigen::VectorXd> y = t.images.col(sign > 0.0 ? j : r + j);
       y = t.centre;
       image(t.point, first_moved, y);
       subtract(y, t.centre, first_moved);
     }
   }
-  t.shift.noalias() = t.weight * (t.plus.rowwise().sum() + t.minus.rowwise().sum());
+  t.shift.noalias() = t.weight * t.images.rowwise().sum();
   t.mean += t.shift;
   // Central differences along the offsets, (y+ - y-) / 2 = J o_j for a linear f, so J = that times
-  // the offsets' pseudo-inverse: the regression coefficient of y on s.
-  t.linearisation.noalias() = 0.5 * (t.plus - t.minus) * t.inverse_offsets;
+  // the offsets' pseudo-inverse: the regression coefficient of y on s. For the Cholesky factor's
+  // offsets (lower triangular) that is a triangular solve on the right.
+  t.linearisation = 0.5 * (t.images.leftCols(r) - t.images.rightCols(r));
+  if (t.triangular)
+    t.offsets.triangularView<Eigen::Lower>().solveInPlace<Eigen::OnTheRight>(t.linearisation);
+  else
+    t.linearisation *= t.inverse_offsets;
   // The weighted scatter about the new mean, the centre point's term included, is this sum less
   // shift shift^T (the weights add up to one).
-  t.covariance.noalias() = t.weight * (t.plus * t.plus.transpose() + t.minus * t.minus.transpose());
+  t.covariance.noalias() = t.weight * t.images * t.images.transpose();
   t.covariance.noalias() -= t.shift * t.shift.transpose();
 }
 
@@ -141,16 +142,23 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
   }
   const auto d = static_cast<Eigen::Index>(1 + 2 * sub_offsets_.size());
   auto width = [](std::size_t block) -> Eigen::Index { return block == 0 ? 3 : 2; };
+  // P(:, s), the covariance's columns of the sub-state gathered from the lower triangle (rows above
+  // a block from its transposed row block), of which s's own rows are P(s, s).
+  sub_columns_.resize(n, d);
+  for (std::size_t a = 0, ra = 0; a < sub_offsets_.size(); ra += static_cast<std::size_t>(width(a)), ++a) {
+    const auto o = static_cast<Eigen::Index>(sub_offsets_[a]);
+    const Eigen::Index wa = width(a);
+    auto columns = sub_columns_.middleCols(static_cast<Eigen::Index>(ra), wa);
+    if (o > 0) columns.topRows(o) = p_.block(o, 0, wa, o).transpose();
+    columns.middleRows(o, wa) = p_.block(o, o, wa, wa).selfadjointView<Eigen::Lower>();
+    if (o + wa < n) columns.bottomRows(n - o - wa) = p_.block(o + wa, o, n - o - wa, wa);
+  }
   sub_mean_.resize(d);
   sub_covariance_.resize(d, d);
   for (std::size_t a = 0, ra = 0; a < sub_offsets_.size(); ra += static_cast<std::size_t>(width(a)), ++a) {
-    sub_mean_.segment(static_cast<Eigen::Index>(ra), width(a)) =
-        x_.segment(static_cast<Eigen::Index>(sub_offsets_[a]), width(a));
-    for (std::size_t b = 0, rb = 0; b < sub_offsets_.size(); rb += static_cast<std::size_t>(width(b)), ++b)
-      for (Eigen::Index i = 0; i < width(a); ++i)
-        for (Eigen::Index j = 0; j < width(b); ++j)
-          sub_covariance_(static_cast<Eigen::Index>(ra) + i, static_cast<Eigen::Index>(rb) + j) =
-              stored_entry(sub_offsets_[a] + static_cast<std::size_t>(i), sub_offsets_[b] + static_cast<std::size_t>(j));
+    const auto o = static_cast<Eigen::Index>(sub_offsets_[a]);
+    sub_mean_.segment(static_cast<Eigen::Index>(ra), width(a)) = x_.segment(o, width(a));
+    sub_covariance_.middleRows(static_cast<Eigen::Index>(ra), width(a)) = sub_columns_.middleRows(o, width(a));
   }
 
   // Whether a sigma point that leaves the sub-state's rows before first_moved at the mean moves
@@ -189,18 +197,8 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
     s.block<2, 2>(i, i) += observation_->noise();
     batch_nu_.segment<2>(i) = observation_->residual(batch[static_cast<std::size_t>(i / 2)].z, t.mean.segment<2>(i));
   }
-  // W = P(:, s) A^T, block column by block column of s, each read from the lower triangle.
-  gain_basis_ = t.linearisation.transpose();
-  auto w = pht_.topLeftCorner(n, k);
-  w.setZero();
-  for (std::size_t a = 0, ra = 0; a < sub_offsets_.size(); ra += static_cast<std::size_t>(width(a)), ++a) {
-    const auto o = static_cast<Eigen::Index>(sub_offsets_[a]);
-    const Eigen::Index wa = width(a);
-    const auto g = gain_basis_.middleRows(static_cast<Eigen::Index>(ra), wa);
-    if (o > 0) w.topRows(o).noalias() += p_.block(o, 0, wa, o).transpose() * g;
-    w.middleRows(o, wa).noalias() += p_.block(o, o, wa, wa).selfadjointView<Eigen::Lower>() * g;
-    if (o + wa < n) w.bottomRows(n - o - wa).noalias() += p_.block(o + wa, o, n - o - wa, wa) * g;
-  }
+  // W = P(:, s) A^T.
+  pht_.topLeftCorner(n, k).noalias() = sub_columns_ * t.linearisation.transpose();
   return apply_joint_update(k);
 }
 
