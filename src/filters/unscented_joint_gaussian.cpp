@@ -56,7 +56,7 @@ void UnscentedJointGaussian::unscented(Transform& t, const Eigen::VectorXd& mean
   sigma_points(t, cov);
   const Eigen::Index r = t.offsets.cols();
   t.centre.resize(m);
-  image(mean, Eigen::Index{0}, t.centre);
+  image(mean, Eigen::Index{0}, Eigen::Index{-1}, t.centre);
   t.mean = t.centre;
   t.covariance.setZero(m, m);
   t.linearisation.setZero(m, mean.size());
@@ -66,10 +66,11 @@ void UnscentedJointGaussian::unscented(Transform& t, const Eigen::VectorXd& mean
     // A column of the Cholesky factor moves the rows from its own down, and only those.
     const Eigen::Index first_moved = t.triangular ? j : 0;
     for (const double sign : {1.0, -1.0}) {
+      const Eigen::Index column = sign > 0.0 ? j : r + j;
       t.point = mean + sign * t.offsets.col(j);
-      Eigen::Ref<Eigen::VectorXd> y = t.images.col(sign > 0.0 ? j : r + j);
+      Eigen::Ref<Eigen::VectorXd> y = t.images.col(column);
       y = t.centre;
-      image(t.point, first_moved, y);
+      image(t.point, first_moved, column, y);
       subtract(y, t.centre, first_moved);
     }
   }
@@ -106,7 +107,7 @@ void UnscentedJointGaussian::predict(const Control& u, double dt) {
   sub_covariance_.bottomRightCorner(c, c) = noise;
   unscented(
       t, sub_mean_, sub_covariance_, 3,
-      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) {
+      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) {
         y.head<3>() = motion_->predict(a.head<3>(), Control(u + a.tail(c)), dt);
       },
       [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre, Eigen::Index) {
@@ -165,12 +166,41 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
   // observation i (the vehicle's rows or its landmark's).
   const auto moves = [&](std::size_t i, Eigen::Index first_moved) { return first_moved < 3 || sub_at_[i] + 2 > first_moved; };
   Transform& t = scan_transform_;
+  // The points along the Cholesky factor's landmark columns leave the vehicle at the mean, so the
+  // landmarks they move are all predicted from the mean pose at once (one sensor pose for all of
+  // them), when the first of those points is imaged; mean_pose_first_[c] is where image column c's
+  // predictions start.
+  bool mean_pose_predicted = false;
+  const auto predict_from_mean_pose = [&] {
+    const Eigen::Index r = t.offsets.cols();
+    mean_pose_landmarks_.clear();
+    mean_pose_first_.assign(static_cast<std::size_t>(2 * r), 0);
+    for (Eigen::Index column = 0; column < 2 * r; ++column) {
+      const Eigen::Index j = column % r;
+      if (j < 3) continue;
+      const double sign = column < r ? 1.0 : -1.0;
+      mean_pose_first_[static_cast<std::size_t>(column)] = mean_pose_landmarks_.size();
+      for (std::size_t i = 0; i < batch.size(); ++i)
+        if (moves(i, j))
+          mean_pose_landmarks_.push_back(sub_mean_.segment<2>(sub_at_[i]) + sign * t.offsets.block<2, 1>(sub_at_[i], j));
+    }
+    mean_pose_predictions_.resize(mean_pose_landmarks_.size());
+    observation_->predict_many(sub_mean_.head<3>(), mean_pose_landmarks_, mean_pose_predictions_);
+    mean_pose_predicted = true;
+  };
   unscented(
       t, sub_mean_, sub_covariance_, k,
-      [&](const Eigen::VectorXd& s, Eigen::Index first_moved, Eigen::Ref<Eigen::VectorXd> z) {
+      [&](const Eigen::VectorXd& s, Eigen::Index first_moved, Eigen::Index column, Eigen::Ref<Eigen::VectorXd> z) {
         // An observation reads the vehicle and its landmark; the points that move neither leave it
         // at the centre's prediction (half of the evaluations, the Cholesky factor being triangular).
-        // The others are predicted together, from the one pose.
+        // The others are predicted together, from the point's pose.
+        if (first_moved >= 3) {
+          if (!mean_pose_predicted) predict_from_mean_pose();
+          auto next = mean_pose_predictions_.cbegin() + static_cast<std::ptrdiff_t>(mean_pose_first_[static_cast<std::size_t>(column)]);
+          for (std::size_t i = 0; i < batch.size(); ++i)
+            if (moves(i, first_moved)) z.segment<2>(2 * static_cast<Eigen::Index>(i)) = *next++;
+          return;
+        }
         moved_landmarks_.clear();
         for (std::size_t i = 0; i < batch.size(); ++i)
           if (moves(i, first_moved)) moved_landmarks_.push_back(s.segment<2>(sub_at_[i]));
@@ -216,7 +246,7 @@ std::size_t UnscentedJointGaussian::add_landmark(const Vector2& z) {
   // (unreachable) 8-wide AVX-512 loop as reading past a 2- or 3-vector.
   unscented(
       t, sub_mean_, sub_covariance_, 2,
-      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) { y.head<2>() = observation_->inverse(a.head<3>(), a.tail<2>()); },
+      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) { y.head<2>() = observation_->inverse(a.head<3>(), a.tail<2>()); },
       [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre, Eigen::Index) { y -= centre; });
   append_landmark(t.mean, t.linearisation.leftCols<3>(), t.covariance);
   return num_landmarks() - 1;

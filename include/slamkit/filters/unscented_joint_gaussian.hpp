@@ -56,9 +56,9 @@ class UnscentedJointGaussian final : public JointGaussian {
   /// not triangular, t.inverse_offsets.
   static void sigma_points(Transform& t, const Eigen::MatrixXd& cov);
   /// The unscented transform of y = f(s), s ~ N(mean, cov), into t.mean, t.covariance and
-  /// t.linearisation. image(s, first_moved, y) writes f(s) into y, which holds f(mean) on entry; the
-  /// rows of s before first_moved equal the mean's, so entries of f that read only those may be
-  /// left. subtract(y, c, first_moved) makes y the difference y - c, angular entries wrapped, so that
+  /// t.linearisation. image(s, first_moved, column, y) writes f(s) into y, the images' column `column`
+  /// (-1: the mean's), which holds f(mean) on entry; the rows of s before first_moved equal the
+  /// mean's, so entries of f that read only those may be left. subtract(y, c, first_moved) makes y the difference y - c, angular entries wrapped, so that
   /// sigma points straddling +-pi average correctly (entries image left at c are exactly zero).
   template <class Image, class Subtract>
   static void unscented(Transform& t, const Eigen::VectorXd& mean, const Eigen::MatrixXd& cov, Eigen::Index m,
@@ -70,8 +70,10 @@ class UnscentedJointGaussian final : public JointGaussian {
   Eigen::MatrixXd sub_covariance_, sub_columns_;  // P(s, s) and P(:, s)
   std::vector<std::size_t> sub_offsets_;  // state offset of each block of the sub-state
   std::vector<Eigen::Index> sub_at_;      // where each observation's landmark sits in the sub-state
-  // A sigma point's landmarks whose predictions it moves, and those predictions.
-  std::vector<Vector2> moved_landmarks_, moved_predictions_;
+  // A sigma point's landmarks whose predictions it moves, and those predictions; the same for all
+  // the points that leave the vehicle at the mean, with where each image column's start.
+  std::vector<Vector2> moved_landmarks_, moved_predictions_, mean_pose_landmarks_, mean_pose_predictions_;
+  std::vector<std::size_t> mean_pose_first_;
 };
 
 }  // namespace slamkit
