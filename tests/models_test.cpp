@@ -4,7 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <vector>
 
 #include "slamkit/core/angles.hpp"
 #include "slamkit/models/motion_model.hpp"
@@ -64,14 +63,4 @@ TEST(RangeBearingModel, KnownMeasurementAndWrappedResidual) {
   const Vector2 r = model.residual(Vector2(1, kPi - 0.01), Vector2(1, -kPi + 0.01));
   EXPECT_NEAR(r[1], -0.02, 1e-12);
   EXPECT_DOUBLE_EQ(model.noise()(0, 0), 0.01);
-}
-
-// The UKF predicts a sigma point's landmarks together and relies on getting predict's values exactly.
-TEST(RangeBearingModel, PredictManyEqualsPredictBitForBit) {
-  const RangeBearingModel model(RangeBearingModel::Params{.offset_x = 3.78, .offset_y = 0.5});
-  const Pose2 x(12.0, -7.0, 2.9);
-  const std::vector<Vector2> landmarks{{30.0, 4.0}, {-5.0, 2.5}, {12.5, -7.2}, {-40.0, -60.0}};
-  std::vector<Vector2> z(landmarks.size());
-  model.predict_many(x, landmarks, z);
-  for (std::size_t i = 0; i < landmarks.size(); ++i) EXPECT_EQ(z[i], model.predict(x, landmarks[i])) << i;
 }
