@@ -236,3 +236,84 @@ TEST(InvariantEkf, IteratedUpdateStopsWhereThePosteriorOnTheGroupHasNoGradient) 
   const Eigen::MatrixXd expected = t_inv * p_xi_plus * t_inv.transpose();
   EXPECT_LT((iterated->covariance() - expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff());
 }
+
+// What the association gates, landmark initialisation and the existence rule's removals read or
+// write is kept in the standard coordinates too; each must be what the invariant error's own
+// linearisation gives, or the variant would gate, start or drop landmarks with a covariance of
+// another error. Redone here in xi, with Jacobians by central differences through the exponential.
+namespace {
+
+// Central differences of f (a vector of m rows) at 0 over n coordinates, steps 1e-6.
+template <class F>
+Eigen::MatrixXd central_differences(F f, Eigen::Index m, Eigen::Index n) {
+  Eigen::MatrixXd j(m, n);
+  for (Eigen::Index c = 0; c < n; ++c) {
+    const Eigen::VectorXd step = Eigen::VectorXd::Unit(n, c) * 1e-6;
+    j.col(c) = (f(step) - f(-step)) / 2e-6;
+  }
+  return j;
+}
+
+}  // namespace
+
+TEST(InvariantEkf, GateInnovationCovarianceIsTheInvariantErrors) {
+  Fixture f;
+  f.filter.predict(f.u, 0.5);
+  const Eigen::VectorXd x = f.filter.state();
+  const Eigen::MatrixXd p_xi = to_invariant(x) * f.filter.covariance() * to_invariant(x).transpose();
+  for (std::size_t i = 0; i < 2; ++i) {
+    const auto at = static_cast<Eigen::Index>(3 + 2 * i);
+    const Vector2 zhat = f.observation->predict(x.head<3>(), x.segment<2>(at));
+    const Eigen::MatrixXd h = central_differences(
+        [&](const Eigen::VectorXd& xi) -> Eigen::VectorXd {
+          const Eigen::VectorXd moved = retract(x, xi);
+          return f.observation->residual(f.observation->predict(moved.head<3>(), moved.segment<2>(at)), zhat);
+        },
+        2, x.size());
+    Vector2 gate_zhat;
+    Matrix2 gate_s;
+    f.filter.innovation(i, gate_zhat, gate_s);
+    const Matrix2 expected = h * p_xi * h.transpose() + f.observation->noise();
+    EXPECT_LT((gate_s - expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff()) << "landmark " << i;
+  }
+}
+
+TEST(InvariantEkf, NewLandmarkAndRemovalAreTheInvariantErrorsAugmentationAndMarginal) {
+  Fixture f;
+  f.filter.predict(f.u, 0.5);
+  const Eigen::VectorXd x = f.filter.state();
+  const Eigen::Index n = x.size();
+  const Eigen::MatrixXd p_xi = to_invariant(x) * f.filter.covariance() * to_invariant(x).transpose();
+
+  // A new landmark seen as z: in xi, the landmark's error is the inverse model's through the vehicle's
+  // error and the measurement noise v, xi_new = A xi + B v.
+  const Vector2 z(10.0, 0.9);
+  f.filter.add_landmark(z);
+  const Eigen::VectorXd x_aug = f.filter.state();
+  ASSERT_EQ(x_aug.size(), n + 2);
+  const auto augmented_error = [&](const Eigen::VectorXd& xi, const Vector2& v) -> Eigen::VectorXd {
+    const Eigen::VectorXd moved = retract(x, xi);
+    Eigen::VectorXd y(n + 2);
+    y << moved, f.observation->inverse(moved.head<3>(), z + v);
+    return unretract(x_aug, y);
+  };
+  const Eigen::MatrixXd a = central_differences(
+      [&](const Eigen::VectorXd& xi) { return augmented_error(xi, Vector2::Zero()); }, n + 2, n);
+  const Eigen::MatrixXd b = central_differences(
+      [&](const Eigen::VectorXd& v) { return augmented_error(Eigen::VectorXd::Zero(n), v); }, n + 2, 2);
+  Eigen::MatrixXd p_xi_aug = a * p_xi * a.transpose() + b * f.observation->noise() * b.transpose();
+  Eigen::MatrixXd t_inv = to_invariant(x_aug).inverse();
+  Eigen::MatrixXd expected = t_inv * p_xi_aug * t_inv.transpose();
+  EXPECT_LT((f.filter.covariance() - expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff());
+
+  // Removing the middle landmark (rows 5-6) is the marginal of the invariant error without it.
+  p_xi_aug = to_invariant(x_aug) * f.filter.covariance() * to_invariant(x_aug).transpose();
+  f.filter.remove_landmark(1);
+  const std::vector<Eigen::Index> kept{0, 1, 2, 3, 4, 7, 8};
+  const Eigen::MatrixXd marginal = p_xi_aug(kept, kept);
+  const Eigen::VectorXd x_kept = x_aug(kept);
+  ASSERT_EQ(f.filter.state(), x_kept);
+  t_inv = to_invariant(x_kept).inverse();
+  expected = t_inv * marginal * t_inv.transpose();
+  EXPECT_LT((f.filter.covariance() - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+}

@@ -382,6 +382,18 @@ TYPED_TEST(ObservationModelProperties, InvariantErrorJacobianHasNoHeadingColumn)
   });
 }
 
+// The UKF predicts a sigma point's landmarks together and relies on getting predict's values exactly.
+TYPED_TEST(ObservationModelProperties, PredictManyEqualsPredictBitForBit) {
+  const std::vector<Vector2> landmarks = ObservationTraits<TypeParam>::landmarks();
+  std::vector<Vector2> z(landmarks.size());
+  for (const TypeParam& model : ObservationTraits<TypeParam>::models())
+    for (const Pose2& x : sample_poses()) {
+      model.predict_many(x, landmarks, z);
+      for (std::size_t i = 0; i < landmarks.size(); ++i)
+        EXPECT_EQ(z[i], model.predict(x, landmarks[i])) << "x " << x.transpose() << ", m " << landmarks[i].transpose();
+    }
+}
+
 TYPED_TEST(ObservationModelProperties, InverseJacobiansMatchCentralDifferences) {
   this->for_each_case([](const TypeParam& model, const Pose2& x, const Vector2& m) {
     const Vector2 z = model.predict(x, m);

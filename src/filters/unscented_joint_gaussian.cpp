@@ -26,9 +26,6 @@ void UnscentedJointGaussian::sigma_points(Transform& t, const Eigen::MatrixXd& c
     const double c = std::sqrt(spread);
     t.offsets = t.factor.triangularView<Eigen::Lower>();
     t.offsets *= c;
-    t.inverse_offsets.setIdentity(d, d);
-    t.inverse_offsets /= c;
-    t.factor.triangularView<Eigen::Lower>().solveInPlace(t.inverse_offsets);
     t.weight = 0.5 / spread;
     t.triangular = true;
     return;
@@ -59,32 +56,37 @@ void UnscentedJointGaussian::unscented(Transform& t, const Eigen::VectorXd& mean
   sigma_points(t, cov);
   const Eigen::Index r = t.offsets.cols();
   t.centre.resize(m);
-  image(mean, Eigen::Index{0}, t.centre);
+  image(mean, Eigen::Index{0}, Eigen::Index{-1}, t.centre);
   t.mean = t.centre;
   t.covariance.setZero(m, m);
   t.linearisation.setZero(m, mean.size());
   if (r == 0) return;
-  t.plus.resize(m, r);
-  t.minus.resize(m, r);
+  t.images.resize(m, 2 * r);
   for (Eigen::Index j = 0; j < r; ++j) {
     // A column of the Cholesky factor moves the rows from its own down, and only those.
     const Eigen::Index first_moved = t.triangular ? j : 0;
     for (const double sign : {1.0, -1.0}) {
+      const Eigen::Index column = sign > 0.0 ? j : r + j;
       t.point = mean + sign * t.offsets.col(j);
-      Eigen::Ref<Eigen::VectorXd> y = (sign > 0.0 ? t.plus : t.minus).col(j);
+      Eigen::Ref<Eigen::VectorXd> y = t.images.col(column);
       y = t.centre;
-      image(t.point, first_moved, y);
-      subtract(y, t.centre);
+      image(t.point, first_moved, column, y);
+      subtract(y, t.centre, first_moved);
     }
   }
-  t.shift.noalias() = t.weight * (t.plus.rowwise().sum() + t.minus.rowwise().sum());
+  t.shift.noalias() = t.weight * t.images.rowwise().sum();
   t.mean += t.shift;
   // Central differences along the offsets, (y+ - y-) / 2 = J o_j for a linear f, so J = that times
-  // the offsets' pseudo-inverse: the regression coefficient of y on s.
-  t.linearisation.noalias() = 0.5 * (t.plus - t.minus) * t.inverse_offsets;
+  // the offsets' pseudo-inverse: the regression coefficient of y on s. For the Cholesky factor's
+  // offsets (lower triangular) that is a triangular solve on the right.
+  t.linearisation = 0.5 * (t.images.leftCols(r) - t.images.rightCols(r));
+  if (t.triangular)
+    t.offsets.triangularView<Eigen::Lower>().solveInPlace<Eigen::OnTheRight>(t.linearisation);
+  else
+    t.linearisation *= t.inverse_offsets;
   // The weighted scatter about the new mean, the centre point's term included, is this sum less
   // shift shift^T (the weights add up to one).
-  t.covariance.noalias() = t.weight * (t.plus * t.plus.transpose() + t.minus * t.minus.transpose());
+  t.covariance.noalias() = t.weight * t.images * t.images.transpose();
   t.covariance.noalias() -= t.shift * t.shift.transpose();
 }
 
@@ -105,10 +107,10 @@ void UnscentedJointGaussian::predict(const Control& u, double dt) {
   sub_covariance_.bottomRightCorner(c, c) = noise;
   unscented(
       t, sub_mean_, sub_covariance_, 3,
-      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) {
+      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) {
         y.head<3>() = motion_->predict(a.head<3>(), Control(u + a.tail(c)), dt);
       },
-      [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre) {
+      [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre, Eigen::Index) {
         y -= centre;
         y[2] = wrap_angle(y[2]);
       });
@@ -141,32 +143,81 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
   }
   const auto d = static_cast<Eigen::Index>(1 + 2 * sub_offsets_.size());
   auto width = [](std::size_t block) -> Eigen::Index { return block == 0 ? 3 : 2; };
+  // P(:, s), the covariance's columns of the sub-state gathered from the lower triangle (rows above
+  // a block from its transposed row block), of which s's own rows are P(s, s).
+  sub_columns_.resize(n, d);
+  for (std::size_t a = 0, ra = 0; a < sub_offsets_.size(); ra += static_cast<std::size_t>(width(a)), ++a) {
+    const auto o = static_cast<Eigen::Index>(sub_offsets_[a]);
+    const Eigen::Index wa = width(a);
+    auto columns = sub_columns_.middleCols(static_cast<Eigen::Index>(ra), wa);
+    if (o > 0) columns.topRows(o) = p_.block(o, 0, wa, o).transpose();
+    columns.middleRows(o, wa) = p_.block(o, o, wa, wa).selfadjointView<Eigen::Lower>();
+    if (o + wa < n) columns.bottomRows(n - o - wa) = p_.block(o + wa, o, n - o - wa, wa);
+  }
   sub_mean_.resize(d);
   sub_covariance_.resize(d, d);
   for (std::size_t a = 0, ra = 0; a < sub_offsets_.size(); ra += static_cast<std::size_t>(width(a)), ++a) {
-    sub_mean_.segment(static_cast<Eigen::Index>(ra), width(a)) =
-        x_.segment(static_cast<Eigen::Index>(sub_offsets_[a]), width(a));
-    for (std::size_t b = 0, rb = 0; b < sub_offsets_.size(); rb += static_cast<std::size_t>(width(b)), ++b)
-      for (Eigen::Index i = 0; i < width(a); ++i)
-        for (Eigen::Index j = 0; j < width(b); ++j)
-          sub_covariance_(static_cast<Eigen::Index>(ra) + i, static_cast<Eigen::Index>(rb) + j) =
-              stored_entry(sub_offsets_[a] + static_cast<std::size_t>(i), sub_offsets_[b] + static_cast<std::size_t>(j));
+    const auto o = static_cast<Eigen::Index>(sub_offsets_[a]);
+    sub_mean_.segment(static_cast<Eigen::Index>(ra), width(a)) = x_.segment(o, width(a));
+    sub_covariance_.middleRows(static_cast<Eigen::Index>(ra), width(a)) = sub_columns_.middleRows(o, width(a));
   }
 
+  // Whether a sigma point that leaves the sub-state's rows before first_moved at the mean moves
+  // observation i (the vehicle's rows or its landmark's).
+  const auto moves = [&](std::size_t i, Eigen::Index first_moved) { return first_moved < 3 || sub_at_[i] + 2 > first_moved; };
   Transform& t = scan_transform_;
+  // The points along the Cholesky factor's landmark columns leave the vehicle at the mean, so the
+  // landmarks they move are all predicted from the mean pose at once (one sensor pose for all of
+  // them), when the first of those points is imaged; mean_pose_first_[c] is where image column c's
+  // predictions start.
+  bool mean_pose_predicted = false;
+  const auto predict_from_mean_pose = [&] {
+    const Eigen::Index r = t.offsets.cols();
+    mean_pose_landmarks_.clear();
+    mean_pose_first_.assign(static_cast<std::size_t>(2 * r), 0);
+    for (Eigen::Index column = 0; column < 2 * r; ++column) {
+      const Eigen::Index j = column % r;
+      if (j < 3) continue;
+      const double sign = column < r ? 1.0 : -1.0;
+      mean_pose_first_[static_cast<std::size_t>(column)] = mean_pose_landmarks_.size();
+      for (std::size_t i = 0; i < batch.size(); ++i)
+        if (moves(i, j))
+          mean_pose_landmarks_.push_back(sub_mean_.segment<2>(sub_at_[i]) + sign * t.offsets.block<2, 1>(sub_at_[i], j));
+    }
+    mean_pose_predictions_.resize(mean_pose_landmarks_.size());
+    observation_->predict_many(sub_mean_.head<3>(), mean_pose_landmarks_, mean_pose_predictions_);
+    mean_pose_predicted = true;
+  };
   unscented(
       t, sub_mean_, sub_covariance_, k,
-      [&](const Eigen::VectorXd& s, Eigen::Index first_moved, Eigen::Ref<Eigen::VectorXd> z) {
+      [&](const Eigen::VectorXd& s, Eigen::Index first_moved, Eigen::Index column, Eigen::Ref<Eigen::VectorXd> z) {
         // An observation reads the vehicle and its landmark; the points that move neither leave it
         // at the centre's prediction (half of the evaluations, the Cholesky factor being triangular).
-        const Pose2 xv = s.head<3>();
+        // The others are predicted together, from the point's pose.
+        if (first_moved >= 3) {
+          if (!mean_pose_predicted) predict_from_mean_pose();
+          auto next = mean_pose_predictions_.cbegin() + static_cast<std::ptrdiff_t>(mean_pose_first_[static_cast<std::size_t>(column)]);
+          for (std::size_t i = 0; i < batch.size(); ++i)
+            if (moves(i, first_moved)) z.segment<2>(2 * static_cast<Eigen::Index>(i)) = *next++;
+          return;
+        }
+        moved_landmarks_.clear();
         for (std::size_t i = 0; i < batch.size(); ++i)
-          if (first_moved < 3 || sub_at_[i] + 2 > first_moved)
-            z.segment<2>(2 * static_cast<Eigen::Index>(i)) = observation_->predict(xv, s.segment<2>(sub_at_[i]));
+          if (moves(i, first_moved)) moved_landmarks_.push_back(s.segment<2>(sub_at_[i]));
+        moved_predictions_.resize(moved_landmarks_.size());
+        observation_->predict_many(s.head<3>(), moved_landmarks_, moved_predictions_);
+        for (std::size_t i = 0, j = 0; i < batch.size(); ++i)
+          if (moves(i, first_moved)) z.segment<2>(2 * static_cast<Eigen::Index>(i)) = moved_predictions_[j++];
       },
-      [&](Eigen::Ref<Eigen::VectorXd> a, const Eigen::VectorXd& b) {
-        for (Eigen::Index i = 0; i < k; i += 2)
-          a.segment<2>(i) = observation_->residual(a.segment<2>(i), b.segment<2>(i));
+      [&](Eigen::Ref<Eigen::VectorXd> a, const Eigen::VectorXd& b, Eigen::Index first_moved) {
+        // The residual of a prediction left at the centre's is exactly zero.
+        for (std::size_t i = 0; i < batch.size(); ++i) {
+          auto ai = a.segment<2>(2 * static_cast<Eigen::Index>(i));
+          if (moves(i, first_moved))
+            ai = observation_->residual(ai, b.segment<2>(2 * static_cast<Eigen::Index>(i)));
+          else
+            ai.setZero();
+        }
       });
 
   reserve_joint_update(k);
@@ -176,18 +227,8 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
     s.block<2, 2>(i, i) += observation_->noise();
     batch_nu_.segment<2>(i) = observation_->residual(batch[static_cast<std::size_t>(i / 2)].z, t.mean.segment<2>(i));
   }
-  // W = P(:, s) A^T, block column by block column of s, each read from the lower triangle.
-  gain_basis_ = t.linearisation.transpose();
-  auto w = pht_.topLeftCorner(n, k);
-  w.setZero();
-  for (std::size_t a = 0, ra = 0; a < sub_offsets_.size(); ra += static_cast<std::size_t>(width(a)), ++a) {
-    const auto o = static_cast<Eigen::Index>(sub_offsets_[a]);
-    const Eigen::Index wa = width(a);
-    const auto g = gain_basis_.middleRows(static_cast<Eigen::Index>(ra), wa);
-    if (o > 0) w.topRows(o).noalias() += p_.block(o, 0, wa, o).transpose() * g;
-    w.middleRows(o, wa).noalias() += p_.block(o, o, wa, wa).selfadjointView<Eigen::Lower>() * g;
-    if (o + wa < n) w.bottomRows(n - o - wa).noalias() += p_.block(o + wa, o, n - o - wa, wa) * g;
-  }
+  // W = P(:, s) A^T.
+  pht_.topLeftCorner(n, k).noalias() = sub_columns_ * t.linearisation.transpose();
   return apply_joint_update(k);
 }
 
@@ -205,8 +246,8 @@ std::size_t UnscentedJointGaussian::add_landmark(const Vector2& z) {
   // (unreachable) 8-wide AVX-512 loop as reading past a 2- or 3-vector.
   unscented(
       t, sub_mean_, sub_covariance_, 2,
-      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) { y.head<2>() = observation_->inverse(a.head<3>(), a.tail<2>()); },
-      [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre) { y -= centre; });
+      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) { y.head<2>() = observation_->inverse(a.head<3>(), a.tail<2>()); },
+      [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre, Eigen::Index) { y -= centre; });
   append_landmark(t.mean, t.linearisation.leftCols<3>(), t.covariance);
   return num_landmarks() - 1;
 }

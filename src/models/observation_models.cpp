@@ -10,9 +10,19 @@ Vector2 RangeBearingModel::sensor_position(const Pose2& x) const {
   return Vector2(x[0] + p_.offset_x * c - p_.offset_y * s, x[1] + p_.offset_x * s + p_.offset_y * c);
 }
 
-Vector2 RangeBearingModel::predict(const Pose2& x, const Vector2& m) const {
-  const Vector2 d = m - sensor_position(x);
-  return Vector2(d.norm(), wrap_angle(std::atan2(d[1], d[0]) - x[2]));
+namespace {
+// Range and bearing of m from a sensor at `sensor` on a vehicle heading `heading`.
+Vector2 seen_from(const Vector2& sensor, double heading, const Vector2& m) {
+  const Vector2 d = m - sensor;
+  return Vector2(d.norm(), wrap_angle(std::atan2(d[1], d[0]) - heading));
+}
+}  // namespace
+
+Vector2 RangeBearingModel::predict(const Pose2& x, const Vector2& m) const { return seen_from(sensor_position(x), x[2], m); }
+
+void RangeBearingModel::predict_many(const Pose2& x, std::span<const Vector2> m, std::span<Vector2> z) const {
+  const Vector2 sensor = sensor_position(x);
+  for (std::size_t i = 0; i < m.size(); ++i) z[i] = seen_from(sensor, x[2], m[i]);
 }
 
 void RangeBearingModel::jacobians(const Pose2& x, const Vector2& m, Matrix23& hx, Matrix2& hm) const {

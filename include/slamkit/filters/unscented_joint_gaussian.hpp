@@ -41,24 +41,25 @@ class UnscentedJointGaussian final : public JointGaussian {
   struct Transform {
     Eigen::MatrixXd factor;           // the covariance, then its Cholesky factor (lower triangle)
     Eigen::MatrixXd offsets;          // the sigma points less the mean, as columns (d x r)
-    Eigen::MatrixXd inverse_offsets;  // their pseudo-inverse (r x d)
+    Eigen::MatrixXd inverse_offsets;  // their pseudo-inverse (r x d), where they are not triangular
     double weight = 0.0;              // of each of the 2r points
     bool triangular = false;          // offsets from the Cholesky factor: column j is zero above row j
     Eigen::VectorXd point, centre, shift;
-    Eigen::MatrixXd plus, minus;  // the points' images, less the centre's (m x r)
+    Eigen::MatrixXd images;  // the points' images less the centre's, + then - (m x 2r)
     // The result: y's mean (angular entries not wrapped) and covariance, and the statistical
     // linearisation P_ys P_ss^+ (the Jacobian, for a linear f).
     Eigen::VectorXd mean;
     Eigen::MatrixXd covariance, linearisation;
   };
 
-  /// The sigma points of N(., cov) into t.offsets, t.inverse_offsets, t.weight and t.triangular.
+  /// The sigma points of N(., cov) into t.offsets, t.weight, t.triangular and, for offsets that are
+  /// not triangular, t.inverse_offsets.
   static void sigma_points(Transform& t, const Eigen::MatrixXd& cov);
   /// The unscented transform of y = f(s), s ~ N(mean, cov), into t.mean, t.covariance and
-  /// t.linearisation. image(s, first_moved, y) writes f(s) into y, which holds f(mean) on entry; the
-  /// rows of s before first_moved equal the mean's, so entries of f that read only those may be
-  /// left. subtract(y, c) makes y the difference y - c, angular entries wrapped, so that sigma points
-  /// straddling +-pi average correctly.
+  /// t.linearisation. image(s, first_moved, column, y) writes f(s) into y, the images' column `column`
+  /// (-1: the mean's), which holds f(mean) on entry; the rows of s before first_moved equal the
+  /// mean's, so entries of f that read only those may be left. subtract(y, c, first_moved) makes y the difference y - c, angular entries wrapped, so that
+  /// sigma points straddling +-pi average correctly (entries image left at c are exactly zero).
   template <class Image, class Subtract>
   static void unscented(Transform& t, const Eigen::VectorXd& mean, const Eigen::MatrixXd& cov, Eigen::Index m,
                         Image image, Subtract subtract);
@@ -66,9 +67,13 @@ class UnscentedJointGaussian final : public JointGaussian {
   Transform motion_transform_, scan_transform_, landmark_transform_;
   // The observation update's sub-state, reused per scan.
   Eigen::VectorXd sub_mean_;
-  Eigen::MatrixXd sub_covariance_, gain_basis_;
+  Eigen::MatrixXd sub_covariance_, sub_columns_;  // P(s, s) and P(:, s)
   std::vector<std::size_t> sub_offsets_;  // state offset of each block of the sub-state
   std::vector<Eigen::Index> sub_at_;      // where each observation's landmark sits in the sub-state
+  // A sigma point's landmarks whose predictions it moves, and those predictions; the same for all
+  // the points that leave the vehicle at the mean, with where each image column's start.
+  std::vector<Vector2> moved_landmarks_, moved_predictions_, mean_pose_landmarks_, mean_pose_predictions_;
+  std::vector<std::size_t> mean_pose_first_;
 };
 
 }  // namespace slamkit

@@ -4,6 +4,7 @@
 // inverse g(x, z) (where a landmark seen as z from x is) with Jacobians, used to initialise new
 // landmarks with their full correlations, and the residual z - h with angles wrapped.
 #include <Eigen/Core>
+#include <span>
 #include <string>
 
 #include "slamkit/core/angles.hpp"
@@ -20,6 +21,12 @@ class ObservationModel {
 
   /// h(x, m): the noise-free measurement of landmark m from pose x.
   virtual Vector2 predict(const Pose2& x, const Vector2& m) const = 0;
+  /// predict(x, m) of every landmark of `m` into `z` (as many): the same values, for callers that
+  /// predict many landmarks from one pose (the UKF's sigma points), so that a model can do the
+  /// pose's part (for a range-bearing sensor, its position: a sine and a cosine) once.
+  virtual void predict_many(const Pose2& x, std::span<const Vector2> m, std::span<Vector2> z) const {
+    for (std::size_t i = 0; i < m.size(); ++i) z[i] = predict(x, m[i]);
+  }
   /// dh/dx (2x3) and dh/dm (2x2) at (x, m).
   virtual void jacobians(const Pose2& x, const Vector2& m, Matrix23& hx, Matrix2& hm) const = 0;
   /// Measurement noise covariance R.
@@ -48,6 +55,7 @@ class RangeBearingModel final : public ObservationModel {
 
   std::string name() const override { return "range-bearing"; }
   Vector2 predict(const Pose2& x, const Vector2& m) const override;
+  void predict_many(const Pose2& x, std::span<const Vector2> m, std::span<Vector2> z) const override;
   void jacobians(const Pose2& x, const Vector2& m, Matrix23& hx, Matrix2& hm) const override;
   Matrix2 noise() const override;
   Vector2 residual(const Vector2& z, const Vector2& zhat) const override;

@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# How much one Victoria Park ATE says: runs the EKF variants with JCBB at the default settings and
+# at 18 neighbours of them (each dataset noise parameter 10% lower and higher, each association and
+# map-management setting one step either side), and prints a markdown table of the ATEs with each
+# variant's ratio to the plain EKF's. A gap that holds over the neighbours belongs to the filter;
+# one that comes and goes with them belongs to the run (docs/consistency.md, "Real data").
+#
+# Usage: scripts/victoria_park_sensitivity.sh
+# Environment: SLAMKIT (the binary, default build/slamkit), SLAMKIT_DATA (the datasets folder, as
+# for slamkit run), VARIANTS (default "full invariant fej"), OUT (scratch folder, default
+# out/vp-sensitivity), JOBS (parallel runs, default 2).
+set -euo pipefail
+
+slamkit=${SLAMKIT:-build/slamkit}
+variants=${VARIANTS:-full invariant fej}
+out=${OUT:-out/vp-sensitivity}
+jobs=${JOBS:-2}
+die() { echo "victoria_park_sensitivity.sh: $*" >&2; exit 1; }
+[[ -x $slamkit ]] || die "no slamkit binary at $slamkit (set SLAMKIT)"
+command -v jq >/dev/null || die "jq not found (Debian package 'jq')"
+mkdir -p "$out"
+
+# label|options: the defaults, then one setting changed at a time.
+settings=("default|")
+for kv in sigma_speed_mps:1.8 sigma_speed_mps:2.2 sigma_steer_deg:5.4 sigma_steer_deg:6.6 \
+  sigma_range_m:0.9 sigma_range_m:1.1 sigma_bearing_deg:2.7 sigma_bearing_deg:3.3; do
+  echo "{\"${kv%%:*}\": ${kv##*:}}" >"$out/${kv/:/=}.json"
+  settings+=("${kv/:/=}|--data-config $out/${kv/:/=}.json")
+done
+for kv in accept-probability:0.98 accept-probability:0.995 confirmed-max-misses:6 confirmed-max-misses:10 \
+  provisional-max-misses:2 provisional-max-misses:4 confirm-after:2 confirm-after:4 view-margin-m:1.5 view-margin-m:2.5; do
+  settings+=("${kv/:/=}|--${kv%%:*} ${kv##*:}")
+done
+
+one_run() {  # label, variant, options...
+  local label=$1 variant=$2
+  shift 2
+  [[ -f $out/$label-$variant/metrics.json ]] && return 0
+  # shellcheck disable=SC2068
+  "$slamkit" run --quiet --threads 1 --filter ekf --ekf-variant "$variant" --assoc jcbb --data victoria-park $@ \
+    --out "$out/$label-$variant" >/dev/null
+}
+export -f one_run
+export slamkit out
+for s in "${settings[@]}"; do
+  for v in $variants; do echo "${s%%|*} $v ${s#*|}"; done
+done | xargs -P "$jobs" -I{} bash -c 'set -euo pipefail; one_run {}'
+
+ate() { jq -r '.ate_rmse_m' "$out/$1-$2/metrics.json"; }
+header="| setting |" rule="|---|"
+for v in $variants; do header+=" $v ATE [m] |"; rule+="---|"; done
+for v in $variants; do [[ $v == full ]] || { header+=" $v / full |"; rule+="---|"; }; done
+echo "$header"
+echo "$rule"
+for s in "${settings[@]}"; do
+  label=${s%%|*} row="| $label |"
+  for v in $variants; do row+=" $(printf '%.3f' "$(ate "$label" "$v")") |"; done
+  for v in $variants; do
+    [[ $v == full ]] || row+=" $(awk -v a="$(ate "$label" "$v")" -v b="$(ate "$label" full)" 'BEGIN { printf "%.2f", a / b }') |"
+  done
+  echo "$row"
+done
