@@ -215,7 +215,10 @@ void CompressedJointGaussian::reserve_area(Eigen::Index d) {
 }
 
 void CompressedJointGaussian::begin_area(std::span<const LandmarkObservation> must_include) {
-  area_centre_ = x_.head<2>();
+  // The square lies ahead of the vehicle, which starts on its edge (or inside it): driving on, it
+  // crosses the whole square before leaving, twice as far as from a square centred on it, for the
+  // same active set (what can be seen from inside the square). Half the flushes.
+  area_centre_ = x_.head<2>() + area_half_side_ * Vector2(std::cos(x_[2]), std::sin(x_[2]));
   // Every landmark the vehicle can see from inside the square is active, so observations made
   // before it leaves the square involve A only.
   const double reach = area_half_side_ + sensor_range_;
