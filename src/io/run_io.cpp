@@ -4,12 +4,10 @@
 #include <fmt/os.h>
 
 #include <algorithm>
-#include <charconv>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
-#include <string_view>
 #include <nlohmann/json.hpp>
 
 #include "slamkit/core/error.hpp"
@@ -17,6 +15,7 @@
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
 #include "slamkit/io/trajectory_io.hpp"
+#include "line_writer.hpp"
 
 namespace slamkit {
 
@@ -26,56 +25,15 @@ namespace {
 
 std::string path_in(const std::string& dir, const char* file) { return (fs::path(dir) / file).string(); }
 
-/// Lines of text for a stream, gathered into large pieces, with numbers formatted to a precision by
-/// std::to_chars: the same characters as fmt's "{:.6f}" and "{:.6g}" (printf's), at a fraction of the
-/// cost, since fmt formats to a precision through Dragon4. landmark_std.txt has a line per landmark
-/// per second (420,000 on a 1,000-landmark run), and formatting them was most of the compressed
-/// EKF's run outside its filter loop.
-class LineWriter {
- public:
-  explicit LineWriter(std::ostream& out) : out_(out) {}
-  LineWriter& fixed(double v, int precision) { return number(v, std::chars_format::fixed, precision); }
-  LineWriter& general(double v, int precision) { return number(v, std::chars_format::general, precision); }
-  LineWriter& integer(long long v) {
-    char buffer[24];
-    text_.append(buffer, std::to_chars(buffer, buffer + sizeof buffer, v).ptr);
-    return *this;
-  }
-  LineWriter& text(std::string_view s) {
-    text_ += s;
-    return *this;
-  }
-  void end_line() {
-    text_ += '\n';
-    if (text_.size() >= kPiece) flush();
-  }
-  /// Writes what is gathered; to be called before the stream is closed.
-  void flush() {
-    out_.write(text_.data(), static_cast<std::streamsize>(text_.size()));
-    text_.clear();
-  }
-
- private:
-  static constexpr std::size_t kPiece = 1 << 16;
-  LineWriter& number(double v, std::chars_format format, int precision) {
-    char buffer[400];  // the longest fixed-point double: 309 digits, a sign, a point and the precision
-    text_.append(buffer, std::to_chars(buffer, buffer + sizeof buffer, v, format, precision).ptr);
-    return *this;
-  }
-  std::ostream& out_;
-  std::string text_;
-};
-
 void write_landmark_std(const std::string& path, const std::vector<LandmarkStdSample>& samples) {
-  AtomicFile file(path);
-  LineWriter out(file.stream());
-  out.text("# t id std_x std_y  (landmark standard deviations [m] over time)\n");
+  LineWriter out(path);
+  out.text("# t id std_x std_y  (landmark standard deviations [m] over time)");
+  out.end_line();
   for (const auto& s : samples) {
     out.fixed(s.t, 6).text(" ").integer(s.id).text(" ").general(s.std_x, 6).text(" ").general(s.std_y, 6);
     out.end_line();
   }
-  out.flush();
-  file.commit();
+  out.finish();
 }
 
 std::vector<LandmarkStdSample> read_landmark_std(const std::string& path) {
@@ -102,10 +60,10 @@ const char* decision_name(AssociationDecision d) {
 
 void write_associations(const std::string& path, const std::vector<double>& times,
                         const std::vector<std::vector<AssociationRecord>>& associations) {
-  AtomicFile file(path);
-  LineWriter out(file.stream());
+  LineWriter out(path);
   out.text("# scan t observation decision landmark_id  (decision: update | new | discard)\n"
-           "# a scan without observations is one line: scan t none\n");
+           "# a scan without observations is one line: scan t none");
+  out.end_line();
   for (std::size_t k = 0; k < associations.size(); ++k) {
     const auto scan = static_cast<long long>(k);
     if (associations[k].empty()) {
@@ -118,8 +76,7 @@ void write_associations(const std::string& path, const std::vector<double>& time
       out.end_line();
     }
   }
-  out.flush();
-  file.commit();
+  out.finish();
 }
 
 void read_associations(const std::string& path, RunResult& run) {
@@ -169,13 +126,15 @@ void read_associations(const std::string& path, RunResult& run) {
 }
 
 void write_particles(const std::string& path, const std::vector<ParticleSample>& samples) {
-  AtomicFile file(path);
-  std::ofstream& out = file.stream();
-  out << "# t x y theta weight  (particle clouds over time)\n";
-  for (const auto& s : samples)
-    out << fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} {:.6g}\n", s.t, s.particle.pose.x(), s.particle.pose.y(),
-                       s.particle.pose.z(), s.particle.weight);
-  file.commit();
+  LineWriter out(path);
+  out.text("# t x y theta weight  (particle clouds over time)");
+  out.end_line();
+  for (const auto& s : samples) {
+    out.fixed(s.t, 6).text(" ").fixed(s.particle.pose.x(), 6).text(" ").fixed(s.particle.pose.y(), 6).text(" ");
+    out.fixed(s.particle.pose.z(), 6).text(" ").general(s.particle.weight, 6);
+    out.end_line();
+  }
+  out.finish();
 }
 
 std::vector<ParticleSample> read_particles(const std::string& path) {

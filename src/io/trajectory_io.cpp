@@ -14,41 +14,11 @@
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/text_reader.hpp"
+#include "line_writer.hpp"
 
 namespace slamkit {
 
 namespace {
-
-/// Formats lines into one buffer and hands it to the stream in 64 KiB blocks: trajectories run to
-/// millions of numbers, and a stream call per number is what would make writing them slow.
-class LineWriter {
- public:
-  explicit LineWriter(const std::string& path) : file_(path) {}
-
-  template <typename... Args>
-  void line(fmt::format_string<Args...> format, Args&&... args) {
-    fmt::format_to(std::back_inserter(buffer_), format, std::forward<Args>(args)...);
-    buffer_.push_back('\n');
-    if (buffer_.size() >= kFlushSize) flush();
-  }
-
-  /// Writes what is left and closes the file; a disk-full or similar failure surfaces here.
-  void finish() {
-    flush();
-    file_.commit();
-  }
-
- private:
-  static constexpr std::size_t kFlushSize = 1 << 16;
-
-  void flush() {
-    file_.stream().write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
-    buffer_.clear();
-  }
-
-  AtomicFile file_;
-  fmt::memory_buffer buffer_;
-};
 
 /// The writers' counterpart of the readers' checks, run before the file is created.
 [[noreturn]] void refuse(const std::string& path, const std::string& message) {
