@@ -2,6 +2,7 @@
 // The io module's writer of line-oriented text files (trajectories, landmark deviations,
 // associations): lines gathered into one buffer and handed to the file in 64 KiB blocks, since these
 // files run to millions of numbers and a stream call per number is what would make writing them slow.
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <charconv>
@@ -18,9 +19,10 @@ class LineWriter {
  public:
   explicit LineWriter(const std::string& path) : file_(path) {}
 
-  /// One whole line, formatted by fmt.
-  template <typename... Args>
-  void line(fmt::format_string<Args...> format, Args&&... args) {
+  /// One whole line, formatted by fmt from a format compiled with FMT_COMPILE (parsed once at
+  /// compile time rather than at every line).
+  template <typename CompiledFormat, typename... Args>
+  void line(const CompiledFormat& format, Args&&... args) {
     fmt::format_to(std::back_inserter(buffer_), format, std::forward<Args>(args)...);
     end_line();
   }

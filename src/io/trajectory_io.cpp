@@ -56,10 +56,11 @@ void write_tum(const std::string& path, const std::vector<StampedPose>& poses) {
       refuse(path, fmt::format("pose {} is earlier than pose {}", i, i - 1));
   }
   LineWriter out(path);
-  out.line("# t x y z qx qy qz qw");
+  out.text("# t x y z qx qy qz qw");
+  out.end_line();
   for (const StampedPose& p : poses) {
     const double half = 0.5 * p.pose[2];
-    out.line("{} {} {} 0 0 0 {} {}", p.t, p.pose[0], p.pose[1], std::sin(half), std::cos(half));
+    out.line(FMT_COMPILE("{} {} {} 0 0 0 {} {}"), p.t, p.pose[0], p.pose[1], std::sin(half), std::cos(half));
   }
   out.finish();
 }
@@ -106,10 +107,11 @@ void write_pose_covariances(const std::string& path, const std::vector<double>& 
       refuse(path, fmt::format("covariance {} is not finite or has a negative variance", i));
   }
   LineWriter out(path);
-  out.line("# t c_xx c_xy c_xt c_yy c_yt c_tt");
+  out.text("# t c_xx c_xy c_xt c_yy c_yt c_tt");
+  out.end_line();
   for (std::size_t i = 0; i < t.size(); ++i) {
     const Matrix3& c = covariances[i];
-    out.line("{} {} {} {} {} {} {}", t[i], c(0, 0), c(0, 1), c(0, 2), c(1, 1), c(1, 2), c(2, 2));
+    out.line(FMT_COMPILE("{} {} {} {} {} {} {}"), t[i], c(0, 0), c(0, 1), c(0, 2), c(1, 1), c(1, 2), c(2, 2));
   }
   out.finish();
 }
@@ -148,9 +150,10 @@ void write_map(const std::string& path, const std::vector<Landmark>& landmarks) 
       refuse(path, fmt::format("landmark {} is not finite or has a negative variance", l.id));
   }
   LineWriter out(path);
-  out.line("# id x y c_xx c_xy c_yy");
+  out.text("# id x y c_xx c_xy c_yy");
+  out.end_line();
   for (const Landmark& l : landmarks)
-    out.line("{} {} {} {} {} {}", l.id, l.position.x(), l.position.y(), l.covariance(0, 0),
+    out.line(FMT_COMPILE("{} {} {} {} {} {}"), l.id, l.position.x(), l.position.y(), l.covariance(0, 0),
              l.covariance(0, 1), l.covariance(1, 1));
   out.finish();
 }
