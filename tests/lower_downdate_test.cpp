@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <cmath>
 
 #include "slamkit/filters/lower_downdate.hpp"
 #include "slamkit/filters/worker_pool.hpp"
@@ -64,6 +65,30 @@ TEST(LowerDowndate, SameBitsOnAnyNumberOfThreads) {
     downdate.apply(shared.topLeftCorner(n, n), c.a, c.b, &pool);
     for (Eigen::Index j = 0; j < n; ++j)
       for (Eigen::Index i = j; i < n; ++i) ASSERT_EQ(shared(i, j), one(i, j)) << threads << " threads, " << i << " " << j;
+  }
+}
+
+TEST(LowerDowndate, EveryEntryIsItsProductsSummedInOrderFromZero) {
+  // The header's promise, which the thread-count invariance rests on: wherever an entry falls (a
+  // full register block, the diagonal, the last rows short of a vector, the last columns), it is
+  // P(i, j) minus its k products summed in order by multiply-adds from zero, to the bit.
+  for (const Eigen::Index n : {3, 9, 23, 97, 389}) {
+    const Eigen::Index k = 20;
+    const Case c = make_case(n, k, false);
+    Eigen::MatrixXd p = c.p;
+    LowerDowndate downdate;
+    downdate.apply(p.topLeftCorner(n, n), c.a, c.b);
+    for (Eigen::Index j = 0; j < n; ++j)
+      for (Eigen::Index i = j; i < n; ++i) {
+        double sum = 0.0;
+        for (Eigen::Index l = 0; l < k; ++l)
+#ifdef __FMA__
+          sum = std::fma(c.a(i, l), c.b(j, l), sum);
+#else
+          sum = c.a(i, l) * c.b(j, l) + sum;
+#endif
+        ASSERT_EQ(p(i, j), c.p(i, j) - sum) << n << ": " << i << " " << j;
+      }
   }
 }
 

@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <type_traits>
 
 #include "slamkit/core/angles.hpp"
 #include "slamkit/filters/huge_pages.hpp"
@@ -80,26 +81,40 @@ void CompressedJointGaussian::landmark_marginals(std::vector<Vector2>& means,
   if (!in_area() || outside_.empty()) return;
   // B's means x_B(0) + U theta, and its 2x2 diagonal blocks of P_BB(0) - U psi U^T. psi is symmetric:
   // with psi = L + D + L^T (L strictly lower) and V = U L, which costs half of U psi,
-  // U_r psi U_s^T = V_r . U_s + V_s . U_r + sum_c U_rc psi_cc U_sc. Both are column-major, so the rows'
-  // dot products are summed a column at a time.
+  // U_r psi U_s^T = V_r . U_s + V_s . U_r + sum_c U_rc psi_cc U_sc.
   const auto u = start_cross_block();
   const Eigen::Index n_b = u.rows();
   const Eigen::VectorXd shift = u * theta();
   const Eigen::MatrixXd v = u * psi().triangularView<Eigen::StrictlyLower>();
-  Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(n_b), below = Eigen::VectorXd::Zero(n_b / 2);
-  for (Eigen::Index c = 0; c < a0_; ++c) {
-    const double psi_cc = psi()(c, c);
-    diagonal += (2.0 * v.col(c) + psi_cc * u.col(c)).cwiseProduct(u.col(c));
-    for (Eigen::Index r = 0; r < n_b; r += 2)
-      below[r / 2] += v(r, c) * u(r + 1, c) + v(r + 1, c) * u(r, c) + psi_cc * u(r, c) * u(r + 1, c);
-  }
-  for (Eigen::Index r = 0; r < n_b; r += 2) {
-    const std::size_t l = outside_[static_cast<std::size_t>(r)], index = (l - 3) / 2;
-    means[index] = x_.segment<2>(static_cast<Eigen::Index>(l)) + shift.segment<2>(r);
-    Matrix2 quadratic;
-    quadratic << diagonal[r], below[r / 2], below[r / 2], diagonal[r + 1];
-    covariances[index] = diagonal_block<2>(l) - quadratic;
-  }
+  auto blocks = [&](auto rows, Eigen::Index begin) {
+    // The rows' dot products, a block of rows at a time with every sum in registers (U and V are
+    // column-major). Row r's partner in its landmark is r ^ 1 (B's rows come in pairs from an even
+    // row): `cross` sums (V_r + psi_cc U_r / 2) U_{r^1}, and a landmark's two add up to its
+    // off-diagonal entry.
+    constexpr int kRows = decltype(rows)::value;
+    double square[kRows] = {}, cross[kRows] = {};
+    for (Eigen::Index c = 0; c < a0_; ++c) {
+      const double psi_cc = psi()(c, c);
+      const double* uc = &u.coeffRef(begin, c);
+      const double* vc = &v.coeffRef(begin, c);
+      for (int i = 0; i < kRows; ++i) {
+        square[i] += (2.0 * vc[i] + psi_cc * uc[i]) * uc[i];
+        cross[i] += (vc[i] + 0.5 * psi_cc * uc[i]) * uc[i ^ 1];
+      }
+    }
+    for (int i = 0; i < kRows; i += 2) {
+      const auto r = begin + i;
+      const std::size_t l = outside_[static_cast<std::size_t>(r)], index = (l - 3) / 2;
+      means[index] = x_.segment<2>(static_cast<Eigen::Index>(l)) + shift.segment<2>(r);
+      Matrix2 quadratic;
+      quadratic << square[i], cross[i] + cross[i + 1], cross[i] + cross[i + 1], square[i + 1];
+      covariances[index] = diagonal_block<2>(l) - quadratic;
+    }
+  };
+  constexpr int kBlock = 16;
+  Eigen::Index r = 0;
+  for (; r + kBlock <= n_b; r += kBlock) blocks(std::integral_constant<int, kBlock>{}, r);
+  for (; r < n_b; r += 2) blocks(std::integral_constant<int, 2>{}, r);
 }
 
 Matrix2 CompressedJointGaussian::landmark_cross_covariance(std::size_t i, std::size_t j) const {
@@ -215,7 +230,10 @@ void CompressedJointGaussian::reserve_area(Eigen::Index d) {
 }
 
 void CompressedJointGaussian::begin_area(std::span<const LandmarkObservation> must_include) {
-  area_centre_ = x_.head<2>();
+  // The square lies ahead of the vehicle, which starts on its edge (or inside it): driving on, it
+  // crosses the whole square before leaving, twice as far as from a square centred on it, for the
+  // same active set (what can be seen from inside the square). Half the flushes.
+  area_centre_ = x_.head<2>() + area_half_side_ * Vector2(std::cos(x_[2]), std::sin(x_[2]));
   // Every landmark the vehicle can see from inside the square is active, so observations made
   // before it leaves the square involve A only.
   const double reach = area_half_side_ + sensor_range_;

@@ -41,10 +41,10 @@ inline const double* panel_entry(const double* panels, Eigen::Index k, Eigen::In
   return panels + ((i / kLanes) * k + l) * kLanes + i % kLanes;
 }
 
-// P(i..i + V kLanes, j..j + C) -= A B^T over the k columns, accumulated in registers.
+// The k products of P(i..i + V kLanes, j..j + C), summed in registers from zero.
 template <int V, int C>
-inline void register_block(double* p, Eigen::Index ld, Eigen::Index i, Eigen::Index j, const double* a,
-                           const double* b, Eigen::Index k) {
+inline void block_products(Packet (&acc)[V][C], const double* p, Eigen::Index ld, Eigen::Index i, Eigen::Index j,
+                           const double* a, const double* b, Eigen::Index k) {
   using namespace Eigen::internal;
   // Each element of P is read once per downdate, so it comes from far away (L3 or memory): ask for
   // this block's lines and the next one's down the column now, to arrive while the k multiply-adds
@@ -53,7 +53,6 @@ inline void register_block(double* p, Eigen::Index ld, Eigen::Index i, Eigen::In
     const double* column = p + (j + c) * ld + i;
     for (Eigen::Index r = 0; r < 2 * V * kLanes; r += 8) __builtin_prefetch(column + r, 1);
   }
-  Packet acc[V][C];
   for (int v = 0; v < V; ++v)
     for (int c = 0; c < C; ++c) acc[v][c] = pset1<Packet>(0.0);
   const double* rows[V];
@@ -68,11 +67,38 @@ inline void register_block(double* p, Eigen::Index ld, Eigen::Index i, Eigen::In
       for (int v = 0; v < V; ++v) acc[v][c] = pmadd(x[v], y, acc[v][c]);
     }
   }
+}
+
+// P(i..i + V kLanes, j..j + C) -= A B^T over the k columns.
+template <int V, int C>
+inline void register_block(double* p, Eigen::Index ld, Eigen::Index i, Eigen::Index j, const double* a,
+                           const double* b, Eigen::Index k) {
+  using namespace Eigen::internal;
+  Packet acc[V][C];
+  block_products<V, C>(acc, p, ld, i, j, a, b, k);
   for (int c = 0; c < C; ++c)
     for (int v = 0; v < V; ++v) {
       double* dst = p + (j + c) * ld + i + v * kLanes;
       pstoreu(dst, psub(ploadu<Packet>(dst), acc[v][c]));
     }
+}
+
+// The same for the last `rows` (fewer than kLanes) rows of P from i. The state's dimension is odd, so
+// every downdate has such rows; one by one (a chain of k dependent multiply-adds each) they took more
+// time than the whole rest of the triangle at 150 landmarks. The vector of products is formed whole
+// (the packed panels are zero past the last row) and only its first `rows` are subtracted.
+template <int C>
+inline void partial_block(double* p, Eigen::Index ld, Eigen::Index i, Eigen::Index j, Eigen::Index rows,
+                          const double* a, const double* b, Eigen::Index k) {
+  using namespace Eigen::internal;
+  Packet acc[1][C];
+  block_products<1, C>(acc, p, ld, i, j, a, b, k);
+  for (int c = 0; c < C; ++c) {
+    alignas(sizeof(Packet)) double products[kLanes];
+    pstore(products, acc[0][c]);
+    double* dst = p + (j + c) * ld + i;
+    for (Eigen::Index r = 0; r < rows; ++r) dst[r] -= products[r];
+  }
 }
 
 // Where part `part` of `parts` begins: row n sqrt(part / parts), on a tile boundary. Rows up to r hold
@@ -96,6 +122,8 @@ void pack(const Eigen::Ref<const Eigen::MatrixXd>& m, Eigen::VectorXd& panels) {
   // Doubling: a scan busier than any before, or a larger map, then rarely needs more.
   if (panels.size() < size) panels.resize(std::max(size, 2 * panels.size()));
   double* out = panels.data();
+  // The last group's rows past n are zero: partial_block forms their products too.
+  std::fill(out + n / kLanes * kLanes * k, out + size, 0.0);
   for (Eigen::Index l = 0; l < k; ++l)
     for (Eigen::Index i = 0; i < n; ++i) out[((i / kLanes) * k + l) * kLanes + i % kLanes] = m(i, l);
 }
@@ -116,8 +144,12 @@ void LowerDowndate::rows(Eigen::Ref<Eigen::MatrixXd> p, const double* a, const d
         for (; i + block_rows <= tile_end; i += block_rows)
           register_block<kBlockVectors, kBlockCols>(data, ld, i, j, a, b, k);
         for (; i + kLanes <= tile_end; i += kLanes) register_block<1, kBlockCols>(data, ld, i, j, a, b, k);
+        if (i < tile_end) {
+          partial_block<kBlockCols>(data, ld, i, j, tile_end - i, a, b, k);
+          i = tile_end;
+        }
       }
-      // The last rows (fewer than a vector) and the last columns (fewer than a block), one by one.
+      // The last columns (fewer than a block), one by one.
       for (; i < tile_end; ++i)
         for (Eigen::Index c = j; c < std::min(j + kBlockCols, i + 1); ++c) single_entry(data, ld, i, c, a, b, k);
     }

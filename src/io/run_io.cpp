@@ -15,6 +15,7 @@
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
 #include "slamkit/io/trajectory_io.hpp"
+#include "line_writer.hpp"
 
 namespace slamkit {
 
@@ -25,11 +26,14 @@ namespace {
 std::string path_in(const std::string& dir, const char* file) { return (fs::path(dir) / file).string(); }
 
 void write_landmark_std(const std::string& path, const std::vector<LandmarkStdSample>& samples) {
-  AtomicFile file(path);
-  std::ofstream& out = file.stream();
-  out << "# t id std_x std_y  (landmark standard deviations [m] over time)\n";
-  for (const auto& s : samples) out << fmt::format("{:.6f} {} {:.6g} {:.6g}\n", s.t, s.id, s.std_x, s.std_y);
-  file.commit();
+  LineWriter out(path);
+  out.text("# t id std_x std_y  (landmark standard deviations [m] over time)");
+  out.end_line();
+  for (const auto& s : samples) {
+    out.fixed(s.t, 6).text(" ").integer(s.id).text(" ").general(s.std_x, 6).text(" ").general(s.std_y, 6);
+    out.end_line();
+  }
+  out.finish();
 }
 
 std::vector<LandmarkStdSample> read_landmark_std(const std::string& path) {
@@ -56,17 +60,23 @@ const char* decision_name(AssociationDecision d) {
 
 void write_associations(const std::string& path, const std::vector<double>& times,
                         const std::vector<std::vector<AssociationRecord>>& associations) {
-  AtomicFile file(path);
-  std::ofstream& out = file.stream();
-  out << "# scan t observation decision landmark_id  (decision: update | new | discard)\n"
-         "# a scan without observations is one line: scan t none\n";
+  LineWriter out(path);
+  out.text("# scan t observation decision landmark_id  (decision: update | new | discard)\n"
+           "# a scan without observations is one line: scan t none");
+  out.end_line();
   for (std::size_t k = 0; k < associations.size(); ++k) {
-    if (associations[k].empty()) out << fmt::format("{} {:.6f} none\n", k, times[k]);
-    for (std::size_t i = 0; i < associations[k].size(); ++i)
-      out << fmt::format("{} {:.6f} {} {} {}\n", k, times[k], i, decision_name(associations[k][i].decision),
-                         associations[k][i].landmark_id);
+    const auto scan = static_cast<long long>(k);
+    if (associations[k].empty()) {
+      out.integer(scan).text(" ").fixed(times[k], 6).text(" none");
+      out.end_line();
+    }
+    for (std::size_t i = 0; i < associations[k].size(); ++i) {
+      out.integer(scan).text(" ").fixed(times[k], 6).text(" ").integer(static_cast<long long>(i)).text(" ");
+      out.text(decision_name(associations[k][i].decision)).text(" ").integer(associations[k][i].landmark_id);
+      out.end_line();
+    }
   }
-  file.commit();
+  out.finish();
 }
 
 void read_associations(const std::string& path, RunResult& run) {
@@ -116,13 +126,15 @@ void read_associations(const std::string& path, RunResult& run) {
 }
 
 void write_particles(const std::string& path, const std::vector<ParticleSample>& samples) {
-  AtomicFile file(path);
-  std::ofstream& out = file.stream();
-  out << "# t x y theta weight  (particle clouds over time)\n";
-  for (const auto& s : samples)
-    out << fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} {:.6g}\n", s.t, s.particle.pose.x(), s.particle.pose.y(),
-                       s.particle.pose.z(), s.particle.weight);
-  file.commit();
+  LineWriter out(path);
+  out.text("# t x y theta weight  (particle clouds over time)");
+  out.end_line();
+  for (const auto& s : samples) {
+    out.fixed(s.t, 6).text(" ").fixed(s.particle.pose.x(), 6).text(" ").fixed(s.particle.pose.y(), 6).text(" ");
+    out.fixed(s.particle.pose.z(), 6).text(" ").general(s.particle.weight, 6);
+    out.end_line();
+  }
+  out.finish();
 }
 
 std::vector<ParticleSample> read_particles(const std::string& path) {

@@ -14,41 +14,11 @@
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/text_reader.hpp"
+#include "line_writer.hpp"
 
 namespace slamkit {
 
 namespace {
-
-/// Formats lines into one buffer and hands it to the stream in 64 KiB blocks: trajectories run to
-/// millions of numbers, and a stream call per number is what would make writing them slow.
-class LineWriter {
- public:
-  explicit LineWriter(const std::string& path) : file_(path) {}
-
-  template <typename... Args>
-  void line(fmt::format_string<Args...> format, Args&&... args) {
-    fmt::format_to(std::back_inserter(buffer_), format, std::forward<Args>(args)...);
-    buffer_.push_back('\n');
-    if (buffer_.size() >= kFlushSize) flush();
-  }
-
-  /// Writes what is left and closes the file; a disk-full or similar failure surfaces here.
-  void finish() {
-    flush();
-    file_.commit();
-  }
-
- private:
-  static constexpr std::size_t kFlushSize = 1 << 16;
-
-  void flush() {
-    file_.stream().write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
-    buffer_.clear();
-  }
-
-  AtomicFile file_;
-  fmt::memory_buffer buffer_;
-};
 
 /// The writers' counterpart of the readers' checks, run before the file is created.
 [[noreturn]] void refuse(const std::string& path, const std::string& message) {
@@ -86,10 +56,11 @@ void write_tum(const std::string& path, const std::vector<StampedPose>& poses) {
       refuse(path, fmt::format("pose {} is earlier than pose {}", i, i - 1));
   }
   LineWriter out(path);
-  out.line("# t x y z qx qy qz qw");
+  out.text("# t x y z qx qy qz qw");
+  out.end_line();
   for (const StampedPose& p : poses) {
     const double half = 0.5 * p.pose[2];
-    out.line("{} {} {} 0 0 0 {} {}", p.t, p.pose[0], p.pose[1], std::sin(half), std::cos(half));
+    out.line(FMT_COMPILE("{} {} {} 0 0 0 {} {}"), p.t, p.pose[0], p.pose[1], std::sin(half), std::cos(half));
   }
   out.finish();
 }
@@ -136,10 +107,11 @@ void write_pose_covariances(const std::string& path, const std::vector<double>& 
       refuse(path, fmt::format("covariance {} is not finite or has a negative variance", i));
   }
   LineWriter out(path);
-  out.line("# t c_xx c_xy c_xt c_yy c_yt c_tt");
+  out.text("# t c_xx c_xy c_xt c_yy c_yt c_tt");
+  out.end_line();
   for (std::size_t i = 0; i < t.size(); ++i) {
     const Matrix3& c = covariances[i];
-    out.line("{} {} {} {} {} {} {}", t[i], c(0, 0), c(0, 1), c(0, 2), c(1, 1), c(1, 2), c(2, 2));
+    out.line(FMT_COMPILE("{} {} {} {} {} {} {}"), t[i], c(0, 0), c(0, 1), c(0, 2), c(1, 1), c(1, 2), c(2, 2));
   }
   out.finish();
 }
@@ -178,9 +150,10 @@ void write_map(const std::string& path, const std::vector<Landmark>& landmarks) 
       refuse(path, fmt::format("landmark {} is not finite or has a negative variance", l.id));
   }
   LineWriter out(path);
-  out.line("# id x y c_xx c_xy c_yy");
+  out.text("# id x y c_xx c_xy c_yy");
+  out.end_line();
   for (const Landmark& l : landmarks)
-    out.line("{} {} {} {} {} {}", l.id, l.position.x(), l.position.y(), l.covariance(0, 0),
+    out.line(FMT_COMPILE("{} {} {} {} {} {}"), l.id, l.position.x(), l.position.y(), l.covariance(0, 0),
              l.covariance(0, 1), l.covariance(1, 1));
   out.finish();
 }

@@ -16,8 +16,9 @@ namespace slamkit {
 
 class CompressedJointGaussian final : public EkfEstimator {
  public:
-  /// The local area is a square of side `area_side` [m] (0: 2 x sensor_range) centred on the vehicle
-  /// when it opens; its active landmarks are those within `sensor_range` of the square, i.e. every
+  /// The local area is a square of side `area_side` [m] (0: 2 x sensor_range) that opens ahead of
+  /// the vehicle (centred half a side ahead along its heading, so that driving on, it crosses the
+  /// whole square before leaving it); its active landmarks are those within `sensor_range` of the square, i.e. every
   /// landmark the vehicle can see from inside it. Leaving the square is checked at begin_scan().
   CompressedJointGaussian(std::shared_ptr<const MotionModel> motion,
                           std::shared_ptr<const ObservationModel> observation, double sensor_range,
@@ -55,7 +56,7 @@ class CompressedJointGaussian final : public EkfEstimator {
   bool in_area() const { return !area_offsets_.empty(); }
   /// Offset of landmark `index` in the local state; -1 when it is in B or no area is open.
   long local_offset(std::size_t index) const;
-  /// Starts an area centred on the vehicle with the landmarks of `must_include` active.
+  /// Starts an area ahead of the vehicle with the landmarks of `must_include` active.
   void begin_area(std::span<const LandmarkObservation> must_include = {});
   void predict_local(const Matrix3& f, const Matrix3& q);
   /// One joint update of active landmarks.

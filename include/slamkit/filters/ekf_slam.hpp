@@ -42,7 +42,7 @@ struct EkfSlamOptions {
   SensorLimits sensor;
   EkfVariant variant = EkfVariant::kFull;
   /// Compressed variant: side of the square the vehicle may roam before the accumulated update is
-  /// applied to the whole map and a new area is centred on it [m]; 0 means 2 x sensor.max_range.
+  /// applied to the whole map and a new area opens ahead of it [m]; 0 means 2 x sensor.max_range.
   /// Larger areas mean fewer flushes (each O(n^2) times the area's size) and dearer steps inside
   /// (O(area^2)); so do reads of the whole map (the runner's, every second: O(n area^2)). On a
   /// 1,000-landmark loop with a 30 m sensor, the filter alone ran as fast with 60 m as with 90 m,
