@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -81,6 +82,26 @@ TEST_F(RunFolder, AScanWithTwoTimesIsAnError) {
   const std::string path = rewrite(lines);
   const std::string message = test_data::input_error_at([&] { read_run(dir_.string()); }, path, second + 1);
   EXPECT_NE(message.find("has time 9999.5 here"), std::string::npos) << message;
+}
+
+// Counts too large for any integer, fractional or negative are errors naming the key: converting
+// such a number to an integer type unchecked is undefined behaviour (a fuzzer's "scans": 2.2e25).
+TEST_F(RunFolder, ACountThatIsNotANonNegativeIntegerIsAnError) {
+  const std::string path = (dir_ / "run.json").string();
+  std::ifstream in(path);
+  const std::string original((std::istreambuf_iterator<char>(in)), {});
+  in.close();
+  const std::string key = "\"scans\": ";
+  const std::size_t at = original.find(key);
+  ASSERT_NE(at, std::string::npos);
+  const std::size_t end = original.find_first_of(",\n", at);
+  for (const std::string bad : {"2.2222e25", "-3", "4.5", "\"7\""}) {
+    std::ofstream(path) << original.substr(0, at + key.size()) << bad << original.substr(end);
+    const std::string message = test_data::input_error_at([&] { read_run(dir_.string()); }, path, 0);
+    EXPECT_NE(message.find("expected 'scans' to be a count"), std::string::npos) << bad << ": " << message;
+  }
+  std::ofstream(path) << original;
+  EXPECT_NO_THROW(read_run(dir_.string()));
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
@@ -207,9 +208,18 @@ RunResult read_run(const std::string& dir) {
   try {
     run.filter = info.at("filter").get<std::string>();
     run.dataset = info.at("dataset").get<std::string>();
-    run.steps = info.at("steps").get<std::size_t>();
-    run.scans = info.at("scans").get<std::size_t>();
-    run.observations = info.at("observations").get<std::size_t>();
+    // nlohmann converts a float to an integer type unchecked (undefined beyond its range: a fuzzer
+    // found "scans": 2.2e25), so counts are taken only as integers that fit.
+    const auto count = [&](const char* key) {
+      std::size_t n = 0;
+      if (!option_detail::integer_in(info.at(key), std::size_t{0}, std::numeric_limits<std::size_t>::max(), n))
+        throw InputError(info_path, 0, fmt::format("expected '{}' to be a count (an integer >= 0), found {}", key,
+                                                   info.at(key).dump()));
+      return n;
+    };
+    run.steps = count("steps");
+    run.scans = count("scans");
+    run.observations = count("observations");
     run.wall_time_s = info.at("wall_time_s").get<double>();
     run.association = info.value("association", "known");
     run.dataset_settings = info.value("dataset_settings", "");
