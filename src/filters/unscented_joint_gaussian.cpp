@@ -201,13 +201,12 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
             if (moves(i, first_moved)) z.segment<2>(2 * static_cast<Eigen::Index>(i)) = *next++;
           return;
         }
+        // A point that moves the vehicle moves every observation.
         moved_landmarks_.clear();
-        for (std::size_t i = 0; i < batch.size(); ++i)
-          if (moves(i, first_moved)) moved_landmarks_.push_back(s.segment<2>(sub_at_[i]));
+        for (std::size_t i = 0; i < batch.size(); ++i) moved_landmarks_.push_back(s.segment<2>(sub_at_[i]));
         moved_predictions_.resize(moved_landmarks_.size());
         observation_->predict_many(s.head<3>(), moved_landmarks_, moved_predictions_);
-        for (std::size_t i = 0, j = 0; i < batch.size(); ++i)
-          if (moves(i, first_moved)) z.segment<2>(2 * static_cast<Eigen::Index>(i)) = moved_predictions_[j++];
+        for (std::size_t i = 0; i < batch.size(); ++i) z.segment<2>(2 * static_cast<Eigen::Index>(i)) = moved_predictions_[i];
       },
       [&](Eigen::Ref<Eigen::VectorXd> a, const Eigen::VectorXd& b, Eigen::Index first_moved) {
         // The residual of a prediction left at the centre's is exactly zero.

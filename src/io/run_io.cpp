@@ -11,7 +11,6 @@
 #include <nlohmann/json.hpp>
 
 #include "slamkit/core/error.hpp"
-#include "slamkit/core/json_options.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"

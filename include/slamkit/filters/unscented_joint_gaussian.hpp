@@ -70,8 +70,9 @@ class UnscentedJointGaussian final : public JointGaussian {
   Eigen::MatrixXd sub_covariance_, sub_columns_;  // P(s, s) and P(:, s)
   std::vector<std::size_t> sub_offsets_;  // state offset of each block of the sub-state
   std::vector<Eigen::Index> sub_at_;      // where each observation's landmark sits in the sub-state
-  // A sigma point's landmarks whose predictions it moves, and those predictions; the same for all
-  // the points that leave the vehicle at the mean, with where each image column's start.
+  // The observed landmarks of a sigma point that moves the vehicle, and their predictions; for all
+  // the points that leave the vehicle at the mean, the landmarks they move, their predictions and
+  // where each image column's start.
   std::vector<Vector2> moved_landmarks_, moved_predictions_, mean_pose_landmarks_, mean_pose_predictions_;
   std::vector<std::size_t> mean_pose_first_;
 };
