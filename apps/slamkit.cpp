@@ -297,11 +297,18 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--jcbb-max-nodes", assoc_flags.jcbb_max_nodes, "JCBB: search nodes per scan")
       ->capture_default_str()
       ->check(integer_at_least(1));
+  run_cmd->add_option("--relocalise-min-pairs", assoc_flags.relocalise_min_pairs,
+                      "FastSLAM: relocalise a particle when this many landmarks it started recently pair jointly "
+                      "with landmarks mapped before, through the drift since (0: off)")
+      ->capture_default_str();
+  run_cmd->add_option("--relocalise-window-s", assoc_flags.relocalise_window_s,
+                      "FastSLAM relocalisation: how far back a landmark counts as recently mapped [s]")
+      ->capture_default_str();
   const char* assoc_flag_names[] = {"--assoc-config",         "--accept-probability", "--new-landmark-probability",
                                     "--min-pairing-probability", "--clutter-per-scan",
                                     "--gate-known",           "--confirm-after",      "--provisional-max-misses",
                                     "--confirmed-max-misses", "--view-margin-m",      "--view-margin-rad",
-                                    "--jcbb-max-nodes"};
+                                    "--jcbb-max-nodes",         "--relocalise-min-pairs", "--relocalise-window-s"};
   run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots");
   std::string repeat_path;
   bool print_config = false, replay = false, quiet = false, verbose = false;
@@ -423,6 +430,8 @@ int main(int argc, char** argv) {
         if (given("--view-margin-m")) a.view_margin_m = assoc_flags.view_margin_m;
         if (given("--view-margin-rad")) a.view_margin_rad = assoc_flags.view_margin_rad;
         if (given("--jcbb-max-nodes")) a.jcbb_max_nodes = assoc_flags.jcbb_max_nodes;
+        if (given("--relocalise-min-pairs")) a.relocalise_min_pairs = assoc_flags.relocalise_min_pairs;
+        if (given("--relocalise-window-s")) a.relocalise_window_s = assoc_flags.relocalise_window_s;
         validate(filter);
         settings_contents = dataset_settings_json(data_config);
       }

@@ -70,5 +70,65 @@ TEST(HardAssociation, JcbbForFastSlamIsRefusedNotReplacedByNearestNeighbour) {
   EXPECT_THROW(FastSlam(d.motion, d.observation, fs), std::invalid_argument);
 }
 
+Metrics run_fastslam2(const Dataset& d, std::uint64_t seed, std::size_t relocalise_min_pairs) {
+  FilterConfig config;
+  config.filter = FilterKind::kFastSlam2;
+  config.seed = seed;
+  config.threads = 2;
+  config.association.method = AssociationMethod::kNearestNeighbour;
+  config.association.relocalise_min_pairs = relocalise_min_pairs;
+  RunResult run = run_filter(*make_filter(config, d), d);
+  run.association = "nn";
+  return evaluate_run(run, d.truth);
+}
+
+// On the sparse world every particle's cloud has collapsed long before the return, and without
+// relocalisation FastSLAM 2.0 maps the first landmarks again. Simulated here (in memory, unrounded)
+// seeds 1-10 close in 0 of 10 without and 9 of 10 with it (seed 5: 0.775); from the logs the CLI
+// writes, 1 and 10 of 10 (README).
+TEST(HardAssociation, FastSlamRelocalisationClosesTheSparseWorldsLoop) {
+  for (const std::uint64_t seed : {1U, 4U, 6U}) {
+    const Dataset d = simulate_scenario("sparse", seed);
+    const Metrics without = run_fastslam2(d, seed, 0);
+    const Metrics with = run_fastslam2(d, seed, 2);
+    ASSERT_TRUE(without.association && with.association);
+    ASSERT_TRUE(without.association->loop_closure_fraction() && with.association->loop_closure_fraction());
+    EXPECT_LT(*without.association->loop_closure_fraction(), kLoopClosedFraction) << "seed " << seed;
+    EXPECT_GE(*with.association->loop_closure_fraction(), kLoopClosedFraction) << "seed " << seed;
+    EXPECT_LE(with.association->spurious_landmarks, 2U) << "seed " << seed;
+    ASSERT_TRUE(with.ate_rmse_m && without.ate_rmse_m);
+    EXPECT_LT(*with.ate_rmse_m, *without.ate_rmse_m) << "seed " << seed;
+  }
+}
+
+// On the dense loop-closure world the drift of a lap lets two or three landmarks fit a wrong
+// alignment; the joint gate under the drift since the paired landmarks and the landmarks that the
+// corrected pose should see keep most out, and the return is recognised without lap-1 duplicates.
+// Filter seeds 1-5 here: 0 of 5 closed without, 4 of 5 with (seed 3 takes a wrong alignment and
+// diverges, ATE 8.4 m: why relocalisation is not on by default, README).
+TEST(HardAssociation, FastSlamRelocalisationClosesTheLoopClosureWorldWithoutDuplicates) {
+  const Dataset d = simulate_scenario("loop-closure", 1);
+  for (const std::uint64_t seed : {2U, 4U}) {
+    const Metrics without = run_fastslam2(d, seed, 0);
+    const Metrics with = run_fastslam2(d, seed, 2);
+    ASSERT_TRUE(without.association && with.association);
+    EXPECT_LT(*without.association->loop_closure_fraction(), kLoopClosedFraction) << "seed " << seed;
+    EXPECT_GE(*with.association->loop_closure_fraction(), kLoopClosedFraction) << "seed " << seed;
+    EXPECT_EQ(with.association->spurious_landmarks, 0U) << "seed " << seed;
+    EXPECT_LT(*with.ate_rmse_m, 1.5) << "seed " << seed;
+  }
+}
+
+TEST(HardAssociation, RelocalisationSettingsAreValidated) {
+  AssociationConfig config;
+  config.relocalise_min_pairs = 1;  // one pairing leaves the heading free
+  EXPECT_THROW(validate(config), std::invalid_argument);
+  config.relocalise_min_pairs = 2;
+  config.relocalise_window_s = 0.0;
+  EXPECT_THROW(validate(config), std::invalid_argument);
+  config.relocalise_window_s = 30.0;
+  EXPECT_NO_THROW(validate(config));
+}
+
 }  // namespace
 }  // namespace slamkit

@@ -25,6 +25,8 @@ constexpr OptionKey<AssociationConfig> kNumericKeys[] = {
     {"view_margin_m", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.view_margin_m; }, option_ranges::kNonNegative}},
     {"view_margin_rad", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.view_margin_rad; }, option_ranges::kNonNegative}},
     {"jcbb_max_nodes", IntegerOption<AssociationConfig, std::uint64_t>{[](AssociationConfig& c) -> std::uint64_t& { return c.jcbb_max_nodes; }, 1}},
+    {"relocalise_min_pairs", IntegerOption<AssociationConfig, std::uint64_t>{[](AssociationConfig& c) -> std::uint64_t& { return c.relocalise_min_pairs; }, 0}},
+    {"relocalise_window_s", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.relocalise_window_s; }, option_ranges::kFinite}},
 };
 
 }  // namespace
@@ -66,6 +68,9 @@ void validate(const AssociationConfig& c) {
   if (!(std::isfinite(c.view_margin_rad) && c.view_margin_rad >= 0.0))
     fail("view_margin_rad", "finite and >= 0", c.view_margin_rad);
   if (c.jcbb_max_nodes < 1) fail("jcbb_max_nodes", ">= 1", c.jcbb_max_nodes);
+  if (c.relocalise_min_pairs == 1) fail("relocalise_min_pairs", "0 (off) or >= 2", c.relocalise_min_pairs);
+  if (!(std::isfinite(c.relocalise_window_s) && c.relocalise_window_s > 0.0))
+    fail("relocalise_window_s", "finite and > 0", c.relocalise_window_s);
 }
 
 nlohmann::json to_json(const AssociationConfig& config) {

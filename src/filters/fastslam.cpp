@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -80,8 +82,12 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
       clutter_density(slamkit::clutter_density(cfg.association, cfg.sensor)),
       existence(cfg.association, cfg.sensor),
       resample_rng(splitmix64(cfg.seed ^ 0x526573616d706c65ULL)),
-      grid(std::max(5.0, 0.5 * cfg.sensor.max_range)) {
+      grid(std::max(5.0, 0.5 * cfg.sensor.max_range)),
+      relocalise_min_pairs(cfg.association.method == AssociationMethod::kKnown ? 0 : cfg.association.relocalise_min_pairs),
+      relocalise_window_s(cfg.association.relocalise_window_s),
+      relocalise_association(cfg.association) {
   if (!motion || !observation) throw std::invalid_argument("FastSLAM needs a motion and an observation model");
+  relocalise_association.method = AssociationMethod::kJcbb;
   r = observation->noise();
   Matrix2 unused;
   double log_det_2r = 0.0;
@@ -141,6 +147,13 @@ void FastSlam::Impl::plan_known_association(const ScanEvent& scan, std::size_t s
   }
 }
 
+namespace {
+void sort_unique(std::vector<std::uint32_t>& v) {
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+}
+}  // namespace
+
 void FastSlam::Impl::gather_candidates() {
   const Pose2 centre_pose = [&] {
     Pose2 mean = Pose2::Zero();
@@ -162,8 +175,21 @@ void FastSlam::Impl::gather_candidates() {
   const double radius = association_view.reach() + spread + 2.0 * (sensor - centre_pose.head<2>()).norm();
   // Each landmark once, in index order: a particle's candidates stop at the first index beyond its map.
   grid.query(sensor, radius, scan_candidates);
-  std::sort(scan_candidates.begin(), scan_candidates.end());
-  scan_candidates.erase(std::unique(scan_candidates.begin(), scan_candidates.end()), scan_candidates.end());
+  sort_unique(scan_candidates);
+  if (!relocalising()) return;
+  // Relocalisation looks at the landmarks mapped since the window's first scan, which lie within the
+  // sensor's reach of some pose since, and at those mapped before it that the drift since the start
+  // can have carried there.
+  double travelled = 0.0;
+  for (std::size_t k = window_start; k < scan_positions.size(); ++k)
+    travelled = std::max(travelled, (scan_positions[k] - centre_pose.head<2>()).norm());
+  const Matrix3 since_start = drift_between(drift_at_scan.front(), drift, centre_pose.head<2>());
+  const double largest = Eigen::SelfAdjointEigenSolver<Matrix2>(since_start.topLeftCorner<2, 2>(), Eigen::EigenvaluesOnly)
+                             .eigenvalues()
+                             .maxCoeff();
+  const double drift_reach = std::sqrt(gates.new_landmark * std::max(largest, 0.0));
+  grid.query(sensor, radius + std::max(travelled, drift_reach), relocalise_candidates);
+  sort_unique(relocalise_candidates);
 }
 
 void FastSlam::Impl::assign_new_ids(std::size_t observations, std::size_t scan_index) {
@@ -201,6 +227,7 @@ void FastSlam::Impl::reweight_and_resample() {
   ess_sum += ess;
   best = static_cast<std::size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
   record_associations(best);
+  if (slots[best].relocalised) ++relocalisations;
 
   if (config.policy.should_resample(scans, ess, n)) {
     resample(config.resample, weights, resample_rng, resample_scratch, parents);
@@ -269,9 +296,14 @@ void FastSlam::predict(const ControlEvent& control) {
     throw std::invalid_argument(fmt::format("FastSLAM: a control of size {} for the {} motion model, which takes {}",
                                             control.u.size(), s.motion->name(), s.motion->control_dim()));
   s.start(control.t - control.dt);
+  // The drift is followed along the best particle's path: the particles differ by metres over a
+  // lap, which changes the lever arms of the drift little.
+  const Matrix3 q = s.relocalising() ? s.motion->process_noise(s.particles[s.best].pose, control.u, control.dt)
+                                     : Matrix3::Zero();
   s.pool.run(s.particles.size(), kPredictGrain, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) s.predict_particle(i, control);
   });
+  if (s.relocalising()) s.drift.add(q, s.particles[s.best].pose.head<2>());
 }
 
 void FastSlam::update(const ScanEvent& scan) {
@@ -283,6 +315,12 @@ void FastSlam::update(const ScanEvent& scan) {
   s.valid.resize(n_obs);
   for (std::size_t k = 0; k < n_obs; ++k) s.valid[k] = scan.observations[k].z.allFinite();
 
+  if (s.relocalising()) {
+    s.drift_at_scan.push_back(s.drift);
+    s.scan_times.push_back(scan.t);
+    s.scan_positions.push_back(s.particles[s.best].pose.head<2>());
+    while (s.scan_times[s.window_start] < scan.t - s.relocalise_window_s) ++s.window_start;
+  }
   if (s.known())
     s.plan_known_association(scan, scan_index);
   else
@@ -366,7 +404,8 @@ std::map<std::string, double> FastSlam::statistics() const {
           {"landmarks_provisional", static_cast<double>(provisional)},
           {"ess_mean", s.scans > 0 ? s.ess_sum / static_cast<double>(s.scans) : n},
           {"resamples", static_cast<double>(s.resamples)},
-          {"weight_collapses", static_cast<double>(s.collapses)}};
+          {"weight_collapses", static_cast<double>(s.collapses)},
+          {"relocalisations", static_cast<double>(s.relocalisations)}};
 }
 
 void FastSlam::set_initial_map(const std::vector<Landmark>& map) {

@@ -53,6 +53,52 @@ void make_room(std::vector<T>& v, std::size_t n) {
   if (v.capacity() < n) v.reserve(2 * n);
 }
 
+/// Sums over the control steps k of the odometry drift's terms, from which drift_between() makes
+/// the drift covariance of any interval in O(1). With every motion model here, a pose error at step
+/// k + 1 reaches step n through [I  J (p_n - p_{k+1}); 0 1] (J the 90-degree rotation), so the drift
+/// from s to n is the sum over k in [s, n) of that matrix times Q_k times its transpose, and
+/// expanding the lever arm J p_n - J p_{k+1} leaves sums that do not depend on n.
+struct DriftSums {
+  Matrix2 q_pp = Matrix2::Zero();     // position block of Q_k
+  Vector2 q_pt = Vector2::Zero();     // position-heading block of Q_k
+  double q_tt = 0.0;                  // heading entry of Q_k
+  Vector2 q_tt_b = Vector2::Zero();   // q_tt,k b_k, with b_k = J p_{k+1}
+  Matrix2 q_tt_bb = Matrix2::Zero();  // q_tt,k b_k b_k^T
+  Matrix2 q_pt_b = Matrix2::Zero();   // q_pt,k b_k^T
+
+  /// Adds the control step that ends at position p with process noise q.
+  void add(const Matrix3& q, const Vector2& p) {
+    const Vector2 b(-p.y(), p.x());
+    q_pp += q.topLeftCorner<2, 2>();
+    q_pt += q.topRightCorner<2, 1>();
+    q_tt += q(2, 2);
+    q_tt_b += q(2, 2) * b;
+    q_tt_bb += q(2, 2) * b * b.transpose();
+    q_pt_b += q.topRightCorner<2, 1>() * b.transpose();
+  }
+};
+
+/// The covariance that the odometry drift of the steps summed in `to` but not in `from` adds to the
+/// pose at position p (the end of `to`), linearised along the trajectory the sums followed.
+inline Matrix3 drift_between(const DriftSums& from, const DriftSums& to, const Vector2& p) {
+  const Vector2 a(-p.y(), p.x());
+  const Matrix2 q_pp = to.q_pp - from.q_pp;
+  const Vector2 q_pt = to.q_pt - from.q_pt;
+  const double q_tt = to.q_tt - from.q_tt;
+  const Vector2 q_tt_b = to.q_tt_b - from.q_tt_b;
+  const Matrix2 q_tt_bb = to.q_tt_bb - from.q_tt_bb;
+  const Matrix2 q_pt_b = to.q_pt_b - from.q_pt_b;
+  // The sums of Q_pt l_k^T with the lever arm l_k = a - b_k, and of q_tt l_k l_k^T.
+  const Matrix2 pt_l = q_pt * a.transpose() - q_pt_b;
+  const Matrix2 tt_ll = q_tt * a * a.transpose() - a * q_tt_b.transpose() - q_tt_b * a.transpose() + q_tt_bb;
+  Matrix3 d;
+  d.topLeftCorner<2, 2>() = q_pp + pt_l + pt_l.transpose() + tt_ll;
+  d.topRightCorner<2, 1>() = q_pt + q_tt * a - q_tt_b;
+  d.bottomLeftCorner<1, 2>() = d.topRightCorner<2, 1>().transpose();
+  d(2, 2) = q_tt;
+  return symmetric(d);
+}
+
 }  // namespace fastslam_detail
 
 struct FastSlam::Impl {
@@ -92,6 +138,14 @@ struct FastSlam::Impl {
     // (mean, index) of each landmark this scan created or moved into another grid cell.
     std::vector<std::pair<Vector2, std::uint32_t>> grid_entries;
     double log_likelihood = 0.0;
+    // Relocalisation's scratch: the landmarks mapped since the window and those before it, the
+    // former as measurements from the pose, and the joint search's workspace and answer.
+    std::vector<std::uint32_t> recent;
+    std::vector<std::uint32_t> old;
+    std::vector<Observation> recent_as_seen;
+    AssociationWorkspace workspace;
+    std::vector<slamkit::Pairing> matches;
+    bool relocalised = false;  // in this scan
   };
 
   Impl(std::shared_ptr<const MotionModel> motion_model, std::shared_ptr<const ObservationModel> observation_model,
@@ -113,6 +167,12 @@ struct FastSlam::Impl {
   double update_landmark(LandmarkGaussian& lm, const Pose2& x, const Vector2& z) const;
   LandmarkGaussian new_landmark(const Pose2& x, const Vector2& z, int id) const;
   void count_misses(Particle& p, Slot& s) const;
+  /// Whether the existence rule expects particle p to see landmark lm from its pose.
+  bool expected_in_view(const Particle& p, const LandmarkGaussian& lm) const;
+  /// Particle p's relocalisation after its scan update (AssociationConfig::relocalise_min_pairs);
+  /// landmarks from index `first_new` on were started by this scan.
+  void relocalise(Particle& p, Slot& s, std::uint32_t first_new) const;
+  bool relocalising() const { return relocalise_min_pairs > 0; }
   void assign_new_ids(std::size_t observations, std::size_t scan_index);
   void record_associations(std::size_t slot);
   void reweight_and_resample();
@@ -163,6 +223,20 @@ struct FastSlam::Impl {
   // map, so that a new id costs an allocation only when the capacity doubles (or not after reserve).
   std::vector<std::pair<int, LandmarkOrigin>> origins;
   std::vector<AssociationRecord> last_records;
+
+  // Relocalisation: the odometry drift along the best particle's path, its sums at each scan, each
+  // scan's time and best position, the first scan of the window, and the landmarks any particle may
+  // relocalise with in this scan (grid candidates, in index order).
+  std::size_t relocalise_min_pairs;
+  double relocalise_window_s;
+  AssociationConfig relocalise_association;
+  fastslam_detail::DriftSums drift;
+  std::vector<fastslam_detail::DriftSums> drift_at_scan;
+  std::vector<double> scan_times;
+  std::vector<Vector2> scan_positions;
+  std::uint32_t window_start = 0;
+  std::vector<std::uint32_t> relocalise_candidates;
+  std::size_t relocalisations = 0;  // of the best particle's lineage: counted where the best relocalised
 
   std::size_t scans = 0;
   std::size_t resamples = 0;

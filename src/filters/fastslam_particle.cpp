@@ -2,10 +2,12 @@
 // outlier gate), the proposal of eq. (18), the landmark updates, the weight (eqs. 15 and 17) and the
 // misses of the existence rule. The filter around it is in fastslam.cpp.
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <algorithm>
 
 #include "fastslam_impl.hpp"
 #include "slamkit/core/angles.hpp"
+#include "slamkit/core/chi_square.hpp"
 
 namespace slamkit {
 
@@ -132,6 +134,7 @@ double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, con
   const Matrix2 ikh = Matrix2::Identity() - gain * hm;
   lm.covariance = symmetric(ikh * lm.covariance * ikh.transpose() + gain * r * gain.transpose());
   existence.observed(lm.existence);
+  lm.last_seen = static_cast<std::uint32_t>(scans - 1);
   return -0.5 * nu.dot(s_inverse * nu) - kLog2Pi - 0.5 * log_det;
 }
 
@@ -143,6 +146,7 @@ LandmarkGaussian FastSlam::Impl::new_landmark(const Pose2& x, const Vector2& z, 
   lm.mean = observation->inverse(x, z);
   lm.covariance = symmetric(gz * r * gz.transpose());
   lm.id = id;
+  lm.started = lm.last_seen = static_cast<std::uint32_t>(scans - 1);
   lm.existence = known() ? existence.given() : existence.first_observed();
   return lm;
 }
@@ -233,8 +237,27 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
       log_likelihood += update_at(pairing.index, z);
     }
   }
+  s.relocalised = false;
+  if (relocalising() && std::any_of(pairings.begin(), pairings.end(), [](const Pairing& pairing) {
+        return pairing.decision == AssociationDecision::kNew;
+      }))
+    relocalise(p, s, static_cast<std::uint32_t>(old_size));
   if (!known()) count_misses(p, s);
   s.log_likelihood = log_likelihood;
+}
+
+bool FastSlam::Impl::expected_in_view(const Particle& p, const LandmarkGaussian& lm) const {
+  const Vector2 z = observation->predict(p.pose, lm.mean);
+  if (!relocalising() || lm.last_seen >= window_start) return existence.detection_view().contains(z);
+  // Mapped before the window: the drift since may have put it anywhere within its reach of where the
+  // particle predicts it, and at the return from a lap its misses there would remove it just before
+  // relocalisation can pair it. It is expected only where the drift cannot have moved it out of view.
+  Matrix23 hx;
+  Matrix2 hm;
+  observation->jacobians(p.pose, lm.mean, hx, hm);
+  const Matrix2 spread = hx * drift_between(drift_at_scan[lm.last_seen], drift, p.pose.head<2>()) * hx.transpose();
+  const Vector2 reach = std::sqrt(gates.accept) * spread.diagonal().cwiseMax(0.0).cwiseSqrt();
+  return existence.detection_view().contains(Vector2(z[0] + reach[0], std::abs(z[1]) + reach[1]));
 }
 
 void FastSlam::Impl::count_misses(Particle& p, Slot& s) const {
@@ -247,11 +270,194 @@ void FastSlam::Impl::count_misses(Particle& p, Slot& s) const {
   // landmark the existence rule expects to be seen from the final pose.
   for (const Candidate& c : s.candidates) {
     if (std::binary_search(s.observed.begin(), s.observed.end(), c.index)) continue;
-    const bool expected = existence.detection_view().contains(observation->predict(p.pose, p.map[c.index].mean));
+    const bool expected = expected_in_view(p, p.map[c.index]);
     if (!expected && existence.confirmed(p.map[c.index].existence)) continue;  // nothing to record: no copy
     LandmarkGaussian& lm = p.map.mutate(c.index);
     if (expected ? existence.missed(lm.existence) : existence.unseen_nearby(lm.existence)) lm.removed = true;
   }
+}
+
+namespace {
+
+/// Relocalisation's view of one particle: its pose with the drift as covariance, and the landmarks it
+/// mapped before the window, independent of the pose and of each other (so they are, given the
+/// particle's path; the drift is what the path since does not know).
+class DriftedMapView final : public GaussianMapView {
+ public:
+  DriftedMapView(const Pose2& pose, const Matrix3& drift, const LandmarkTree& map, std::span<const std::uint32_t> old)
+      : pose_(pose), drift_(drift), map_(map), old_(old) {}
+  Pose2 pose() const override { return pose_; }
+  Matrix3 pose_covariance() const override { return drift_; }
+  Vector2 landmark_position(std::size_t index) const override { return map_[old_[index]].mean; }
+  Matrix23 landmark_pose_covariance(std::size_t) const override { return Matrix23::Zero(); }
+  Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override {
+    return i == j ? map_[old_[i]].covariance : Matrix2::Zero();
+  }
+
+ private:
+  Pose2 pose_;
+  Matrix3 drift_;
+  const LandmarkTree& map_;
+  std::span<const std::uint32_t> old_;
+};
+
+}  // namespace
+
+void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) const {
+  // The landmarks seen in the window (they are in the frame of the particle's pose now) and those
+  // mapped before it and not seen since (in the frame of the pose that last saw them).
+  s.recent.clear();
+  s.old.clear();
+  std::uint32_t oldest = static_cast<std::uint32_t>(scans - 1);
+  std::size_t started_in_window = 0;
+  auto sort_landmark = [&](std::uint32_t index) {
+    const LandmarkGaussian& lm = p.map[index];
+    if (lm.removed) return;
+    if (lm.last_seen >= window_start) {
+      s.recent.push_back(index);
+      started_in_window += lm.started >= window_start ? 1 : 0;
+    } else if (existence.confirmed(lm.existence)) {
+      s.old.push_back(index);
+      oldest = std::min(oldest, lm.last_seen);
+    }
+  };
+  for (const std::uint32_t index : relocalise_candidates) {
+    if (index >= first_new) break;
+    sort_landmark(index);
+  }
+  for (auto index = first_new; index < p.map.size(); ++index) sort_landmark(index);
+  if (started_in_window < relocalise_min_pairs || s.old.size() < relocalise_min_pairs) return;
+  // The search runs only when a landmark this scan started may duplicate an old one: it lies in the
+  // gate that the drift since that one was last seen allows. Otherwise the pairs, if any, are
+  // those the previous searches found too few of.
+  const bool may_duplicate = [&] {
+    for (auto index = first_new; index < p.map.size(); ++index) {
+      const LandmarkGaussian& fresh = p.map[index];
+      if (fresh.removed) continue;
+      for (const std::uint32_t j : s.old) {
+        const LandmarkGaussian& lm = p.map[j];
+        Matrix23 hx;
+        Matrix2 hm;
+        observation->jacobians(p.pose, lm.mean, hx, hm);
+        const Matrix2 cov = hx * drift_between(drift_at_scan[lm.last_seen], drift, p.pose.head<2>()) * hx.transpose() +
+                            hm * (lm.covariance + fresh.covariance) * hm.transpose();
+        const Vector2 nu =
+            observation->residual(observation->predict(p.pose, fresh.mean), observation->predict(p.pose, lm.mean));
+        Matrix2 inverse;
+        double log_det = 0.0;
+        if (invert_spd(symmetric(cov), inverse, log_det) && nu.dot(inverse * nu) < gates.accept) return true;
+      }
+    }
+    return false;
+  }();
+  if (!may_duplicate) return;
+
+  // The landmarks started in the window, as the particle sees them, are the measurements; the old
+  // ones, with the drift since the oldest was last seen as the pose's covariance, the map.
+  const Matrix3 drift_prior = drift_between(drift_at_scan[oldest], drift, p.pose.head<2>());
+  s.recent_as_seen.clear();
+  std::vector<std::uint32_t>& started = s.observed;  // scratch until count_misses
+  started.clear();
+  for (const std::uint32_t index : s.recent)
+    if (p.map[index].started >= window_start) {
+      started.push_back(index);
+      s.recent_as_seen.push_back({observation->predict(p.pose, p.map[index].mean), kUnknownId});
+    }
+  std::vector<std::size_t> candidates(s.old.size());
+  for (std::size_t j = 0; j < candidates.size(); ++j) candidates[j] = j;
+  const DriftedMapView view(p.pose, drift_prior, p.map, s.old);
+  slamkit::associate(s.recent_as_seen, candidates, view, *observation, relocalise_association, s.workspace, s.matches);
+  std::size_t pairs = 0;
+  std::uint32_t oldest_paired = static_cast<std::uint32_t>(scans - 1);
+  for (const slamkit::Pairing& m : s.matches)
+    if (m.decision == AssociationDecision::kUpdate) {
+      ++pairs;
+      oldest_paired = std::min(oldest_paired, p.map[s.old[m.landmark]].last_seen);
+    }
+  if (pairs < relocalise_min_pairs) return;
+
+  // The search's prior was the drift since the oldest landmark it could pair, which is wide enough
+  // for every candidate; the pairs found must also be jointly compatible under the drift since the
+  // oldest of them, with both landmarks' covariances as the noise. Otherwise a few landmarks mapped
+  // just before the window, next to new ones, would pass under a lap's drift.
+  const Matrix3 drift_paired = drift_between(drift_at_scan[oldest_paired], drift, p.pose.head<2>());
+  const double joint_gate = eval::chi_square_quantile(relocalise_association.accept_probability, 2.0 * static_cast<double>(pairs));
+
+  // The pose that best explains the pairs, with that drift as its prior: iterated Kalman updates
+  // over the stacked pairs. A pair's noise is both landmarks' covariances in measurement space.
+  const auto m = static_cast<Eigen::Index>(2 * pairs);
+  Eigen::MatrixXd h(m, 3), noise = Eigen::MatrixXd::Zero(m, m);
+  Eigen::VectorXd innovation(m);
+  const Pose2 prior = p.pose;
+  Pose2 x = prior;
+  for (int iteration = 0; iteration < 5; ++iteration) {
+    Eigen::Index row = 0;
+    for (std::size_t k = 0; k < s.matches.size(); ++k) {
+      if (s.matches[k].decision != AssociationDecision::kUpdate) continue;
+      const LandmarkGaussian& duplicate = p.map[started[k]];
+      const LandmarkGaussian& original = p.map[s.old[s.matches[k].landmark]];
+      Matrix23 hx, hx_prior;
+      Matrix2 hm, hm_prior;
+      observation->jacobians(x, original.mean, hx, hm);
+      observation->jacobians(prior, duplicate.mean, hx_prior, hm_prior);
+      const Vector2 nu = observation->residual(s.recent_as_seen[k].z, observation->predict(x, original.mean));
+      h.middleRows<2>(row) = hx;
+      innovation.segment<2>(row) = nu + hx * (x - prior);
+      noise.block<2, 2>(row, row) = hm * original.covariance * hm.transpose() +
+                                    hm_prior * duplicate.covariance * hm_prior.transpose();
+      row += 2;
+    }
+    const Eigen::MatrixXd pht = drift_paired * h.transpose();
+    const Eigen::MatrixXd innovation_cov = h * pht + noise;
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(innovation_cov);
+    if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all()) return;
+    if (iteration == 0 && !(innovation.dot(ldlt.solve(innovation)) < joint_gate)) return;
+    Pose2 next = prior + pht * ldlt.solve(innovation);
+    next[2] = wrap_angle(next[2]);
+    if (!next.allFinite()) return;
+    const bool converged = (next - x).head<2>().norm() < 1e-4 && std::abs(wrap_angle(next[2] - x[2])) < 1e-6;
+    x = next;
+    if (converged) break;
+  }
+
+  // Negative evidence: from x the particle should now see the old landmarks in its view, and those
+  // it has not started a duplicate of (paired here) it has not seen. A wrong alignment (under a
+  // drift of a lap, two or three landmarks of a dense map can fit one) puts the vehicle among
+  // landmarks it does not see; the right one among those it sees again.
+  std::vector<char> paired(s.old.size(), 0);
+  for (const slamkit::Pairing& match : s.matches)
+    if (match.decision == AssociationDecision::kUpdate) paired[match.landmark] = 1;
+  std::size_t unseen = 0;
+  for (std::size_t j = 0; j < s.old.size(); ++j)
+    if (!paired[j] && existence.detection_view().contains(observation->predict(x, p.map[s.old[j]].mean))) ++unseen;
+  if (unseen >= pairs) return;
+
+  // The landmarks seen in the window keep where they are relative to the particle, which moves to
+  // x; each duplicate is then fused into its original (two independent estimates of one place).
+  const double turn = wrap_angle(x[2] - prior[2]);
+  Matrix2 rotation;
+  rotation << std::cos(turn), -std::sin(turn), std::sin(turn), std::cos(turn);
+  for (const std::uint32_t index : s.recent) {
+    LandmarkGaussian& lm = p.map.mutate(index);
+    lm.mean = observation->inverse(x, observation->predict(prior, lm.mean));
+    lm.covariance = symmetric(rotation * lm.covariance * rotation.transpose());
+    s.grid_entries.emplace_back(lm.mean, index);
+  }
+  for (std::size_t k = 0; k < s.matches.size(); ++k) {
+    if (s.matches[k].decision != AssociationDecision::kUpdate) continue;
+    LandmarkGaussian& duplicate = p.map.mutate(started[k]);
+    LandmarkGaussian& original = p.map.mutate(s.old[s.matches[k].landmark]);
+    const Matrix2 sum = original.covariance + duplicate.covariance;
+    const Matrix2 gain = original.covariance * sum.inverse();
+    original.mean += gain * (duplicate.mean - original.mean);
+    original.covariance = symmetric(original.covariance - gain * original.covariance);
+    original.last_seen = duplicate.last_seen;
+    duplicate.removed = true;
+    s.grid_entries.emplace_back(original.mean, s.old[s.matches[k].landmark]);
+  }
+  p.pose = x;
+  if (!p.path.empty()) p.path.replace_newest(p.pose);
+  s.relocalised = true;
 }
 
 }  // namespace slamkit

@@ -59,13 +59,27 @@ struct AssociationConfig {
   /// the best hypothesis found so far; the first one it completes is the nearest-neighbour-like
   /// descent, so the budget degrades JCBB towards NN rather than towards nothing.
   std::size_t jcbb_max_nodes = 20000;
+  /// FastSLAM without identities: relocalisation at a loop closure. Each particle's map is built
+  /// from its own path, so a landmark's estimate carries none of the odometry drift since the
+  /// particle last saw it; the spread of the particles should, but resampling collapses it long
+  /// before a loop returns, and a particle back at its first landmarks after a lap finds them beyond
+  /// its gates and maps them again. When a particle has started at least this many landmarks in
+  /// the last relocalise_window_s seconds, it searches (JCBB, the joint gate of accept_probability)
+  /// for the pairing of them with the landmarks it mapped before the window whose joint
+  /// discrepancy the odometry drift since then explains (the drift is the motion model's process
+  /// noise propagated along the path: the pose prior of the search). If that many pair jointly, the
+  /// particle's pose takes the correction that best explains the pairs (iterated, as a pose update
+  /// with the drift as prior), the landmarks it saw in the window move with it, and each duplicate
+  /// is fused into the landmark it duplicates. 0 turns it off.
+  std::size_t relocalise_min_pairs = 0;
+  double relocalise_window_s = 30.0;
 };
 
 /// Throws std::invalid_argument naming the first setting out of its range and the range:
 /// 0 < accept_probability < 1, accept_probability <= new_landmark_probability < 1,
 /// 0 <= min_pairing_probability < 1, finite clutter_per_scan >= 0,
 /// confirm_after >= 1, provisional_max_misses >= 1, confirmed_max_misses >= 0, finite view margins
-/// >= 0, jcbb_max_nodes >= 1.
+/// >= 0, jcbb_max_nodes >= 1, relocalise_min_pairs 0 or >= 2, finite relocalise_window_s > 0.
 void validate(const AssociationConfig& config);
 
 /// Every setting, under the names association_config_from_json reads (run.json's provenance).

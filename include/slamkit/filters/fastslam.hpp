@@ -144,7 +144,9 @@ class FastSlam final : public SlamFilter {
   void forget_smoothed_trajectory() override;
   std::vector<WeightedPose> pose_samples() const override;
   /// "particles", "ess_mean" (mean ESS over scans, before resampling), "resamples",
-  /// "weight_collapses" (scans in which every particle's likelihood was zero or undefined).
+  /// "weight_collapses" (scans in which every particle's likelihood was zero or undefined),
+  /// "relocalisations" (scans in which the best particle relocalised, see
+  /// AssociationConfig::relocalise_min_pairs).
   std::map<std::string, double> statistics() const override;
 
   /// Starts every particle from a known map (shared, not copied), e.g. for localisation in a prior

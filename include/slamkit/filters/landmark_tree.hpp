@@ -41,6 +41,7 @@
 #include <atomic>
 #include <bit>
 #include <cstddef>
+#include <cstdint>
 #include <new>
 #include <span>
 #include <type_traits>
@@ -58,6 +59,10 @@ struct LandmarkGaussian {
   Vector2 mean = Vector2::Zero();
   Matrix2 covariance = Matrix2::Zero();
   int id = kUnknownId;  // the map id the filter reports
+  // The scans that started it and last observed it: FastSLAM's relocalisation tells by them the
+  // landmarks mapped since a window of recent scans from those mapped before it.
+  std::uint32_t started = 0;
+  std::uint32_t last_seen = 0;
   LandmarkExistence existence;
   bool removed = false;  // tombstone
 };
