@@ -83,8 +83,6 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
       existence(cfg.association, cfg.sensor),
       resample_rng(splitmix64(cfg.seed ^ 0x526573616d706c65ULL)),
       grid(std::max(5.0, 0.5 * cfg.sensor.max_range)),
-      relocalise_min_pairs(cfg.association.method == AssociationMethod::kKnown ? 0 : cfg.association.relocalise_min_pairs),
-      relocalise_window_s(cfg.association.relocalise_window_s),
       relocalise_association(cfg.association) {
   if (!motion || !observation) throw std::invalid_argument("FastSLAM needs a motion and an observation model");
   relocalise_association.method = AssociationMethod::kJcbb;
@@ -319,7 +317,7 @@ void FastSlam::update(const ScanEvent& scan) {
     s.drift_at_scan.push_back(s.drift);
     s.scan_times.push_back(scan.t);
     s.scan_positions.push_back(s.particles[s.best].pose.head<2>());
-    while (s.scan_times[s.window_start] < scan.t - s.relocalise_window_s) ++s.window_start;
+    while (s.scan_times[s.window_start] < scan.t - s.config.association.relocalise_window_s) ++s.window_start;
   }
   if (s.known())
     s.plan_known_association(scan, scan_index);

@@ -142,9 +142,12 @@ struct FastSlam::Impl {
     // former as measurements from the pose, and the joint search's workspace and answer.
     std::vector<std::uint32_t> recent;
     std::vector<std::uint32_t> old;
-    std::vector<Observation> recent_as_seen;
+    std::vector<std::uint32_t> started;  // of recent, those started in the window
+    std::vector<Observation> recent_as_seen;  // the started ones as the particle sees them
+    std::vector<std::size_t> old_positions;  // 0, 1, ...: the search's candidates, positions in old
     AssociationWorkspace workspace;
     std::vector<slamkit::Pairing> matches;
+    std::vector<char> paired;  // per old landmark
     bool relocalised = false;  // in this scan
   };
 
@@ -172,7 +175,10 @@ struct FastSlam::Impl {
   /// Particle p's relocalisation after its scan update (AssociationConfig::relocalise_min_pairs);
   /// landmarks from index `first_new` on were started by this scan.
   void relocalise(Particle& p, Slot& s, std::uint32_t first_new) const;
-  bool relocalising() const { return relocalise_min_pairs > 0; }
+  bool relocalising() const { return !known() && config.association.relocalise_min_pairs > 0; }
+  /// The odometry drift since particle p last saw landmark lm, as a covariance of lm's predicted
+  /// measurement, and the measurement's Jacobian in the landmark.
+  Matrix2 drift_in_measurement(const Particle& p, const LandmarkGaussian& lm, Matrix2& hm) const;
   void assign_new_ids(std::size_t observations, std::size_t scan_index);
   void record_associations(std::size_t slot);
   void reweight_and_resample();
@@ -227,9 +233,7 @@ struct FastSlam::Impl {
   // Relocalisation: the odometry drift along the best particle's path, its sums at each scan, each
   // scan's time and best position, the first scan of the window, and the landmarks any particle may
   // relocalise with in this scan (grid candidates, in index order).
-  std::size_t relocalise_min_pairs;
-  double relocalise_window_s;
-  AssociationConfig relocalise_association;
+  AssociationConfig relocalise_association;  // config.association with JCBB
   fastslam_detail::DriftSums drift;
   std::vector<fastslam_detail::DriftSums> drift_at_scan;
   std::vector<double> scan_times;

@@ -4,6 +4,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <algorithm>
+#include <numeric>
 
 #include "fastslam_impl.hpp"
 #include "slamkit/core/angles.hpp"
@@ -246,16 +247,20 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   s.log_likelihood = log_likelihood;
 }
 
+Matrix2 FastSlam::Impl::drift_in_measurement(const Particle& p, const LandmarkGaussian& lm, Matrix2& hm) const {
+  Matrix23 hx;
+  observation->jacobians(p.pose, lm.mean, hx, hm);
+  return hx * drift_between(drift_at_scan[lm.last_seen], drift, p.pose.head<2>()) * hx.transpose();
+}
+
 bool FastSlam::Impl::expected_in_view(const Particle& p, const LandmarkGaussian& lm) const {
   const Vector2 z = observation->predict(p.pose, lm.mean);
   if (!relocalising() || lm.last_seen >= window_start) return existence.detection_view().contains(z);
   // Mapped before the window: the drift since may have put it anywhere within its reach of where the
   // particle predicts it, and at the return from a lap its misses there would remove it just before
   // relocalisation can pair it. It is expected only where the drift cannot have moved it out of view.
-  Matrix23 hx;
   Matrix2 hm;
-  observation->jacobians(p.pose, lm.mean, hx, hm);
-  const Matrix2 spread = hx * drift_between(drift_at_scan[lm.last_seen], drift, p.pose.head<2>()) * hx.transpose();
+  const Matrix2 spread = drift_in_measurement(p, lm, hm);
   const Vector2 reach = std::sqrt(gates.accept) * spread.diagonal().cwiseMax(0.0).cwiseSqrt();
   return existence.detection_view().contains(Vector2(z[0] + reach[0], std::abs(z[1]) + reach[1]));
 }
@@ -326,7 +331,8 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
     sort_landmark(index);
   }
   for (auto index = first_new; index < p.map.size(); ++index) sort_landmark(index);
-  if (started_in_window < relocalise_min_pairs || s.old.size() < relocalise_min_pairs) return;
+  const std::size_t min_pairs = config.association.relocalise_min_pairs;
+  if (started_in_window < min_pairs || s.old.size() < min_pairs) return;
   // The search runs only when a landmark this scan started may duplicate an old one: it lies in the
   // gate that the drift since that one was last seen allows. Otherwise the pairs, if any, are
   // those the previous searches found too few of.
@@ -336,11 +342,8 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
       if (fresh.removed) continue;
       for (const std::uint32_t j : s.old) {
         const LandmarkGaussian& lm = p.map[j];
-        Matrix23 hx;
         Matrix2 hm;
-        observation->jacobians(p.pose, lm.mean, hx, hm);
-        const Matrix2 cov = hx * drift_between(drift_at_scan[lm.last_seen], drift, p.pose.head<2>()) * hx.transpose() +
-                            hm * (lm.covariance + fresh.covariance) * hm.transpose();
+        const Matrix2 cov = drift_in_measurement(p, lm, hm) + hm * (lm.covariance + fresh.covariance) * hm.transpose();
         const Vector2 nu =
             observation->residual(observation->predict(p.pose, fresh.mean), observation->predict(p.pose, lm.mean));
         Matrix2 inverse;
@@ -356,17 +359,17 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   // ones, with the drift since the oldest was last seen as the pose's covariance, the map.
   const Matrix3 drift_prior = drift_between(drift_at_scan[oldest], drift, p.pose.head<2>());
   s.recent_as_seen.clear();
-  std::vector<std::uint32_t>& started = s.observed;  // scratch until count_misses
-  started.clear();
+  s.started.clear();
   for (const std::uint32_t index : s.recent)
     if (p.map[index].started >= window_start) {
-      started.push_back(index);
+      s.started.push_back(index);
       s.recent_as_seen.push_back({observation->predict(p.pose, p.map[index].mean), kUnknownId});
     }
-  std::vector<std::size_t> candidates(s.old.size());
-  for (std::size_t j = 0; j < candidates.size(); ++j) candidates[j] = j;
+  s.old_positions.resize(s.old.size());
+  std::iota(s.old_positions.begin(), s.old_positions.end(), std::size_t{0});
   const DriftedMapView view(p.pose, drift_prior, p.map, s.old);
-  slamkit::associate(s.recent_as_seen, candidates, view, *observation, relocalise_association, s.workspace, s.matches);
+  slamkit::associate(s.recent_as_seen, s.old_positions, view, *observation, relocalise_association, s.workspace,
+                     s.matches);
   std::size_t pairs = 0;
   std::uint32_t oldest_paired = static_cast<std::uint32_t>(scans - 1);
   for (const slamkit::Pairing& m : s.matches)
@@ -374,7 +377,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
       ++pairs;
       oldest_paired = std::min(oldest_paired, p.map[s.old[m.landmark]].last_seen);
     }
-  if (pairs < relocalise_min_pairs) return;
+  if (pairs < min_pairs) return;
 
   // The search's prior was the drift since the oldest landmark it could pair, which is wide enough
   // for every candidate; the pairs found must also be jointly compatible under the drift since the
@@ -384,35 +387,46 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   const double joint_gate = eval::chi_square_quantile(relocalise_association.accept_probability, 2.0 * static_cast<double>(pairs));
 
   // The pose that best explains the pairs, with that drift as its prior: iterated Kalman updates
-  // over the stacked pairs. A pair's noise is both landmarks' covariances in measurement space.
+  // over the stacked pairs. A pair's noise is both landmarks' covariances in measurement space; the
+  // duplicate's, seen from the prior pose, is the same at every iterate.
   const auto m = static_cast<Eigen::Index>(2 * pairs);
-  Eigen::MatrixXd h(m, 3), noise = Eigen::MatrixXd::Zero(m, m);
+  Eigen::MatrixXd h(m, 3), duplicate_noise = Eigen::MatrixXd::Zero(m, m);
   Eigen::VectorXd innovation(m);
   const Pose2 prior = p.pose;
+  for (std::size_t k = 0, row = 0; k < s.matches.size(); ++k) {
+    if (s.matches[k].decision != AssociationDecision::kUpdate) continue;
+    const LandmarkGaussian& duplicate = p.map[s.started[k]];
+    Matrix23 hx;
+    Matrix2 hm;
+    observation->jacobians(prior, duplicate.mean, hx, hm);
+    duplicate_noise.block<2, 2>(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(row)) =
+        hm * duplicate.covariance * hm.transpose();
+    row += 2;
+  }
   Pose2 x = prior;
   for (int iteration = 0; iteration < 5; ++iteration) {
+    Eigen::MatrixXd noise = duplicate_noise;
+    Pose2 offset = x - prior;
+    offset[2] = wrap_angle(offset[2]);
     Eigen::Index row = 0;
     for (std::size_t k = 0; k < s.matches.size(); ++k) {
       if (s.matches[k].decision != AssociationDecision::kUpdate) continue;
-      const LandmarkGaussian& duplicate = p.map[started[k]];
       const LandmarkGaussian& original = p.map[s.old[s.matches[k].landmark]];
-      Matrix23 hx, hx_prior;
-      Matrix2 hm, hm_prior;
+      Matrix23 hx;
+      Matrix2 hm;
       observation->jacobians(x, original.mean, hx, hm);
-      observation->jacobians(prior, duplicate.mean, hx_prior, hm_prior);
       const Vector2 nu = observation->residual(s.recent_as_seen[k].z, observation->predict(x, original.mean));
       h.middleRows<2>(row) = hx;
-      innovation.segment<2>(row) = nu + hx * (x - prior);
-      noise.block<2, 2>(row, row) = hm * original.covariance * hm.transpose() +
-                                    hm_prior * duplicate.covariance * hm_prior.transpose();
+      innovation.segment<2>(row) = nu + hx * offset;
+      noise.block<2, 2>(row, row) += hm * original.covariance * hm.transpose();
       row += 2;
     }
     const Eigen::MatrixXd pht = drift_paired * h.transpose();
-    const Eigen::MatrixXd innovation_cov = h * pht + noise;
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(innovation_cov);
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(h * pht + noise);
     if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all()) return;
-    if (iteration == 0 && !(innovation.dot(ldlt.solve(innovation)) < joint_gate)) return;
-    Pose2 next = prior + pht * ldlt.solve(innovation);
+    const Eigen::VectorXd weighted = ldlt.solve(innovation);
+    if (iteration == 0 && !(innovation.dot(weighted) < joint_gate)) return;
+    Pose2 next = prior + pht * weighted;
     next[2] = wrap_angle(next[2]);
     if (!next.allFinite()) return;
     const bool converged = (next - x).head<2>().norm() < 1e-4 && std::abs(wrap_angle(next[2] - x[2])) < 1e-6;
@@ -424,12 +438,12 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   // it has not started a duplicate of (paired here) it has not seen. A wrong alignment (under a
   // drift of a lap, two or three landmarks of a dense map can fit one) puts the vehicle among
   // landmarks it does not see; the right one among those it sees again.
-  std::vector<char> paired(s.old.size(), 0);
+  s.paired.assign(s.old.size(), 0);
   for (const slamkit::Pairing& match : s.matches)
-    if (match.decision == AssociationDecision::kUpdate) paired[match.landmark] = 1;
+    if (match.decision == AssociationDecision::kUpdate) s.paired[match.landmark] = 1;
   std::size_t unseen = 0;
   for (std::size_t j = 0; j < s.old.size(); ++j)
-    if (!paired[j] && existence.detection_view().contains(observation->predict(x, p.map[s.old[j]].mean))) ++unseen;
+    if (!s.paired[j] && existence.detection_view().contains(observation->predict(x, p.map[s.old[j]].mean))) ++unseen;
   if (unseen >= pairs) return;
 
   // The landmarks seen in the window keep where they are relative to the particle, which moves to
@@ -445,7 +459,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   }
   for (std::size_t k = 0; k < s.matches.size(); ++k) {
     if (s.matches[k].decision != AssociationDecision::kUpdate) continue;
-    LandmarkGaussian& duplicate = p.map.mutate(started[k]);
+    LandmarkGaussian& duplicate = p.map.mutate(s.started[k]);
     LandmarkGaussian& original = p.map.mutate(s.old[s.matches[k].landmark]);
     const Matrix2 sum = original.covariance + duplicate.covariance;
     const Matrix2 gain = original.covariance * sum.inverse();
