@@ -3,6 +3,8 @@
 // the cluttered sparse world, and JCBB, which FastSLAM does not do per particle, refused.
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include "slamkit/eval/evaluation.hpp"
 #include "slamkit/filters/fastslam.hpp"
 #include "slamkit/pipeline/factory.hpp"
@@ -70,13 +72,14 @@ TEST(HardAssociation, JcbbForFastSlamIsRefusedNotReplacedByNearestNeighbour) {
   EXPECT_THROW(FastSlam(d.motion, d.observation, fs), std::invalid_argument);
 }
 
-Metrics run_fastslam2(const Dataset& d, std::uint64_t seed, std::size_t relocalise_min_pairs) {
+// FastSLAM 2.0 without identities; relocalisation as the defaults have it unless min pairs are given.
+Metrics run_fastslam2(const Dataset& d, std::uint64_t seed, std::optional<std::size_t> relocalise_min_pairs = {}) {
   FilterConfig config;
   config.filter = FilterKind::kFastSlam2;
   config.seed = seed;
   config.threads = 2;
   config.association.method = AssociationMethod::kNearestNeighbour;
-  config.association.relocalise_min_pairs = relocalise_min_pairs;
+  if (relocalise_min_pairs) config.association.relocalise_min_pairs = *relocalise_min_pairs;
   RunResult run = run_filter(*make_filter(config, d), d);
   run.association = "nn";
   return evaluate_run(run, d.truth);
@@ -84,13 +87,13 @@ Metrics run_fastslam2(const Dataset& d, std::uint64_t seed, std::size_t relocali
 
 // On the sparse world every particle's cloud has collapsed long before the return, and without
 // relocalisation FastSLAM 2.0 maps the first landmarks again. Simulated here (in memory, unrounded)
-// seeds 1-10 close in 0 of 10 without and 9 of 10 with it (seed 5: 0.775); from the logs the CLI
+// seeds 1-10 close in 0 of 10 without and 9 of 10 with it (seed 3: 0.795); from the logs the CLI
 // writes, 1 and 10 of 10 (README).
 TEST(HardAssociation, FastSlamRelocalisationClosesTheSparseWorldsLoop) {
   for (const std::uint64_t seed : {1U, 4U, 6U}) {
     const Dataset d = simulate_scenario("sparse", seed);
     const Metrics without = run_fastslam2(d, seed, 0);
-    const Metrics with = run_fastslam2(d, seed, 2);
+    const Metrics with = run_fastslam2(d, seed);
     ASSERT_TRUE(without.association && with.association);
     ASSERT_TRUE(without.association->loop_closure_fraction() && with.association->loop_closure_fraction());
     EXPECT_LT(*without.association->loop_closure_fraction(), kLoopClosedFraction) << "seed " << seed;
@@ -102,15 +105,16 @@ TEST(HardAssociation, FastSlamRelocalisationClosesTheSparseWorldsLoop) {
 }
 
 // On the dense loop-closure world the drift of a lap lets two or three landmarks fit a wrong
-// alignment; the joint gate under the drift since the paired landmarks and the landmarks that the
-// corrected pose should see keep most out, and the return is recognised without lap-1 duplicates.
-// Filter seeds 1-5 here: 0 of 5 closed without, 4 of 5 with (seed 3 takes a wrong alignment and
-// diverges, ATE 8.4 m: why relocalisation is not on by default, README).
+// alignment; the joint gate under the drift since the paired landmarks, and the old landmarks that
+// the corrected pose should see (fewer than half the pairs may be unseen), keep them out, and the
+// return is recognised without lap-1 duplicates. Filter seeds 1-5 here: 0 of 5 closed without, 5 of
+// 5 with; seed 3 took a wrong two-pair alignment with one landmark unseen and diverged (8.4 m) while
+// the rule allowed as many unseen as pairs less one.
 TEST(HardAssociation, FastSlamRelocalisationClosesTheLoopClosureWorldWithoutDuplicates) {
   const Dataset d = simulate_scenario("loop-closure", 1);
-  for (const std::uint64_t seed : {2U, 4U}) {
+  for (const std::uint64_t seed : {2U, 3U, 4U}) {
     const Metrics without = run_fastslam2(d, seed, 0);
-    const Metrics with = run_fastslam2(d, seed, 2);
+    const Metrics with = run_fastslam2(d, seed);
     ASSERT_TRUE(without.association && with.association);
     EXPECT_LT(*without.association->loop_closure_fraction(), kLoopClosedFraction) << "seed " << seed;
     EXPECT_GE(*with.association->loop_closure_fraction(), kLoopClosedFraction) << "seed " << seed;

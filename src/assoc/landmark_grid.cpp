@@ -86,4 +86,24 @@ void LandmarkGrid::query(const Vector2& centre, double radius, std::vector<std::
     }
 }
 
+void LandmarkGrid::list(const Vector2& centre, double radius, std::vector<std::uint32_t>& out) const {
+  out.clear();
+  const std::int64_t lo_x = column(centre.x() - radius), lo_y = column(centre.y() - radius);
+  const std::int64_t hi_x = column(centre.x() + radius), hi_y = column(centre.y() + radius);
+  const auto walk = [&](std::uint32_t head) {
+    for (std::uint32_t n = head; n != kNone; n = nodes_[n].next) out.push_back(nodes_[n].index);
+  };
+  const double square_cells = static_cast<double>(hi_x - lo_x + 1) * static_cast<double>(hi_y - lo_y + 1);
+  if (square_cells > static_cast<double>(cells_.size())) {
+    for (const auto& [cell, head] : cells_) {
+      const std::int64_t ix = column_x(cell), iy = column_y(cell);
+      if (ix >= lo_x && ix <= hi_x && iy >= lo_y && iy <= hi_y) walk(head);
+    }
+    return;
+  }
+  for (std::int64_t ix = lo_x; ix <= hi_x; ++ix)
+    for (std::int64_t iy = lo_y; iy <= hi_y; ++iy)
+      if (const auto it = cells_.find(pack(ix, iy)); it != cells_.end()) walk(it->second);
+}
+
 }  // namespace slamkit

@@ -176,17 +176,17 @@ void FastSlam::Impl::gather_candidates() {
   sort_unique(scan_candidates);
   if (!relocalising()) return;
   // Relocalisation looks at the landmarks mapped since the window's first scan, which lie within the
-  // sensor's reach of some pose since, and at those mapped before it that the drift since the start
-  // can have carried there.
+  // sensor's reach of some pose since, and at those mapped before it that some particle's drift
+  // (drift_of, which is largest relative to the first scan) can have carried there.
   double travelled = 0.0;
   for (std::size_t k = window_start; k < scan_positions.size(); ++k)
     travelled = std::max(travelled, (scan_positions[k] - centre_pose.head<2>()).norm());
-  const Matrix3 since_start = drift_between(drift_at_scan.front(), drift, centre_pose.head<2>());
-  const double largest = Eigen::SelfAdjointEigenSolver<Matrix2>(since_start.topLeftCorner<2, 2>(), Eigen::EigenvaluesOnly)
-                             .eigenvalues()
-                             .maxCoeff();
-  const double drift_reach = std::sqrt(gates.new_landmark * std::max(largest, 0.0));
-  grid.query(sensor, radius + std::max(travelled, drift_reach), relocalise_candidates);
+  double largest = 0.0;  // a bound of the position drift's largest eigenvalue: the trace
+  for (const Particle& p : particles) largest = std::max(largest, drift_of(p, 0).topLeftCorner<2, 2>().trace());
+  const double drift_reach = std::sqrt(gates.new_landmark * largest);
+  // Room for every entry: the drift, and with it the square, can grow at any time.
+  make_room(relocalise_candidates, grid.max_entries());
+  grid.list(sensor, radius + std::max(travelled, drift_reach), relocalise_candidates);
   sort_unique(relocalise_candidates);
 }
 
@@ -280,8 +280,14 @@ FastSlam::~FastSlam() = default;
 std::string FastSlam::name() const { return impl_->config.version == 1 ? "fastslam1" : "fastslam2"; }
 
 void FastSlam::reserve(std::size_t steps, std::size_t landmarks) {
-  if (impl_->keep_paths) impl_->path_nodes.reserve(steps);
-  impl_->origins.reserve(impl_->origins.size() + landmarks);
+  Impl& s = *impl_;
+  if (s.keep_paths) s.path_nodes.reserve(steps);
+  s.origins.reserve(s.origins.size() + landmarks);
+  if (s.relocalising()) {
+    s.drift_at_scan.reserve(s.drift_at_scan.size() + steps);
+    s.scan_times.reserve(s.scan_times.size() + steps);
+    s.scan_positions.reserve(s.scan_positions.size() + steps);
+  }
 }
 
 const FastSlamConfig& FastSlam::config() const { return impl_->config; }

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <random>
 #include <tuple>
 #include <unordered_map>
@@ -99,6 +100,14 @@ inline Matrix3 drift_between(const DriftSums& from, const DriftSums& to, const V
   return symmetric(d);
 }
 
+/// A particle's pose error relative to its old map, as of the scan at which a landmark it saw again
+/// after the window, or its relocalisation, tied its pose to that map (see drift_of()).
+struct Anchor {
+  std::uint32_t scan = 0;
+  Vector2 position = Vector2::Zero();  // the particle's at `scan`
+  Matrix3 covariance = Matrix3::Zero();
+};
+
 }  // namespace fastslam_detail
 
 struct FastSlam::Impl {
@@ -108,6 +117,10 @@ struct FastSlam::Impl {
     double log_weight = 0.0;             // log of the normalised weight
     LandmarkTree map;
     ParticlePath path;
+    // Relocalisation: the particle's latest anchor, and the scan of its last relocalisation (see
+    // drift_of()).
+    std::optional<fastslam_detail::Anchor> anchor;
+    std::optional<std::uint32_t> relocalised_at;
   };
 
   /// What one particle does with one observation; `index` is in that particle's map.
@@ -176,8 +189,17 @@ struct FastSlam::Impl {
   /// landmarks from index `first_new` on were started by this scan.
   void relocalise(Particle& p, Slot& s, std::uint32_t first_new) const;
   bool relocalising() const { return !known() && config.association.relocalise_min_pairs > 0; }
-  /// The odometry drift since particle p last saw landmark lm, as a covariance of lm's predicted
-  /// measurement, and the measurement's Jacobian in the landmark.
+  /// The covariance of particle p's pose error relative to what it saw at scan `seen`: the odometry
+  /// drift since then or, if smaller (by position variance), the anchor's error carried to the pose
+  /// now plus the drift since the anchor. The anchor counts only if it is later than `seen` and no
+  /// relocalisation lies between them: the pose jumped there to the map seen before the drift, and
+  /// what the particle saw between that and the jump is as far off as the drift made it.
+  Matrix3 drift_of(const Particle& p, std::uint32_t seen) const;
+  /// Ties particle p's pose to an old landmark it sees again, lm as before this scan's update: the
+  /// drift since lm was last seen, conditioned on the observation, becomes p's anchor.
+  void anchor_at(Particle& p, const LandmarkGaussian& lm) const;
+  /// drift_of(p, lm.last_seen) as a covariance of lm's predicted measurement, and the measurement's
+  /// Jacobian in the landmark.
   Matrix2 drift_in_measurement(const Particle& p, const LandmarkGaussian& lm, Matrix2& hm) const;
   void assign_new_ids(std::size_t observations, std::size_t scan_index);
   void record_associations(std::size_t slot);

@@ -217,6 +217,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   // Landmark updates at the particle's final pose; for FastSLAM 1.0 they also give the weight.
   for (std::size_t k = 0; k < n_obs; ++k) {
     if (!is_old_update(k)) continue;
+    if (relocalising() && p.map[pairings[k].index].last_seen < window_start) anchor_at(p, p.map[pairings[k].index]);
     const double ll = update_at(pairings[k].index, scan.observations[k].z);
     if (config.version == 1) log_likelihood += ll;
   }
@@ -250,7 +251,32 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
 Matrix2 FastSlam::Impl::drift_in_measurement(const Particle& p, const LandmarkGaussian& lm, Matrix2& hm) const {
   Matrix23 hx;
   observation->jacobians(p.pose, lm.mean, hx, hm);
-  return hx * drift_between(drift_at_scan[lm.last_seen], drift, p.pose.head<2>()) * hx.transpose();
+  return hx * drift_of(p, lm.last_seen) * hx.transpose();
+}
+
+Matrix3 FastSlam::Impl::drift_of(const Particle& p, std::uint32_t seen) const {
+  const Vector2 position = p.pose.head<2>();
+  const Matrix3 direct = drift_between(drift_at_scan[seen], drift, position);
+  if (!p.anchor || p.anchor->scan <= seen || (p.relocalised_at && seen < *p.relocalised_at && *p.relocalised_at <= p.anchor->scan))
+    return direct;
+  // The anchor's error reaches the pose now through the same lever arm as the drift's terms.
+  Matrix3 lever = Matrix3::Identity();
+  lever.topRightCorner<2, 1>() = Vector2(p.anchor->position.y() - position.y(), position.x() - p.anchor->position.x());
+  const Matrix3 via_anchor = symmetric(lever * p.anchor->covariance * lever.transpose()) +
+                             drift_between(drift_at_scan[p.anchor->scan], drift, position);
+  return via_anchor.topLeftCorner<2, 2>().trace() < direct.topLeftCorner<2, 2>().trace() ? via_anchor : direct;
+}
+
+void FastSlam::Impl::anchor_at(Particle& p, const LandmarkGaussian& lm) const {
+  const Matrix3 prior = drift_of(p, lm.last_seen);
+  Matrix23 hx;
+  Matrix2 hm;
+  observation->jacobians(p.pose, lm.mean, hx, hm);
+  const Eigen::Matrix<double, 3, 2> pht = prior * hx.transpose();
+  Matrix2 s_inverse;
+  double log_det = 0.0;
+  if (!invert_spd(symmetric(hx * pht + hm * lm.covariance * hm.transpose() + r), s_inverse, log_det)) return;
+  p.anchor = Anchor{static_cast<std::uint32_t>(scans - 1), p.pose.head<2>(), symmetric(prior - pht * s_inverse * pht.transpose())};
 }
 
 bool FastSlam::Impl::expected_in_view(const Particle& p, const LandmarkGaussian& lm) const {
@@ -313,17 +339,20 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   // mapped before it and not seen since (in the frame of the pose that last saw them).
   s.recent.clear();
   s.old.clear();
-  std::uint32_t oldest = static_cast<std::uint32_t>(scans - 1);
-  std::size_t started_in_window = 0;
+  s.started.clear();
+  // Room as the candidates' list has it (see gather_candidates): grown only when that grows.
+  const std::size_t at_most = relocalise_candidates.capacity() + (p.map.size() - first_new);
+  make_room(s.recent, at_most);
+  make_room(s.old, at_most);
+  make_room(s.started, at_most);
   auto sort_landmark = [&](std::uint32_t index) {
     const LandmarkGaussian& lm = p.map[index];
     if (lm.removed) return;
     if (lm.last_seen >= window_start) {
       s.recent.push_back(index);
-      started_in_window += lm.started >= window_start ? 1 : 0;
+      if (lm.started >= window_start) s.started.push_back(index);
     } else if (existence.confirmed(lm.existence)) {
       s.old.push_back(index);
-      oldest = std::min(oldest, lm.last_seen);
     }
   };
   for (const std::uint32_t index : relocalise_candidates) {
@@ -332,39 +361,46 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   }
   for (auto index = first_new; index < p.map.size(); ++index) sort_landmark(index);
   const std::size_t min_pairs = config.association.relocalise_min_pairs;
-  if (started_in_window < min_pairs || s.old.size() < min_pairs) return;
-  // The search runs only when a landmark this scan started may duplicate an old one: it lies in the
-  // gate that the drift since that one was last seen allows. Otherwise the pairs, if any, are
-  // those the previous searches found too few of.
-  const bool may_duplicate = [&] {
-    for (auto index = first_new; index < p.map.size(); ++index) {
+  if (s.started.size() < min_pairs || s.old.size() < min_pairs) return;
+  // An old landmark can pair only with a landmark started in the window that lies in the gate its
+  // drift (drift_of since it was last seen) allows; the others are left out of the search, whose
+  // prior is the drift of the oldest kept. The search runs only when a landmark this scan started
+  // may duplicate one; otherwise the pairs, if any, are those the previous searches found too few of.
+  std::uint32_t oldest = static_cast<std::uint32_t>(scans - 1);
+  bool may_duplicate = false;
+  std::size_t kept = 0;
+  for (const std::uint32_t j : s.old) {
+    const LandmarkGaussian& lm = p.map[j];
+    Matrix2 hm;
+    const Matrix2 drift_cov = drift_in_measurement(p, lm, hm);
+    const Vector2 predicted = observation->predict(p.pose, lm.mean);
+    bool may_pair = false;
+    for (const std::uint32_t index : s.started) {
       const LandmarkGaussian& fresh = p.map[index];
-      if (fresh.removed) continue;
-      for (const std::uint32_t j : s.old) {
-        const LandmarkGaussian& lm = p.map[j];
-        Matrix2 hm;
-        const Matrix2 cov = drift_in_measurement(p, lm, hm) + hm * (lm.covariance + fresh.covariance) * hm.transpose();
-        const Vector2 nu =
-            observation->residual(observation->predict(p.pose, fresh.mean), observation->predict(p.pose, lm.mean));
-        Matrix2 inverse;
-        double log_det = 0.0;
-        if (invert_spd(symmetric(cov), inverse, log_det) && nu.dot(inverse * nu) < gates.accept) return true;
+      const Matrix2 cov = drift_cov + hm * (lm.covariance + fresh.covariance) * hm.transpose();
+      const Vector2 nu = observation->residual(observation->predict(p.pose, fresh.mean), predicted);
+      Matrix2 inverse;
+      double log_det = 0.0;
+      if (!invert_spd(symmetric(cov), inverse, log_det) || !(nu.dot(inverse * nu) < gates.accept)) continue;
+      may_pair = true;
+      if (index >= first_new) {
+        may_duplicate = true;
+        break;
       }
     }
-    return false;
-  }();
-  if (!may_duplicate) return;
+    if (!may_pair) continue;
+    s.old[kept++] = j;
+    oldest = std::min(oldest, lm.last_seen);
+  }
+  s.old.resize(kept);
+  if (!may_duplicate || kept < min_pairs) return;
 
   // The landmarks started in the window, as the particle sees them, are the measurements; the old
   // ones, with the drift since the oldest was last seen as the pose's covariance, the map.
-  const Matrix3 drift_prior = drift_between(drift_at_scan[oldest], drift, p.pose.head<2>());
+  const Matrix3 drift_prior = drift_of(p, oldest);
   s.recent_as_seen.clear();
-  s.started.clear();
-  for (const std::uint32_t index : s.recent)
-    if (p.map[index].started >= window_start) {
-      s.started.push_back(index);
-      s.recent_as_seen.push_back({observation->predict(p.pose, p.map[index].mean), kUnknownId});
-    }
+  for (const std::uint32_t index : s.started)
+    s.recent_as_seen.push_back({observation->predict(p.pose, p.map[index].mean), kUnknownId});
   s.old_positions.resize(s.old.size());
   std::iota(s.old_positions.begin(), s.old_positions.end(), std::size_t{0});
   const DriftedMapView view(p.pose, drift_prior, p.map, s.old);
@@ -383,7 +419,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   // for every candidate; the pairs found must also be jointly compatible under the drift since the
   // oldest of them, with both landmarks' covariances as the noise. Otherwise a few landmarks mapped
   // just before the window, next to new ones, would pass under a lap's drift.
-  const Matrix3 drift_paired = drift_between(drift_at_scan[oldest_paired], drift, p.pose.head<2>());
+  const Matrix3 drift_paired = drift_of(p, oldest_paired);
   const double joint_gate = eval::chi_square_quantile(relocalise_association.accept_probability, 2.0 * static_cast<double>(pairs));
 
   // The pose that best explains the pairs, with that drift as its prior: iterated Kalman updates
@@ -404,6 +440,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
     row += 2;
   }
   Pose2 x = prior;
+  Matrix3 posterior = drift_paired;  // of the pose given the pairs, at the last iterate
   for (int iteration = 0; iteration < 5; ++iteration) {
     Eigen::MatrixXd noise = duplicate_noise;
     Pose2 offset = x - prior;
@@ -425,6 +462,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(h * pht + noise);
     if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all()) return;
     const Eigen::VectorXd weighted = ldlt.solve(innovation);
+    posterior = symmetric(Matrix3(drift_paired - pht * ldlt.solve(pht.transpose())));
     if (iteration == 0 && !(innovation.dot(weighted) < joint_gate)) return;
     Pose2 next = prior + pht * weighted;
     next[2] = wrap_angle(next[2]);
@@ -434,17 +472,19 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
     if (converged) break;
   }
 
-  // Negative evidence: from x the particle should now see the old landmarks in its view, and those
-  // it has not started a duplicate of (paired here) it has not seen. A wrong alignment (under a
-  // drift of a lap, two or three landmarks of a dense map can fit one) puts the vehicle among
-  // landmarks it does not see; the right one among those it sees again.
+  // Negative evidence: from x the particle should now see the old landmarks in its view that a
+  // recent one could duplicate, and those it has not started a duplicate of (paired here) it has not
+  // seen. A wrong alignment (under a drift of a lap, two or three landmarks of a dense map can fit
+  // one) puts the vehicle among landmarks it does not see; the right one among those it sees again,
+  // so it is taken only where the pairs are more than twice the unseen. (Half the pairs let a wrong
+  // two-pair alignment with one landmark unseen through on the loop-closure world.)
   s.paired.assign(s.old.size(), 0);
   for (const slamkit::Pairing& match : s.matches)
     if (match.decision == AssociationDecision::kUpdate) s.paired[match.landmark] = 1;
   std::size_t unseen = 0;
   for (std::size_t j = 0; j < s.old.size(); ++j)
     if (!s.paired[j] && existence.detection_view().contains(observation->predict(x, p.map[s.old[j]].mean))) ++unseen;
-  if (unseen >= pairs) return;
+  if (2 * unseen >= pairs) return;
 
   // The landmarks seen in the window keep where they are relative to the particle, which moves to
   // x; each duplicate is then fused into its original (two independent estimates of one place).
@@ -471,6 +511,8 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   }
   p.pose = x;
   if (!p.path.empty()) p.path.replace_newest(p.pose);
+  p.relocalised_at = static_cast<std::uint32_t>(scans - 1);
+  p.anchor = Anchor{*p.relocalised_at, x.head<2>(), posterior};
   s.relocalised = true;
 }
 

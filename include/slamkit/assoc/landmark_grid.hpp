@@ -35,6 +35,9 @@ class LandmarkGrid {
   /// Cells created so far, empty ones included: the grid's memory.
   std::size_t cells() const { return cells_.size(); }
   Cell cell_of(const Vector2& p) const { return pack(column(p.x()), column(p.y())); }
+  /// At least the number of entries listed, the most a query can return; it changes only when the
+  /// grid's own storage grows.
+  std::size_t max_entries() const { return nodes_.capacity(); }
 
   /// Lists landmark `index` in `cell`, unless it is listed there already.
   void insert(Cell cell, std::uint32_t index);
@@ -46,6 +49,8 @@ class LandmarkGrid {
   /// (centre, radius), cell by cell: an index listed in several of them comes once per cell. The
   /// next prune() visits those cells.
   void query(const Vector2& centre, double radius, std::vector<std::uint32_t>& out);
+  /// What query() would return, without creating a cell or changing the cells prune() visits.
+  void list(const Vector2& centre, double radius, std::vector<std::uint32_t>& out) const;
   /// Drops the entries of the last query's cells for which needed(cell, index) is false: they are
   /// where stale entries cost, and where map management has just been at work.
   template <class Needed>

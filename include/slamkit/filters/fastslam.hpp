@@ -159,7 +159,8 @@ class FastSlam final : public SlamFilter {
 
   /// Pre-allocates what `steps` more predict() calls and `landmarks` more map ids made by update()
   /// (without identities) add for good: the poses by which the particles' shared past grows, one per
-  /// step, and the ids' origins. The steps then run without a heap allocation once the pools have
+  /// step, the ids' origins and relocalisation's record of each scan (room for as many scans as
+  /// steps). The steps then run without a heap allocation once the pools have
   /// seen the map (everything else a step needs is recycled); without reserve, that storage grows
   /// in chunks of thousands of poses, and by doubling.
   void reserve(std::size_t steps, std::size_t landmarks);
