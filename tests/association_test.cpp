@@ -358,6 +358,34 @@ TEST(LandmarkGrid, FarPositionsAndHugeQueriesStayBounded) {
   EXPECT_EQ(found, (std::vector<std::uint32_t>{0, 4}));
 }
 
+// FastSLAM's relocalisation lists candidates over squares that grow with the drift: list() answers
+// as query() does, narrow or wide, but creates no cell and leaves the cells prune() visits alone.
+TEST(LandmarkGrid, ListAnswersAsQueryWithoutCreatingCellsOrMovingThePrune) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-200.0, 200.0);
+  LandmarkGrid grid(10.0);
+  for (std::uint32_t i = 0; i < 500; ++i) grid.insert(grid.cell_of(Vector2(u(rng), u(rng))), i);
+  std::vector<std::uint32_t> listed, queried;
+  for (const double radius : {5.0, 40.0, 1e4, std::numeric_limits<double>::infinity()}) {
+    const std::size_t cells = grid.cells();
+    grid.list(Vector2(u(rng), u(rng)), radius, listed);
+    EXPECT_EQ(grid.cells(), cells) << "radius " << radius;
+    grid.list(Vector2(3.0, -7.0), radius, listed);
+    grid.query(Vector2(3.0, -7.0), radius, queried);
+    std::sort(listed.begin(), listed.end());
+    std::sort(queried.begin(), queried.end());
+    EXPECT_EQ(listed, queried) << "radius " << radius;
+  }
+  EXPECT_GE(grid.max_entries(), 500u);
+  // The prune after a narrow query and a wide list still visits the query's cells only.
+  grid.query(Vector2(3.0, -7.0), 5.0, queried);
+  grid.list(Vector2::Zero(), std::numeric_limits<double>::infinity(), listed);
+  const std::size_t all = listed.size();
+  grid.prune([](LandmarkGrid::Cell, std::uint32_t) { return false; });
+  grid.list(Vector2::Zero(), std::numeric_limits<double>::infinity(), listed);
+  EXPECT_EQ(listed.size(), all - queried.size());
+}
+
 // FastSLAM's use: one landmark listed in several cells (one per particle's version), once per cell,
 // and entries no version needs pruned from the cells the last query visited only.
 TEST(LandmarkGrid, ListsALandmarkInSeveralCellsAndPrunesAroundTheLastQuery) {
