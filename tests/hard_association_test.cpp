@@ -123,6 +123,24 @@ TEST(HardAssociation, FastSlamRelocalisationClosesTheLoopClosureWorldWithoutDupl
   }
 }
 
+// The default world is dense and driven twice: once the return is recognised, every particle keeps
+// seeing landmarks of its first lap, its anchor keeps its drift small, and no landmark it starts
+// can duplicate an old one beyond its gates, so the joint search runs about once per particle (at
+// the return), not once per new landmark. Without relocalisation the return is mapped again.
+TEST(HardAssociation, FastSlamRelocalisationSearchesAtTheReturnOnly) {
+  const Dataset d = simulate_scenario("default", 1);
+  const Metrics without = run_fastslam2(d, 1, 0);
+  const Metrics with = run_fastslam2(d, 1);
+  ASSERT_TRUE(without.association && with.association);
+  EXPECT_LT(*without.association->loop_closure_fraction(), kLoopClosedFraction);
+  EXPECT_GE(*with.association->loop_closure_fraction(), kLoopClosedFraction);
+  EXPECT_EQ(with.association->spurious_landmarks, 0U);
+  EXPECT_GE(with.filter_statistics.at("relocalisations"), 1.0);
+  const double searches = with.filter_statistics.at("relocalisation_searches");
+  EXPECT_GE(searches, 1.0);
+  EXPECT_LE(searches, 3.0 * with.filter_statistics.at("particles")) << "joint searches over the run";
+}
+
 TEST(HardAssociation, RelocalisationSettingsAreValidated) {
   AssociationConfig config;
   config.relocalise_min_pairs = 1;  // one pairing leaves the heading free

@@ -404,12 +404,15 @@ std::map<std::string, double> FastSlam::statistics() const {
   s.best_particle().map.for_each([&](std::size_t, const LandmarkGaussian& lm) {
     provisional += !lm.removed && !s.existence.confirmed(lm.existence) ? 1 : 0;
   });
+  std::size_t searches = 0;
+  for (const Impl::Slot& slot : s.slots) searches += slot.relocalisation_searches;
   return {{"particles", n},
           {"landmarks_provisional", static_cast<double>(provisional)},
           {"ess_mean", s.scans > 0 ? s.ess_sum / static_cast<double>(s.scans) : n},
           {"resamples", static_cast<double>(s.resamples)},
           {"weight_collapses", static_cast<double>(s.collapses)},
-          {"relocalisations", static_cast<double>(s.relocalisations)}};
+          {"relocalisations", static_cast<double>(s.relocalisations)},
+          {"relocalisation_searches", static_cast<double>(searches)}};
 }
 
 void FastSlam::set_initial_map(const std::vector<Landmark>& map) {

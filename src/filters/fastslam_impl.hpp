@@ -162,6 +162,7 @@ struct FastSlam::Impl {
     std::vector<slamkit::Pairing> matches;
     std::vector<char> paired;  // per old landmark
     bool relocalised = false;  // in this scan
+    std::size_t relocalisation_searches = 0;  // joint searches run in this slot, all scans
   };
 
   Impl(std::shared_ptr<const MotionModel> motion_model, std::shared_ptr<const ObservationModel> observation_model,

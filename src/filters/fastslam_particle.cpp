@@ -404,6 +404,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   s.old_positions.resize(s.old.size());
   std::iota(s.old_positions.begin(), s.old_positions.end(), std::size_t{0});
   const DriftedMapView view(p.pose, drift_prior, p.map, s.old);
+  ++s.relocalisation_searches;
   slamkit::associate(s.recent_as_seen, s.old_positions, view, *observation, relocalise_association, s.workspace,
                      s.matches);
   std::size_t pairs = 0;

@@ -146,7 +146,8 @@ class FastSlam final : public SlamFilter {
   /// "particles", "ess_mean" (mean ESS over scans, before resampling), "resamples",
   /// "weight_collapses" (scans in which every particle's likelihood was zero or undefined),
   /// "relocalisations" (scans in which the best particle relocalised, see
-  /// AssociationConfig::relocalise_min_pairs).
+  /// AssociationConfig::relocalise_min_pairs), "relocalisation_searches" (the joint searches for
+  /// one run, all particles: relocalisation's cost).
   std::map<std::string, double> statistics() const override;
 
   /// Starts every particle from a known map (shared, not copied), e.g. for localisation in a prior
