@@ -9,7 +9,9 @@
 #include "slamkit/filters/fastslam.hpp"
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/pipeline/runner.hpp"
+#include "slamkit/io/sim_log.hpp"
 #include "slamkit/sim/simulator.hpp"
+#include "test_data.hpp"
 
 namespace slamkit {
 namespace {
@@ -19,6 +21,16 @@ Dataset simulate_scenario(const std::string& name, std::uint64_t seed) {
   s.config.seed = seed;
   s.config.provide_ids = false;
   return simulate(s.world, s.config);
+}
+
+// The scenario as `slamkit simulate --scenario NAME --seed SEED` writes it (with the identities,
+// which `--assoc nn` does not read; their draw makes the noise differ from simulate_scenario's) and
+// `run --data sim:DIR` reads it back.
+Dataset logged_scenario(const std::string& name, std::uint64_t seed, const test_data::ScratchDir& dir) {
+  Scenario s = scenario(name);
+  s.config.seed = seed;
+  write_sim_log(dir.path().string(), simulate(s.world, s.config), s.config, s.world);
+  return read_sim_log(dir.path().string());
 }
 
 struct EkfRun {
@@ -86,20 +98,39 @@ Metrics run_fastslam2(const Dataset& d, std::uint64_t seed, std::optional<std::s
 }
 
 // On the sparse world every particle's cloud has collapsed long before the return, and without
-// relocalisation FastSLAM 2.0 maps the first landmarks again. Simulated here (in memory, unrounded)
-// seeds 1-10 close in 0 of 10 without and 9 of 10 with it (seed 3: 0.795); from the logs the CLI
-// writes, 1 and 10 of 10 (README).
+// relocalisation FastSLAM 2.0 maps the first landmarks again. From the logs the CLI writes, seeds
+// 1-10 close in 1 of 10 without and 10 of 10 with it; simulated without identities (another draw
+// of the noise), 0 and 8 of 10 (README).
 TEST(HardAssociation, FastSlamRelocalisationClosesTheSparseWorldsLoop) {
   for (const std::uint64_t seed : {1U, 4U, 6U}) {
-    const Dataset d = simulate_scenario("sparse", seed);
+    const test_data::ScratchDir dir;
+    const Dataset d = logged_scenario("sparse", seed, dir);
     const Metrics without = run_fastslam2(d, seed, 0);
     const Metrics with = run_fastslam2(d, seed);
     ASSERT_TRUE(without.association && with.association);
     ASSERT_TRUE(without.association->loop_closure_fraction() && with.association->loop_closure_fraction());
     EXPECT_LT(*without.association->loop_closure_fraction(), kLoopClosedFraction) << "seed " << seed;
     EXPECT_GE(*with.association->loop_closure_fraction(), kLoopClosedFraction) << "seed " << seed;
-    EXPECT_LE(with.association->spurious_landmarks, 2U) << "seed " << seed;
+    EXPECT_LE(with.association->spurious_landmarks, 3U) << "seed " << seed;
     ASSERT_TRUE(with.ate_rmse_m && without.ate_rmse_m);
+    EXPECT_LT(*with.ate_rmse_m, *without.ate_rmse_m) << "seed " << seed;
+  }
+}
+
+// With clutter (1 false detection per scan, detection probability 0.9) the landmarks a particle
+// starts at the return are mostly false detections, which fit old landmarks as readily as the
+// duplicates do: an alignment needs as many confirmed pairs as it needs pairs. Seeds 1-10 from
+// logs: 0 of 10 closed without, 8 of 10 with (README).
+TEST(HardAssociation, FastSlamRelocalisationClosesTheClutteredSparseWorldsLoop) {
+  for (const std::uint64_t seed : {3U, 4U}) {
+    const test_data::ScratchDir dir;
+    const Dataset d = logged_scenario("sparse-cluttered", seed, dir);
+    const Metrics without = run_fastslam2(d, seed, 0);
+    const Metrics with = run_fastslam2(d, seed);
+    ASSERT_TRUE(without.association && with.association);
+    EXPECT_LT(*without.association->loop_closure_fraction(), kLoopClosedFraction) << "seed " << seed;
+    EXPECT_GE(*with.association->loop_closure_fraction(), kLoopClosedFraction) << "seed " << seed;
+    EXPECT_LE(with.association->spurious_landmarks, 2U) << "seed " << seed;
     EXPECT_LT(*with.ate_rmse_m, *without.ate_rmse_m) << "seed " << seed;
   }
 }

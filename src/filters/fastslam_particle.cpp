@@ -166,13 +166,18 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   }
   s.grid_entries.clear();
   make_room(s.grid_entries, n_obs);
+  s.confirmed_now.clear();
+  make_room(s.confirmed_now, n_obs);
   // A landmark update at the particle's final pose; a landmark leaving its grid cell is listed in
   // the new one.
   auto update_at = [&](std::uint32_t index, const Vector2& z) {
     LandmarkGaussian& lm = p.map.mutate(index);
     if (known()) return update_landmark(lm, p.pose, z);
     const LandmarkGrid::Cell before = grid.cell_of(lm.mean);
+    const bool was_confirmed = existence.confirmed(lm.existence);
     const double ll = update_landmark(lm, p.pose, z);
+    if (!was_confirmed && existence.confirmed(lm.existence) && lm.started >= window_start)
+      s.confirmed_now.push_back(index);
     if (grid.cell_of(lm.mean) != before) s.grid_entries.emplace_back(lm.mean, index);
     return ll;
   };
@@ -240,9 +245,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
     }
   }
   s.relocalised = false;
-  if (relocalising() && std::any_of(pairings.begin(), pairings.end(), [](const Pairing& pairing) {
-        return pairing.decision == AssociationDecision::kNew;
-      }))
+  if (relocalising() && (!s.confirmed_now.empty() || old_size < p.map.size()))
     relocalise(p, s, static_cast<std::uint32_t>(old_size));
   if (!known()) count_misses(p, s);
   s.log_likelihood = log_likelihood;
@@ -345,6 +348,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   make_room(s.recent, at_most);
   make_room(s.old, at_most);
   make_room(s.started, at_most);
+  make_room(s.recent_as_seen, at_most);
   auto sort_landmark = [&](std::uint32_t index) {
     const LandmarkGaussian& lm = p.map[index];
     if (lm.removed) return;
@@ -364,8 +368,12 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   if (s.started.size() < min_pairs || s.old.size() < min_pairs) return;
   // An old landmark can pair only with a landmark started in the window that lies in the gate its
   // drift (drift_of since it was last seen) allows; the others are left out of the search, whose
-  // prior is the drift of the oldest kept. The search runs only when a landmark this scan started
+  // prior is the drift of the oldest kept. The search runs only when a landmark this scan confirmed
   // may duplicate one; otherwise the pairs, if any, are those the previous searches found too few of.
+  // The landmarks started in the window, as the particle sees them: the search's measurements.
+  s.recent_as_seen.clear();
+  for (const std::uint32_t index : s.started)
+    s.recent_as_seen.push_back({observation->predict(p.pose, p.map[index].mean), kUnknownId});
   std::uint32_t oldest = static_cast<std::uint32_t>(scans - 1);
   bool may_duplicate = false;
   std::size_t kept = 0;
@@ -375,15 +383,16 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
     const Matrix2 drift_cov = drift_in_measurement(p, lm, hm);
     const Vector2 predicted = observation->predict(p.pose, lm.mean);
     bool may_pair = false;
-    for (const std::uint32_t index : s.started) {
+    for (std::size_t k = 0; k < s.started.size(); ++k) {
+      const std::uint32_t index = s.started[k];
       const LandmarkGaussian& fresh = p.map[index];
       const Matrix2 cov = drift_cov + hm * (lm.covariance + fresh.covariance) * hm.transpose();
-      const Vector2 nu = observation->residual(observation->predict(p.pose, fresh.mean), predicted);
+      const Vector2 nu = observation->residual(s.recent_as_seen[k].z, predicted);
       Matrix2 inverse;
       double log_det = 0.0;
       if (!invert_spd(symmetric(cov), inverse, log_det) || !(nu.dot(inverse * nu) < gates.accept)) continue;
       may_pair = true;
-      if (index >= first_new) {
+      if (index >= first_new || std::find(s.confirmed_now.begin(), s.confirmed_now.end(), index) != s.confirmed_now.end()) {
         may_duplicate = true;
         break;
       }
@@ -395,26 +404,24 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   s.old.resize(kept);
   if (!may_duplicate || kept < min_pairs) return;
 
-  // The landmarks started in the window, as the particle sees them, are the measurements; the old
-  // ones, with the drift since the oldest was last seen as the pose's covariance, the map.
+  // The old landmarks kept, with the drift since the oldest was last seen as the pose's covariance,
+  // are the map.
   const Matrix3 drift_prior = drift_of(p, oldest);
-  s.recent_as_seen.clear();
-  for (const std::uint32_t index : s.started)
-    s.recent_as_seen.push_back({observation->predict(p.pose, p.map[index].mean), kUnknownId});
   s.old_positions.resize(s.old.size());
   std::iota(s.old_positions.begin(), s.old_positions.end(), std::size_t{0});
   const DriftedMapView view(p.pose, drift_prior, p.map, s.old);
   ++s.relocalisation_searches;
   slamkit::associate(s.recent_as_seen, s.old_positions, view, *observation, relocalise_association, s.workspace,
                      s.matches);
-  std::size_t pairs = 0;
+  std::size_t pairs = 0, confirmed_pairs = 0;
   std::uint32_t oldest_paired = static_cast<std::uint32_t>(scans - 1);
-  for (const slamkit::Pairing& m : s.matches)
-    if (m.decision == AssociationDecision::kUpdate) {
+  for (std::size_t k = 0; k < s.matches.size(); ++k)
+    if (s.matches[k].decision == AssociationDecision::kUpdate) {
       ++pairs;
-      oldest_paired = std::min(oldest_paired, p.map[s.old[m.landmark]].last_seen);
+      confirmed_pairs += existence.confirmed(p.map[s.started[k]].existence) ? 1 : 0;
+      oldest_paired = std::min(oldest_paired, p.map[s.old[s.matches[k].landmark]].last_seen);
     }
-  if (pairs < min_pairs) return;
+  if (confirmed_pairs < min_pairs) return;
 
   // The search's prior was the drift since the oldest landmark it could pair, which is wide enough
   // for every candidate; the pairs found must also be jointly compatible under the drift since the
@@ -424,48 +431,59 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   const double joint_gate = eval::chi_square_quantile(relocalise_association.accept_probability, 2.0 * static_cast<double>(pairs));
 
   // The pose that best explains the pairs, with that drift as its prior: iterated Kalman updates
-  // over the stacked pairs. A pair's noise is both landmarks' covariances in measurement space; the
-  // duplicate's, seen from the prior pose, is the same at every iterate.
-  const auto m = static_cast<Eigen::Index>(2 * pairs);
-  Eigen::MatrixXd h(m, 3), duplicate_noise = Eigen::MatrixXd::Zero(m, m);
-  Eigen::VectorXd innovation(m);
-  const Pose2 prior = p.pose;
-  for (std::size_t k = 0, row = 0; k < s.matches.size(); ++k) {
+  // over the stacked pairs, in information form (the pairs' noises are independent 2x2 blocks, so
+  // every sum is 3x3 and nothing is allocated). A pair's noise is both landmarks' covariances in
+  // measurement space; the duplicate's, seen from the prior pose, is the same at every iterate.
+  Matrix3 prior_information;
+  {
+    const Eigen::LDLT<Matrix3> ldlt(drift_paired);
+    if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all()) return;
+    prior_information = symmetric(Matrix3(ldlt.solve(Matrix3::Identity())));
+  }
+  s.duplicate_noise.clear();
+  make_room(s.duplicate_noise, pairs);
+  for (std::size_t k = 0; k < s.matches.size(); ++k) {
     if (s.matches[k].decision != AssociationDecision::kUpdate) continue;
     const LandmarkGaussian& duplicate = p.map[s.started[k]];
     Matrix23 hx;
     Matrix2 hm;
-    observation->jacobians(prior, duplicate.mean, hx, hm);
-    duplicate_noise.block<2, 2>(static_cast<Eigen::Index>(row), static_cast<Eigen::Index>(row)) =
-        hm * duplicate.covariance * hm.transpose();
-    row += 2;
+    observation->jacobians(p.pose, duplicate.mean, hx, hm);
+    s.duplicate_noise.push_back(hm * duplicate.covariance * hm.transpose());
   }
+  const Pose2 prior = p.pose;
   Pose2 x = prior;
   Matrix3 posterior = drift_paired;  // of the pose given the pairs, at the last iterate
   for (int iteration = 0; iteration < 5; ++iteration) {
-    Eigen::MatrixXd noise = duplicate_noise;
     Pose2 offset = x - prior;
     offset[2] = wrap_angle(offset[2]);
-    Eigen::Index row = 0;
-    for (std::size_t k = 0; k < s.matches.size(); ++k) {
+    Matrix3 information = prior_information;
+    Eigen::Vector3d weighted = Eigen::Vector3d::Zero();  // H^T N^-1 (innovation)
+    double innovation_d2 = 0.0;           // innovation^T N^-1 innovation
+    for (std::size_t k = 0, pair = 0; k < s.matches.size(); ++k) {
       if (s.matches[k].decision != AssociationDecision::kUpdate) continue;
       const LandmarkGaussian& original = p.map[s.old[s.matches[k].landmark]];
       Matrix23 hx;
       Matrix2 hm;
       observation->jacobians(x, original.mean, hx, hm);
-      const Vector2 nu = observation->residual(s.recent_as_seen[k].z, observation->predict(x, original.mean));
-      h.middleRows<2>(row) = hx;
-      innovation.segment<2>(row) = nu + hx * offset;
-      noise.block<2, 2>(row, row) += hm * original.covariance * hm.transpose();
-      row += 2;
+      const Vector2 innovation =
+          observation->residual(s.recent_as_seen[k].z, observation->predict(x, original.mean)) + hx * offset;
+      Matrix2 noise_inverse;
+      double log_det = 0.0;
+      if (!invert_spd(symmetric(s.duplicate_noise[pair++] + hm * original.covariance * hm.transpose()), noise_inverse,
+                      log_det))
+        return;
+      const Eigen::Matrix<double, 3, 2> htn = hx.transpose() * noise_inverse;
+      information += htn * hx;
+      weighted += htn * innovation;
+      innovation_d2 += innovation.dot(noise_inverse * innovation);
     }
-    const Eigen::MatrixXd pht = drift_paired * h.transpose();
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(h * pht + noise);
+    const Eigen::LDLT<Matrix3> ldlt(symmetric(information));
     if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all()) return;
-    const Eigen::VectorXd weighted = ldlt.solve(innovation);
-    posterior = symmetric(Matrix3(drift_paired - pht * ldlt.solve(pht.transpose())));
-    if (iteration == 0 && !(innovation.dot(weighted) < joint_gate)) return;
-    Pose2 next = prior + pht * weighted;
+    posterior = symmetric(Matrix3(ldlt.solve(Matrix3::Identity())));
+    const Eigen::Vector3d correction = posterior * weighted;
+    // innovation^T (H P H^T + N)^-1 innovation, by the matrix inversion lemma.
+    if (iteration == 0 && !(innovation_d2 - weighted.dot(correction) < joint_gate)) return;
+    Pose2 next = prior + correction;
     next[2] = wrap_angle(next[2]);
     if (!next.allFinite()) return;
     const bool converged = (next - x).head<2>().norm() < 1e-4 && std::abs(wrap_angle(next[2] - x[2])) < 1e-6;
