@@ -156,8 +156,8 @@ TEST(HardAssociation, FastSlamRelocalisationClosesTheLoopClosureWorldWithoutDupl
 
 // The default world is dense and driven twice: once the return is recognised, every particle keeps
 // seeing landmarks of its first lap, its anchor keeps its drift small, and no landmark it starts
-// can duplicate an old one beyond its gates, so the joint search runs about once per particle (at
-// the return), not once per new landmark. Without relocalisation the return is mapped again.
+// can duplicate an old one beyond its gates, so the joint search runs once or twice per particle
+// (at the return), not once per new landmark. Without relocalisation the return is mapped again.
 TEST(HardAssociation, FastSlamRelocalisationSearchesAtTheReturnOnly) {
   const Dataset d = simulate_scenario("default", 1);
   const Metrics without = run_fastslam2(d, 1, 0);

@@ -68,11 +68,11 @@ struct AssociationConfig {
   /// for the pairing of them with the landmarks it mapped before the window whose joint
   /// discrepancy the odometry drift since then explains (the drift is the motion model's process
   /// noise propagated along the path, unless a landmark seen again since, conditioning it, leaves
-  /// less: the pose prior of the search). If that many pair jointly, and more than twice as many as
-  /// the old landmarks the corrected pose should see but does not, the particle's pose takes the
-  /// correction that best explains the pairs (iterated, as a pose update with the drift as prior),
-  /// the landmarks it saw in the window move with it, and each duplicate is fused into the landmark
-  /// it duplicates. 0 turns it off; 2 (chosen on tuning seeds of the sparse world) is the default.
+  /// less: the pose prior of the search). If that many confirmed ones pair jointly, and more than
+  /// twice as many as the old landmarks the corrected pose should see but does not, the particle's
+  /// pose takes the correction that best explains the pairs (iterated, as a pose update with the
+  /// drift as prior), the landmarks it saw in the window move with it, and each duplicate is fused
+  /// into the landmark it duplicates. 0 turns it off; 2 (chosen on tuning seeds of the sparse world) is the default.
   std::size_t relocalise_min_pairs = 2;
   double relocalise_window_s = 30.0;
 };
