@@ -155,7 +155,7 @@ struct FastSlam::Impl {
     // former as measurements from the pose, and the joint search's workspace and answer.
     std::vector<std::uint32_t> recent;
     std::vector<std::uint32_t> old;
-    std::vector<std::uint32_t> started;  // of recent, the confirmed ones started in the window
+    std::vector<std::uint32_t> started;  // of recent, those started in the window
     std::vector<std::uint32_t> confirmed_now;  // of those, the ones this scan confirmed
     std::vector<Observation> recent_as_seen;  // the started ones as the particle sees them
     std::vector<std::size_t> old_positions;  // 0, 1, ...: the search's candidates, positions in old
@@ -188,9 +188,9 @@ struct FastSlam::Impl {
   void count_misses(Particle& p, Slot& s) const;
   /// Whether the existence rule expects particle p to see landmark lm from its pose.
   bool expected_in_view(const Particle& p, const LandmarkGaussian& lm) const;
-  /// Particle p's relocalisation after a scan update that confirmed a landmark started in the window
-  /// (AssociationConfig::relocalise_min_pairs); landmarks from index `first_new` on were started by
-  /// this scan.
+  /// Particle p's relocalisation after a scan update that started a landmark or confirmed one started
+  /// in the window (AssociationConfig::relocalise_min_pairs); landmarks from index `first_new` on
+  /// were started by this scan.
   void relocalise(Particle& p, Slot& s, std::uint32_t first_new) const;
   bool relocalising() const { return !known() && config.association.relocalise_min_pairs > 0; }
   /// The covariance of particle p's pose error relative to what it saw at scan `seen`: the odometry

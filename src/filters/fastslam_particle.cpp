@@ -260,8 +260,9 @@ Matrix2 FastSlam::Impl::drift_in_measurement(const Particle& p, const LandmarkGa
 Matrix3 FastSlam::Impl::drift_of(const Particle& p, std::uint32_t seen) const {
   const Vector2 position = p.pose.head<2>();
   const Matrix3 direct = drift_between(drift_at_scan[seen], drift, position);
-  if (!p.anchor || p.anchor->scan <= seen || (p.relocalised_at && seen < *p.relocalised_at && *p.relocalised_at <= p.anchor->scan))
-    return direct;
+  if (!p.anchor || p.anchor->scan <= seen) return direct;
+  // A relocalisation between: the anchor ties the pose to the map the jump went to, not to `seen`.
+  if (p.relocalised_at && seen < *p.relocalised_at && *p.relocalised_at <= p.anchor->scan) return direct;
   // The anchor's error reaches the pose now through the same lever arm as the drift's terms.
   Matrix3 lever = Matrix3::Identity();
   lever.topRightCorner<2, 1>() = Vector2(p.anchor->position.y() - position.y(), position.x() - p.anchor->position.x());
@@ -279,7 +280,8 @@ void FastSlam::Impl::anchor_at(Particle& p, const LandmarkGaussian& lm) const {
   Matrix2 s_inverse;
   double log_det = 0.0;
   if (!invert_spd(symmetric(hx * pht + hm * lm.covariance * hm.transpose() + r), s_inverse, log_det)) return;
-  p.anchor = Anchor{static_cast<std::uint32_t>(scans - 1), p.pose.head<2>(), symmetric(prior - pht * s_inverse * pht.transpose())};
+  p.anchor = Anchor{static_cast<std::uint32_t>(scans - 1), p.pose.head<2>(),
+                    symmetric(prior - pht * s_inverse * pht.transpose())};
 }
 
 bool FastSlam::Impl::expected_in_view(const Particle& p, const LandmarkGaussian& lm) const {
@@ -368,8 +370,9 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   if (s.started.size() < min_pairs || s.old.size() < min_pairs) return;
   // An old landmark can pair only with a landmark started in the window that lies in the gate its
   // drift (drift_of since it was last seen) allows; the others are left out of the search, whose
-  // prior is the drift of the oldest kept. The search runs only when a landmark this scan confirmed
-  // may duplicate one; otherwise the pairs, if any, are those the previous searches found too few of.
+  // prior is the drift of the oldest kept. The search runs only when a landmark this scan started or
+  // confirmed may duplicate one; otherwise the pairs, if any, are those earlier searches found too
+  // few of.
   // The landmarks started in the window, as the particle sees them: the search's measurements.
   s.recent_as_seen.clear();
   for (const std::uint32_t index : s.started)
@@ -392,7 +395,9 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
       double log_det = 0.0;
       if (!invert_spd(symmetric(cov), inverse, log_det) || !(nu.dot(inverse * nu) < gates.accept)) continue;
       may_pair = true;
-      if (index >= first_new || std::find(s.confirmed_now.begin(), s.confirmed_now.end(), index) != s.confirmed_now.end()) {
+      const bool changed_now = index >= first_new || std::find(s.confirmed_now.begin(), s.confirmed_now.end(),
+                                                               index) != s.confirmed_now.end();
+      if (changed_now) {
         may_duplicate = true;
         break;
       }
