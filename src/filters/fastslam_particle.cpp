@@ -368,15 +368,15 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   for (auto index = first_new; index < p.map.size(); ++index) sort_landmark(index);
   const std::size_t min_pairs = config.association.relocalise_min_pairs;
   if (s.started.size() < min_pairs || s.old.size() < min_pairs) return;
+  // The landmarks started in the window, as the particle sees them: the search's measurements.
+  s.recent_as_seen.clear();
+  for (const std::uint32_t index : s.started)
+    s.recent_as_seen.push_back({observation->predict(p.pose, p.map[index].mean), kUnknownId});
   // An old landmark can pair only with a landmark started in the window that lies in the gate its
   // drift (drift_of since it was last seen) allows; the others are left out of the search, whose
   // prior is the drift of the oldest kept. The search runs only when a landmark this scan started or
   // confirmed may duplicate one; otherwise the pairs, if any, are those earlier searches found too
   // few of.
-  // The landmarks started in the window, as the particle sees them: the search's measurements.
-  s.recent_as_seen.clear();
-  for (const std::uint32_t index : s.started)
-    s.recent_as_seen.push_back({observation->predict(p.pose, p.map[index].mean), kUnknownId});
   std::uint32_t oldest = static_cast<std::uint32_t>(scans - 1);
   bool may_duplicate = false;
   std::size_t kept = 0;
