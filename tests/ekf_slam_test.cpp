@@ -8,6 +8,7 @@
 #include "slamkit/core/angles.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/filters/joint_gaussian.hpp"
+#include "slamkit/filters/unscented_joint_gaussian.hpp"
 
 using namespace slamkit;
 using test_models::LinearMotion;
@@ -216,4 +217,63 @@ TEST(JointGaussian, GrowsPastInitialCapacityWithoutLosingState) {
   EXPECT_TRUE(after.isApprox(after.transpose()));
   // An update only removes uncertainty from the map block.
   EXPECT_LE(after.bottomRightCorner(600, 600).trace(), before.bottomRightCorner(600, 600).trace());
+}
+
+// Relocalisation fuses a landmark mapped twice: the state conditioned on m_duplicate = m_original,
+// a noiseless linear measurement of all pairs at once, which for every estimator is the textbook
+// Kalman update with H = [.. I .. -I ..] and R = 0 (the pose and every other landmark move through
+// their correlations). Afterwards the pair is one landmark: equal means, no uncertainty between.
+TEST(JointGaussian, FusingDuplicatesIsTheKalmanUpdateOnTheirDiscrepancy) {
+  const auto motion = std::make_shared<AckermannModel>();
+  const auto observation = std::make_shared<RangeBearingModel>();
+  std::vector<std::unique_ptr<JointGaussian>> estimators;
+  estimators.push_back(std::make_unique<JointGaussian>(motion, observation));
+  estimators.push_back(std::make_unique<JointGaussian>(motion, observation, Pose2::Zero(), Matrix3::Zero(),
+                                                       Linearisation::kFirstEstimates));
+  estimators.push_back(std::make_unique<UnscentedJointGaussian>(motion, observation));
+  for (const auto& ekf : estimators) {
+    Control u(2);
+    u << 3.0, 0.08;
+    // Six landmarks seen along an arc, then the first three mapped again after more driving.
+    for (int i = 0; i < 6; ++i) {
+      ekf->predict(u, 0.5);
+      ekf->add_landmark(Vector2(8.0 + i, wrap_angle(0.7 * i - 1.0)));
+    }
+    for (int i = 0; i < 3; ++i) {
+      ekf->predict(u, 0.5);
+      const Vector2 m = ekf->landmark_position(static_cast<std::size_t>(i)) + Vector2(0.3, -0.2);
+      const Pose2 x = ekf->pose();
+      ekf->add_landmark(observation->predict(x, m));
+    }
+    const std::vector<LandmarkPair> pairs = {LandmarkPair{6, 0}, LandmarkPair{8, 2}};
+    const Eigen::VectorXd x = ekf->state();
+    const Eigen::MatrixXd p = ekf->covariance();
+    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(4, x.size());
+    for (Eigen::Index i = 0; i < 2; ++i) {
+      h.block<2, 2>(2 * i, 3 + 2 * static_cast<Eigen::Index>(pairs[i].duplicate)).setIdentity();
+      h.block<2, 2>(2 * i, 3 + 2 * static_cast<Eigen::Index>(pairs[i].original)) = -Matrix2::Identity();
+    }
+    const Eigen::MatrixXd s = h * p * h.transpose();
+    const Eigen::MatrixXd gain = p * h.transpose() * s.inverse();
+    Eigen::VectorXd expected_x = x - gain * (h * x);
+    expected_x[2] = wrap_angle(expected_x[2]);
+    const Eigen::MatrixXd expected_p = p - gain * h * p;
+
+    ASSERT_TRUE(ekf->fuse_landmarks(pairs));
+    EXPECT_LT((ekf->state() - expected_x).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_LT((ekf->covariance() - expected_p).cwiseAbs().maxCoeff(), 1e-9);
+    for (const LandmarkPair& pair : pairs) {
+      const Vector2 apart = ekf->landmark_position(pair.duplicate) - ekf->landmark_position(pair.original);
+      EXPECT_LT(apart.norm(), 1e-9);
+      const Matrix2 discrepancy = ekf->landmark_covariance(pair.duplicate) + ekf->landmark_covariance(pair.original) -
+                                  ekf->landmark_cross_covariance(pair.duplicate, pair.original) -
+                                  ekf->landmark_cross_covariance(pair.original, pair.duplicate);
+      EXPECT_LT(discrepancy.cwiseAbs().maxCoeff(), 1e-9);
+    }
+    // The fused pose is known better than before, and the map's uncertainty did not grow anywhere.
+    const double pose_before = p.topLeftCorner(3, 3).trace();
+    EXPECT_LT(ekf->pose_covariance().trace(), pose_before);
+    const Eigen::VectorXd shrink = (p - ekf->covariance()).selfadjointView<Eigen::Lower>().eigenvalues();
+    EXPECT_GT(shrink.minCoeff(), -1e-9);
+  }
 }

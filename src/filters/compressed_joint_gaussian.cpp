@@ -321,7 +321,7 @@ bool CompressedJointGaussian::update_local(std::span<const LandmarkObservation> 
   auto phi = this->phi();
   const Pose2 xv = x_.head<3>();
   // P_AA H_A^T, two columns per observation from the vehicle's and the landmark's columns, and the
-  // stacked innovation; then S = H_A P_AA H_A^T + R block by block.
+  // stacked innovation; then S = H_A P_AA H_A^T + R block by block, and H_A phi.
   auto pht = pht_.topLeftCorner(d, k);
   auto nu = nu_.head(k);
   for (std::size_t i = 0; i < batch.size(); ++i) {
@@ -334,12 +334,65 @@ bool CompressedJointGaussian::update_local(std::span<const LandmarkObservation> 
     pht.middleCols<2>(r).noalias() += pa.middleCols<2>(l) * hm_[i].transpose();
   }
   auto s = s_.topLeftCorner(k, k);
+  auto g = h_phi_.topLeftCorner(k, a0_);
   for (std::size_t i = 0; i < batch.size(); ++i) {
     const auto l = static_cast<Eigen::Index>(local_of_[batch[i].index]);
     const auto r = 2 * static_cast<Eigen::Index>(i);
     s.middleRows<2>(r).noalias() = hx_[i] * pht.topRows<3>() + hm_[i] * pht.middleRows<2>(l);
     s.block<2, 2>(r, r) += observation_->noise();
+    g.middleRows<2>(r).noalias() = hx_[i] * phi.topRows<3>();
+    g.middleRows<2>(r).noalias() += hm_[i] * phi.middleRows<2>(l);
   }
+  return apply_local_update(k);
+}
+
+bool CompressedJointGaussian::fuse_landmarks(std::span<const LandmarkPair> pairs) {
+  if (pairs.empty()) return true;
+  const bool all_active = std::all_of(pairs.begin(), pairs.end(), [&](const LandmarkPair& p) {
+    return local_offset(p.duplicate) >= 0 && local_offset(p.original) >= 0;
+  });
+  if (!all_active) {
+    flush_local_area();
+    fused_.clear();
+    for (const LandmarkPair& p : pairs) {
+      fused_.push_back({p.duplicate, Vector2::Zero()});
+      fused_.push_back({p.original, Vector2::Zero()});
+    }
+    begin_area(fused_);
+  }
+  const Eigen::Index d = d_, k = 2 * static_cast<Eigen::Index>(pairs.size());
+  reserve_update(k);
+  auto pa = this->pa();
+  auto phi = this->phi();
+  // The measurement m_duplicate - m_original = 0, as JointGaussian::fuse_landmarks: H_A has I at the
+  // duplicate and -I at the original, no noise.
+  auto pht = pht_.topLeftCorner(d, k);
+  auto nu = nu_.head(k);
+  auto s = s_.topLeftCorner(k, k);
+  auto g = h_phi_.topLeftCorner(k, a0_);
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const auto dup = static_cast<Eigen::Index>(local_of_[pairs[i].duplicate]);
+    const auto orig = static_cast<Eigen::Index>(local_of_[pairs[i].original]);
+    const auto r = 2 * static_cast<Eigen::Index>(i);
+    nu.segment<2>(r) = x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(pairs[i].original))) -
+                       x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(pairs[i].duplicate)));
+    pht.middleCols<2>(r) = pa.middleCols<2>(dup) - pa.middleCols<2>(orig);
+    g.middleRows<2>(r) = phi.middleRows<2>(dup) - phi.middleRows<2>(orig);
+  }
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const auto r = 2 * static_cast<Eigen::Index>(i);
+    s.middleRows<2>(r) = pht.middleRows<2>(static_cast<Eigen::Index>(local_of_[pairs[i].duplicate])) -
+                         pht.middleRows<2>(static_cast<Eigen::Index>(local_of_[pairs[i].original]));
+  }
+  return apply_local_update(k);
+}
+
+bool CompressedJointGaussian::apply_local_update(Eigen::Index k) {
+  const Eigen::Index d = d_;
+  auto pht = pht_.topLeftCorner(d, k);
+  auto nu = nu_.head(k);
+  auto s = s_.topLeftCorner(k, k);
+  auto g = h_phi_.topLeftCorner(k, a0_);
   s.triangularView<Eigen::StrictlyLower>() = 0.5 * (s + s.transpose());
   const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(s);
   if (llt.info() != Eigen::Success) return false;
@@ -350,19 +403,12 @@ bool CompressedJointGaussian::update_local(std::span<const LandmarkObservation> 
 
   // With G = L^-1 H_A phi (S = L L^T) and C = P_AA H_A^T L^-T: theta += (H_A phi)^T S^-1 nu,
   // psi += G^T G, phi -= W_A H_A phi = C G and P_AA -= W_A S W_A^T = C C^T.
-  auto g = h_phi_.topLeftCorner(k, a0_);
-  for (std::size_t i = 0; i < batch.size(); ++i) {
-    const auto l = static_cast<Eigen::Index>(local_of_[batch[i].index]);
-    const auto r = 2 * static_cast<Eigen::Index>(i);
-    g.middleRows<2>(r).noalias() = hx_[i] * phi.topRows<3>();
-    g.middleRows<2>(r).noalias() += hm_[i] * phi.middleRows<2>(l);
-  }
   theta().noalias() += g.transpose() * nu;
   llt.matrixL().solveInPlace(g);
   psi().noalias() += g.transpose() * g;
   llt.matrixU().solveInPlace<Eigen::OnTheRight>(pht);
-  phi.noalias() -= pht * g;
-  pa.noalias() -= pht * pht.transpose();
+  phi().noalias() -= pht * g;
+  pa().noalias() -= pht * pht.transpose();
   return true;
 }
 

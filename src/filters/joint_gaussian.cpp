@@ -408,6 +408,35 @@ void JointGaussian::append_landmark(const Vector2& mean, const Matrix23& gx, con
   first_estimates_.push_back(mean);
 }
 
+bool JointGaussian::fuse_landmarks(std::span<const LandmarkPair> pairs) {
+  if (pairs.empty()) return true;
+  apply_pending_motion();
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const auto k = static_cast<Eigen::Index>(2 * pairs.size());
+  // Two more columns of scratch beside W for the original's column block.
+  reserve_joint_update(k + 2);
+  auto pht = pht_.topLeftCorner(n, k);
+  auto original_columns = pht_.middleCols<2>(k).topRows(n);
+  const Matrix23 no_vehicle = Matrix23::Zero();
+  // The measurement m_duplicate - m_original = 0: H has I at the duplicate and -I at the original,
+  // so W = P H^T is the difference of their column blocks, and the innovation m_original - m_duplicate.
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const auto r = 2 * static_cast<Eigen::Index>(i);
+    const std::size_t dup = landmark_offset(pairs[i].duplicate), orig = landmark_offset(pairs[i].original);
+    covariance_times_jacobian(dup, no_vehicle, Matrix2::Identity(), pht.middleCols<2>(r));
+    covariance_times_jacobian(orig, no_vehicle, Matrix2::Identity(), original_columns);
+    pht.middleCols<2>(r) -= original_columns;
+    batch_nu_.segment<2>(r) = x_.segment<2>(static_cast<Eigen::Index>(orig)) - x_.segment<2>(static_cast<Eigen::Index>(dup));
+  }
+  auto s = batch_s_.topLeftCorner(k, k);
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const auto r = 2 * static_cast<Eigen::Index>(i);
+    s.middleRows<2>(r) = pht.middleRows<2>(static_cast<Eigen::Index>(landmark_offset(pairs[i].duplicate))) -
+                         pht.middleRows<2>(static_cast<Eigen::Index>(landmark_offset(pairs[i].original)));
+  }
+  return apply_joint_update(k);
+}
+
 void JointGaussian::remove_landmark(std::size_t index) {
   apply_pending_motion();
   remove_stored_landmark(index);

@@ -42,6 +42,7 @@ class CompressedJointGaussian final : public EkfEstimator {
   std::size_t add_landmark(const Vector2& z) override;
   /// Flushes first: removal renumbers the state, and the area's bookkeeping is by stored offset.
   void remove_landmark(std::size_t index) override;
+  bool fuse_landmarks(std::span<const LandmarkPair> pairs) override;
   /// Flushes when the vehicle has left the local area.
   void begin_scan() override;
   /// "local_area_flushes".
@@ -61,6 +62,9 @@ class CompressedJointGaussian final : public EkfEstimator {
   void predict_local(const Matrix3& f, const Matrix3& q);
   /// One joint update of active landmarks.
   bool update_local(std::span<const LandmarkObservation> batch);
+  /// The tail of a local update whose P_AA H_A^T, innovation, S and H_A phi (k rows) the caller has
+  /// written into the workspace. Returns false (and changes nothing) if S is not positive definite.
+  bool apply_local_update(Eigen::Index k);
   /// Sizes the update's workspace for k measurement rows.
   void reserve_update(Eigen::Index k);
   void add_local(const Matrix23& gx, const Matrix2& pnew);
@@ -126,6 +130,7 @@ class CompressedJointGaussian final : public EkfEstimator {
   Eigen::MatrixXd h_phi_;
   Eigen::MatrixXd s_;
   Eigen::VectorXd nu_;
+  std::vector<LandmarkObservation> fused_;  // the landmarks a fusion needs active
   std::vector<Matrix23> hx_;
   std::vector<Matrix2> hm_;
   MergeWorkspace merge_;

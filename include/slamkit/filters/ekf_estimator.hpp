@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "slamkit/assoc/association.hpp"
+#include "slamkit/assoc/map_matching.hpp"
 #include "slamkit/filters/lower_downdate.hpp"
 #include "slamkit/filters/worker_pool.hpp"
 #include "slamkit/models/motion_model.hpp"
@@ -63,6 +64,10 @@ class EkfEstimator : public GaussianMapView {
   /// Takes landmark `index` out of the state: its rows and columns leave the covariance, and the
   /// landmarks after it move down one index. O(n^2).
   virtual void remove_landmark(std::size_t index) = 0;
+  /// Conditions the state on each pair being one landmark (m_duplicate = m_original, a linear
+  /// measurement without noise, all pairs jointly), so that the duplicate can then be removed. Returns
+  /// false (and changes nothing) if the discrepancies' joint covariance is not positive definite.
+  virtual bool fuse_landmarks(std::span<const LandmarkPair> pairs) = 0;
   /// Called before each scan's updates (CompressedJointGaussian: a new local area when the vehicle
   /// has left the last one).
   virtual void begin_scan() {}

@@ -86,6 +86,7 @@ class JointGaussian : public EkfEstimator {
   bool update_landmarks(std::span<const LandmarkObservation> batch) override;
   std::size_t add_landmark(const Vector2& z) override;
   void remove_landmark(std::size_t index) override;
+  bool fuse_landmarks(std::span<const LandmarkPair> pairs) override;
 
  protected:
   /// Brings the stored map-vehicle cross-covariance up to date with the controls since (see predict).
