@@ -53,6 +53,8 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
       existence_rule_(options.association, options.sensor),
       // Cells of a third of the sensor range: a query touches a few dozen cells at most.
       grid_(std::max(5.0, options.sensor.max_range / 3.0)),
+      relocalise_(options.association.method != AssociationMethod::kKnown &&
+                  options.association.relocalise_min_pairs >= 2),
       joint_scan_update_(options.joint_scan_update),
       unscented_(options.variant == EkfVariant::kUnscented) {
   if (!estimator_) throw std::invalid_argument("EkfSlam needs an estimator");
@@ -87,6 +89,11 @@ std::map<std::string, double> EkfSlam::statistics() const {
     s["outliers_rejected"] = static_cast<double>(outliers_);
   if (association_.method != AssociationMethod::kKnown)
     s["association_pairs_evaluated"] = static_cast<double>(association_stats_.candidate_pairs);
+  if (relocalise_) {
+    s["relocalisations"] = static_cast<double>(relocalisations_);
+    s["landmarks_fused"] = static_cast<double>(landmarks_fused_);
+    s["map_match_pairs_tested"] = static_cast<double>(map_match_stats_.pairs_tested);
+  }
   if (association_.method == AssociationMethod::kJcbb) {
     s["jcbb_nodes"] = static_cast<double>(association_stats_.jcbb_nodes);
     s["jcbb_budget_exhausted"] = association_stats_.jcbb_budget_exhausted ? 1.0 : 0.0;
@@ -112,6 +119,8 @@ void EkfSlam::register_landmark(int id, const LandmarkExistence& existence) {
   ids_.push_back(id);
   if (id != kUnknownId) index_of_id_[id] = index;
   existence_.push_back(existence);
+  started_.push_back(now_);
+  last_seen_.push_back(now_);
   binned_.push_back(grid_.cell_of(estimator_->landmark_position(index)));
   grid_.insert(binned_.back(), static_cast<std::uint32_t>(index));
 }
@@ -121,6 +130,8 @@ void EkfSlam::remove_landmark(std::size_t index) {
   const int id = ids_[index];
   ids_.erase(ids_.begin() + static_cast<std::ptrdiff_t>(index));
   existence_.erase(existence_.begin() + static_cast<std::ptrdiff_t>(index));
+  started_.erase(started_.begin() + static_cast<std::ptrdiff_t>(index));
+  last_seen_.erase(last_seen_.begin() + static_cast<std::ptrdiff_t>(index));
   if (id != kUnknownId) index_of_id_.erase(id);
   for (auto& [key, i] : index_of_id_)
     if (i > index) --i;
@@ -146,6 +157,7 @@ void EkfSlam::rebin(std::size_t index) {
 
 void EkfSlam::update(const ScanEvent& scan) {
   last_associations_.assign(scan.observations.size(), AssociationRecord{});
+  now_ = scan.t;
   estimator_->begin_scan();
   if (association_.method == AssociationMethod::kKnown)
     update_known(scan);
@@ -222,7 +234,7 @@ void EkfSlam::find_candidates(const SensorView& view) {
   grid_.query(xv.head<2>(), view.reach() + grid_.cell_size(), nearby_);
   const ObservationModel& model = estimator_->observation_model();
   for (const std::uint32_t j : nearby_)
-    if (view.contains(model.predict(xv, estimator_->landmark_position(j)))) candidates_.push_back(j);
+    if (!held_back(j) && view.contains(model.predict(xv, estimator_->landmark_position(j)))) candidates_.push_back(j);
   std::sort(candidates_.begin(), candidates_.end());
 }
 
@@ -248,7 +260,16 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
       continue;
     last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
     seen_[index] = true;
+    const bool was_confirmed = existence_rule_.confirmed(existence_[index]);
     existence_rule_.observed(existence_[index]);
+    if (relocalise_) {
+      const double window = association_.relocalise_window_s;
+      // Recognised directly while anchored: the old map around the vehicle is still verified.
+      if (last_seen_[index] < now_ - window) anchored_until_ = now_ + window;
+      if (!was_confirmed && existence_rule_.confirmed(existence_[index]) && started_[index] >= now_ - window)
+        recent_confirmed_ = true;
+    }
+    last_seen_[index] = now_;
   }
   apply_joint_batch();
   for (std::size_t k = 0; k < pairings.size(); ++k) {
@@ -270,6 +291,46 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
     drift_since_rebuild_ = 0.0;
   }
   manage_map();
+  // A fusion moves the vehicle and the map, which may bring further duplicates into the gate.
+  if (recent_confirmed_)
+    while (relocalise()) {
+    }
+  recent_confirmed_ = false;
+}
+
+bool EkfSlam::held_back(std::size_t index) const {
+  return relocalise_ && now_ > anchored_until_ && last_seen_[index] < now_ - association_.relocalise_window_s &&
+         existence_rule_.confirmed(existence_[index]);
+}
+
+bool EkfSlam::relocalise() {
+  const double window_start = now_ - association_.relocalise_window_s;
+  recent_.clear();
+  old_.clear();
+  for (std::size_t j = 0; j < ids_.size(); ++j) {
+    if (!existence_rule_.confirmed(existence_[j])) continue;
+    if (started_[j] >= window_start)
+      recent_.push_back(j);
+    else if (last_seen_[j] < window_start)
+      old_.push_back(j);
+  }
+  if (recent_.size() < association_.relocalise_min_pairs || old_.empty()) return false;
+  const std::vector<LandmarkPair>& pairs = map_matcher_.match(
+      recent_, old_, *estimator_, association_.accept_probability, association_.jcbb_max_nodes, &map_match_stats_);
+  if (pairs.size() < association_.relocalise_min_pairs || !estimator_->fuse_landmarks(pairs)) return false;
+  for (const LandmarkPair& p : pairs) {
+    existence_rule_.observed(existence_[p.original]);
+    last_seen_[p.original] = now_;
+  }
+  // Highest index first, so the indices still to remove stay valid.
+  fused_pairs_.assign(pairs.begin(), pairs.end());
+  std::sort(fused_pairs_.begin(), fused_pairs_.end(),
+            [](const LandmarkPair& a, const LandmarkPair& b) { return a.duplicate > b.duplicate; });
+  for (const LandmarkPair& p : fused_pairs_) remove_landmark(p.duplicate);
+  anchored_until_ = now_ + association_.relocalise_window_s;
+  ++relocalisations_;
+  landmarks_fused_ += fused_pairs_.size();
+  return true;
 }
 
 void EkfSlam::manage_map() {

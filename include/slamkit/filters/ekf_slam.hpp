@@ -19,6 +19,7 @@
 #include "slamkit/assoc/association_config.hpp"
 #include "slamkit/assoc/landmark_existence.hpp"
 #include "slamkit/assoc/landmark_grid.hpp"
+#include "slamkit/assoc/map_matching.hpp"
 #include "slamkit/assoc/sensor_view.hpp"
 #include "slamkit/filters/ekf_estimator.hpp"
 #include "slamkit/filters/slam_filter.hpp"
@@ -116,6 +117,13 @@ class EkfSlam final : public SlamFilter {
   void remove_landmark(std::size_t index);
   /// The bookkeeping of a landmark the estimator has just added with index ids_.size().
   void register_landmark(int id, const LandmarkExistence& existence);
+  /// Whether landmark `index` is left out of association and the miss count: a confirmed landmark
+  /// unseen for the relocalisation window while the vehicle is not anchored to its old map.
+  bool held_back(std::size_t index) const;
+  /// Matches the confirmed landmarks started in the window with those unseen since before it and
+  /// fuses the duplicates of a jointly compatible match of at least relocalise_min_pairs. Returns
+  /// whether it fused any.
+  bool relocalise();
   /// Bins every landmark at its current estimate.
   void rebuild_grid();
   /// Moves landmark `index` to the cell of its current estimate.
@@ -126,6 +134,7 @@ class EkfSlam final : public SlamFilter {
   std::vector<int> ids_;
   std::vector<LandmarkExistence> existence_;
   std::vector<LandmarkGrid::Cell> binned_;  // the cell it is listed in
+  std::vector<double> started_, last_seen_;  // times of its first and last observation
   std::unordered_map<int, std::size_t> index_of_id_;
   int next_id_ = 0;  // ids of landmarks started without a known identity
   AssociationConfig association_;
@@ -137,6 +146,14 @@ class EkfSlam final : public SlamFilter {
   LandmarkGrid grid_;
   double drift_since_rebuild_ = 0.0;  // vehicle corrections since the grid was last rebuilt [m]
   std::vector<AssociationRecord> last_associations_;
+  // Relocalisation (AssociationConfig::relocalise_min_pairs): on without identities when the
+  // setting asks for it. Until anchored_until_, a return has been verified and the old map is
+  // recognised directly.
+  bool relocalise_;
+  double now_ = 0.0;  // the time of the scan being processed
+  double anchored_until_ = -1.0;
+  bool recent_confirmed_ = false;  // a landmark started in the window was confirmed this scan
+  std::vector<std::size_t> recent_, old_;
   bool joint_scan_update_;
   bool unscented_;
   std::vector<LandmarkObservation> batch_;  // a scan's updates, when applied jointly
@@ -150,6 +167,10 @@ class EkfSlam final : public SlamFilter {
   // Statistics.
   AssociationStats association_stats_;
   std::size_t discarded_ = 0, removed_ = 0, outliers_ = 0;
+  std::size_t relocalisations_ = 0, landmarks_fused_ = 0;
+  MapMatcher map_matcher_;
+  std::vector<LandmarkPair> fused_pairs_;
+  MapMatchStats map_match_stats_;
 };
 
 }  // namespace slamkit
