@@ -298,11 +298,12 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(integer_at_least(1));
   run_cmd->add_option("--relocalise-min-pairs", assoc_flags.relocalise_min_pairs,
-                      "FastSLAM: relocalise a particle when this many landmarks it started recently pair jointly "
-                      "with landmarks mapped before, through the drift since (0: off)")
+                      "Without identities: recognise landmarks unseen for the window only when this many landmarks "
+                      "started since pair jointly with them, and fuse the duplicates (0: off)")
       ->capture_default_str();
   run_cmd->add_option("--relocalise-window-s", assoc_flags.relocalise_window_s,
-                      "FastSLAM relocalisation: how far back a landmark counts as recently mapped [s]")
+                      "Relocalisation: how long a landmark must be unseen to count as old, and how far back one "
+                      "counts as recently mapped [s]")
       ->capture_default_str();
   const char* assoc_flag_names[] = {"--assoc-config",         "--accept-probability", "--new-landmark-probability",
                                     "--min-pairing-probability", "--clutter-per-scan",

@@ -59,20 +59,30 @@ struct AssociationConfig {
   /// the best hypothesis found so far; the first one it completes is the nearest-neighbour-like
   /// descent, so the budget degrades JCBB towards NN rather than towards nothing.
   std::size_t jcbb_max_nodes = 20000;
-  /// FastSLAM without identities: relocalisation at a loop closure. Each particle's map is built
-  /// from its own path, so a landmark's estimate carries none of the odometry drift since the
-  /// particle last saw it; the spread of the particles should, but resampling collapses it long
-  /// before a loop returns, and a particle back at its first landmarks after a lap finds them beyond
-  /// its gates and maps them again. When a particle has started at least this many landmarks in
-  /// the last relocalise_window_s seconds, it searches (JCBB, the joint gate of accept_probability)
-  /// for the pairing of them with the landmarks it mapped before the window whose joint
-  /// discrepancy the odometry drift since then explains (the drift is the motion model's process
-  /// noise propagated along the path, unless a landmark seen again since, conditioning it, leaves
-  /// less: the pose prior of the search). If that many confirmed ones pair jointly, and more than
-  /// twice as many as the old landmarks the corrected pose should see but does not, the particle's
-  /// pose takes the correction that best explains the pairs (iterated, as a pose update with the
-  /// drift as prior), the landmarks it saw in the window move with it, and each duplicate is fused
-  /// into the landmark it duplicates. 0 turns it off; 2 (chosen on tuning seeds of the sparse world) is the default.
+  /// Relocalisation at a loop closure, for every filter without identities (0 turns it off; 2,
+  /// chosen on tuning seeds of the sparse worlds, is the default). After a long drift a filter back
+  /// at its first landmarks finds them beyond its gates, or finds clutter inside them, and maps them
+  /// again or takes a false detection for one; one observation cannot tell. So a landmark unseen
+  /// for relocalise_window_s seconds is recognised only jointly: when at least this many confirmed
+  /// landmarks started since then pair (JCBB, the joint gate of accept_probability) with landmarks
+  /// mapped before the window, the pairing is taken and each duplicate fused into its original.
+  ///  - EKF and UKF: old landmarks (confirmed, unseen for the window) are left out of association
+  ///    and of the miss count until the vehicle is anchored to them again; the match is made on
+  ///    the joint Gaussian's exact covariances (assoc/map_matching.hpp) when a landmark started in
+  ///    the window is confirmed, the fusion is a noiseless update on m_duplicate - m_original, and
+  ///    it anchors the vehicle for a window, as does each direct re-observation of an old landmark
+  ///    while anchored.
+  ///  - FastSLAM: each particle's map is built from its own path, so a landmark's estimate carries
+  ///    none of the odometry drift since the particle last saw it; the spread of the particles
+  ///    should, but resampling collapses it long before a loop returns. A particle that has started
+  ///    landmarks in the window searches for their pairing with the landmarks it mapped before the
+  ///    window whose joint discrepancy the drift since then explains (the motion model's process
+  ///    noise propagated along the path, unless a landmark seen again since, conditioning it,
+  ///    leaves less: the pose prior of the search). If this many confirmed ones pair jointly, and
+  ///    more than twice as many as the old landmarks the corrected pose should see but does not,
+  ///    the particle's pose takes the correction that best explains the pairs (iterated, as a pose
+  ///    update with the drift as prior), the landmarks it saw in the window move with it, and each
+  ///    duplicate is fused into the landmark it duplicates.
   std::size_t relocalise_min_pairs = 2;
   double relocalise_window_s = 30.0;
 };
