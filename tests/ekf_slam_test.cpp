@@ -277,3 +277,27 @@ TEST(JointGaussian, FusingDuplicatesIsTheKalmanUpdateOnTheirDiscrepancy) {
     EXPECT_GT(shrink.minCoeff(), -1e-9);
   }
 }
+
+// A map given to the constructor is the frame the start pose is known in, so the vehicle starts
+// anchored to it: without identities its landmarks are recognised directly however late the first
+// scan comes (here 1,000 s after the clock's zero), not held back for relocalisation and mapped
+// again.
+TEST(EkfSlam, AGivenMapIsRecognisedWithoutRelocalisation) {
+  auto motion = std::make_shared<AckermannModel>();
+  auto observation = std::make_shared<RangeBearingModel>();
+  auto map = std::make_unique<JointGaussian>(motion, observation);
+  const std::vector<Vector2> seen = {{12.0, 0.4}, {9.0, -0.6}, {20.0, 0.1}};
+  for (const Vector2& z : seen) map->add_landmark(z);
+  EkfSlamOptions options;
+  options.association.method = AssociationMethod::kNearestNeighbour;
+  ASSERT_GE(options.association.relocalise_min_pairs, 2u);
+  EkfSlam ekf(std::move(map), std::vector<int>{7, 8, 9}, options);
+  ScanEvent scan{1000.0, {}};
+  for (const Vector2& z : seen) scan.observations.push_back({z + Vector2(0.05, 0.002), kUnknownId});
+  for (int i = 0; i < 3; ++i) {
+    ekf.update(scan);
+    scan.t += 10.0;
+    for (const AssociationRecord& r : ekf.last_associations()) EXPECT_EQ(r.decision, AssociationDecision::kUpdate);
+  }
+  EXPECT_EQ(ekf.num_landmarks(), 3u);
+}

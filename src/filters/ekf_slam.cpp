@@ -158,6 +158,12 @@ void EkfSlam::rebin(std::size_t index) {
 void EkfSlam::update(const ScanEvent& scan) {
   last_associations_.assign(scan.observations.size(), AssociationRecord{});
   now_ = scan.t;
+  if (first_scan_) {
+    // The start pose is known relative to the map (a map given to the constructor included), so the
+    // vehicle starts anchored to it.
+    first_scan_ = false;
+    anchored_until_ = now_ + association_.relocalise_window_s;
+  }
   estimator_->begin_scan();
   if (association_.method == AssociationMethod::kKnown)
     update_known(scan);

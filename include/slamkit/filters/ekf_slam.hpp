@@ -151,7 +151,8 @@ class EkfSlam final : public SlamFilter {
   // recognised directly.
   bool relocalise_;
   double now_ = 0.0;  // the time of the scan being processed
-  double anchored_until_ = -1.0;
+  double anchored_until_ = 0.0;
+  bool first_scan_ = true;
   bool recent_confirmed_ = false;  // a landmark started in the window was confirmed this scan
   std::vector<std::size_t> recent_, old_;
   bool joint_scan_update_;
