@@ -8,13 +8,15 @@
 # Usage: scripts/victoria_park_sensitivity.sh
 # Environment: SLAMKIT (the binary, default build/slamkit), SLAMKIT_DATA (the datasets folder, as
 # for slamkit run), VARIANTS (default "full invariant fej"), OUT (scratch folder, default
-# out/vp-sensitivity), JOBS (parallel runs, default 2).
+# out/vp-sensitivity), JOBS (parallel runs, default 2), RUN_ARGS (options added to every run, e.g.
+# "--relocalise-min-pairs 0").
 set -euo pipefail
 
 slamkit=${SLAMKIT:-build/slamkit}
 variants=${VARIANTS:-full invariant fej}
 out=${OUT:-out/vp-sensitivity}
 jobs=${JOBS:-2}
+run_args=${RUN_ARGS:-}
 die() { echo "victoria_park_sensitivity.sh: $*" >&2; exit 1; }
 [[ -x $slamkit ]] || die "no slamkit binary at $slamkit (set SLAMKIT)"
 command -v jq >/dev/null || die "jq not found (Debian package 'jq')"
@@ -37,11 +39,12 @@ one_run() {  # label, variant, options...
   shift 2
   [[ -f $out/$label-$variant/metrics.json ]] && return 0
   # shellcheck disable=SC2068
-  "$slamkit" run --quiet --threads 1 --filter ekf --ekf-variant "$variant" --assoc jcbb --data victoria-park $@ \
+  # shellcheck disable=SC2086  # the extra options are words
+  "$slamkit" run --quiet --threads 1 --filter ekf --ekf-variant "$variant" --assoc jcbb --data victoria-park $run_args $@ \
     --out "$out/$label-$variant" >/dev/null
 }
 export -f one_run
-export slamkit out
+export slamkit out run_args
 for s in "${settings[@]}"; do
   for v in $variants; do echo "${s%%|*} $v ${s#*|}"; done
 done | xargs -P "$jobs" -I{} bash -c 'set -euo pipefail; one_run {}'
