@@ -426,8 +426,8 @@ TEST_F(Cli, RunJsonRepeatsTheRunBitForBitFromAnotherFolder) {
   fs::create_directories(second);
   fs::copy(fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course", first / "course", fs::copy_options::recursive);
   std::ofstream(first / "settings.json") << read_file(fs::path(SLAMKIT_SOURCE_DIR) / "config" / "course.json");
-  const Result run = slamkit("run --filter fastslam2 --particles 15 --seed 5 --assoc nn --resample-when every:2 --pose-sample-fraction 0.5 "
-                             "--data course:course --data-config settings.json --out r --quiet",
+  const Result run = slamkit("run --filter fastslam2 --particles 15 --seed 5 --assoc nn --resample-when every:2 "
+                             "--pose-sample-fraction 0.5 --data course:course --data-config settings.json --out r --quiet",
                              *work_, first);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_EQ(run.out, "");  // --quiet

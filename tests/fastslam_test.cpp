@@ -327,7 +327,8 @@ TEST(FastSlam, Version2SamplesItsShareOfTheProposalAndCarriesTheRest) {
   const Matrix3 proposal = textbook->pose_covariance();
   ASSERT_GT(proposal(0, 0), 1e-6);
   ASSERT_GT(proposal(2, 2), 1e-8);
-  EXPECT_LT((cloud_covariance(*textbook) - proposal).norm(), 1e-12 * proposal.norm()) << "the textbook filter carries nothing";
+  EXPECT_LT((cloud_covariance(*textbook) - proposal).norm(), 1e-12 * proposal.norm())
+      << "the textbook filter carries nothing";
   const Matrix3 cloud = cloud_covariance(*carried);
   for (int i : {0, 2}) {
     EXPECT_NEAR(cloud(i, i) / proposal(i, i), 0.01, 0.0015) << "the cloud holds the sampled share, entry " << i;

@@ -120,7 +120,8 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
       s.pairings[k] = {AssociationDecision::kNew, next_index++};
 }
 
-double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, const Matrix3& x_cov, const Vector2& z) const {
+double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, const Matrix3& x_cov,
+                                       const Vector2& z) const {
   Matrix23 hx;
   Matrix2 hm;
   observation->jacobians(x, lm.mean, hx, hm);

@@ -10,10 +10,10 @@
 //
 // FastSLAM 2.0 proposes from the motion model AND the scan (eq. 18). Between scans a particle keeps
 // a Gaussian of its pose, mean f(x, u) and covariance F S F^T + Fu M Fu^T accumulated over the
-// controls since its last scan (S starts from what the last scan left, below); a scan refines that Gaussian with each paired
-// observation in turn, relinearising at the current mean (the covariance form of
-// Sigma = (Hx^T Z^-1 Hx + Sigma^-1)^-1, mu += Sigma Hx^T Z^-1 (z - zhat), Z = R + Hm P Hm^T: the
-// same by the matrix inversion lemma, but it needs no inverse of the rank-deficient motion noise),
+// controls since its last scan (S starts from what the last scan left, below); a scan refines that
+// Gaussian with each paired observation in turn, relinearising at the current mean (the covariance
+// form of Sigma = (Hx^T Z^-1 Hx + Sigma^-1)^-1, mu += Sigma Hx^T Z^-1 (z - zhat), Z = R + Hm P Hm^T:
+// the same by the matrix inversion lemma, but it needs no inverse of the rank-deficient motion noise),
 // and the particle's pose is drawn from the result, N(mu, f Sigma) with f = pose_sample_fraction;
 // the particle keeps (1 - f) Sigma as its pose's covariance about the draw. f = 1 is the textbook
 // filter. With f < 1 the Gaussian per particle carries the part of the pose uncertainty that
@@ -34,9 +34,9 @@
 // and so over-weights particles in scans with many observations.
 //
 // New landmarks start from the particle's (sampled) pose with the inverse observation model:
-// mean g(x, z), covariance Gz R Gz^T (plus the pose's, above). Every observation not paired with a landmark (new or
-// discarded) multiplies the weight by the constant p0, the likelihood of an innovation lying exactly
-// on the new-landmark gate of a landmark observed once (S = 2R, since Hm Gz = I):
+// mean g(x, z), covariance Gz R Gz^T (plus the pose's, above). Every observation not paired with a
+// landmark (new or discarded) multiplies the weight by the constant p0, the likelihood of an
+// innovation lying exactly on the new-landmark gate of a landmark observed once (S = 2R, since Hm Gz = I):
 // log p0 = -gate/2 - log(2 pi) - log(det(2R))/2. A particle thus gains by pairing an observation
 // exactly when the pairing explains it better than a new landmark would, and particles that create
 // landmarks are not favoured over particles that recognise them.
