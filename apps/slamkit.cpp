@@ -240,6 +240,11 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--particles", filter.particles, "FastSLAM: number of particles")
       ->capture_default_str()
       ->check(integer_at_least(1));
+  run_cmd
+      ->add_option("--pose-sample-fraction", filter.pose_sample_fraction,
+                   "FastSLAM 2.0: share of the proposal's covariance a particle draws its pose from, in (0, 1]; "
+                   "it carries the rest as a Gaussian (1: the textbook filter)")
+      ->capture_default_str();
   add_named(run_cmd, "--resample", filter.resample, parse_resample_method,
             "FastSLAM: multinomial, stratified, systematic or residual");
   add_named(run_cmd, "--resample-when", filter.resample_when, parse_resample_policy,
@@ -315,8 +320,8 @@ int main(int argc, char** argv) {
   bool print_config = false, replay = false, quiet = false, verbose = false;
   // Every filter and data option, which a repeated run takes from its run.json instead.
   std::vector<CLI::Option*> setting_opts = {data_opt, data_config_opt};
-  for (const char* name : {"--filter", "--assoc", "--seed", "--particles", "--resample", "--resample-when",
-                           "--threads", "--ekf-update", "--ekf-variant"})
+  for (const char* name : {"--filter", "--assoc", "--seed", "--particles", "--pose-sample-fraction", "--resample",
+                           "--resample-when", "--threads", "--ekf-update", "--ekf-variant"})
     setting_opts.push_back(run_cmd->get_option(name));
   for (const char* name : assoc_flag_names) setting_opts.push_back(run_cmd->get_option(name));
   auto* repeat_opt =
@@ -475,6 +480,8 @@ int main(int argc, char** argv) {
       const bool particle_filter = filter.filter == FilterKind::kFastSlam1 || filter.filter == FilterKind::kFastSlam2;
       for (const char* name : {"--particles", "--resample", "--resample-when"})
         if (!particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by the EKF and the UKF", name));
+      if (filter.filter != FilterKind::kFastSlam2 && run_cmd->count("--pose-sample-fraction") > 0)
+        warn(fmt::format("--pose-sample-fraction applies to fastslam2 only; {} ignores it", to_string(filter.filter)));
       if (filter.filter == FilterKind::kUkf && run_cmd->count("--threads") > 0) warn("--threads is ignored by the UKF");
       for (const char* name : {"--ekf-update", "--ekf-variant"})
         if (particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by FastSLAM", name));

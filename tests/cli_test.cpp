@@ -337,6 +337,7 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
       {"--resample-when ess:2", "F must be a number in (0, 1]"},
       {"--particles 0", "--particles: expected an integer >= 1, found 0"},
       {"--particles 2.5", "--particles: expected an integer >= 1, found 2.5"},
+      {"--pose-sample-fraction 0", "pose_sample_fraction must lie in (0, 1], found 0"},
       {"--threads -1", "--threads: expected an integer >= 0, found -1"},
       {"--seed -1", "--seed: expected an integer >= 0, found -1"},
       {"--accept-probability 1.5", "association setting accept_probability must be in (0, 1), found 1.5"},
@@ -426,7 +427,7 @@ TEST_F(Cli, RunJsonRepeatsTheRunBitForBitFromAnotherFolder) {
   fs::copy(fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course", first / "course", fs::copy_options::recursive);
   std::ofstream(first / "settings.json") << read_file(fs::path(SLAMKIT_SOURCE_DIR) / "config" / "course.json");
   const Result run = slamkit("run --filter fastslam2 --particles 15 --seed 5 --assoc nn --resample-when every:2 "
-                             "--data course:course --data-config settings.json --out r --quiet",
+                             "--pose-sample-fraction 0.5 --data course:course --data-config settings.json --out r --quiet",
                              *work_, first);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_EQ(run.out, "");  // --quiet
@@ -439,6 +440,7 @@ TEST_F(Cli, RunJsonRepeatsTheRunBitForBitFromAnotherFolder) {
   EXPECT_EQ(info.at("settings").at("particles"), 15);
   EXPECT_EQ(info.at("settings").at("seed"), 5);
   EXPECT_EQ(info.at("settings").at("resample_when"), "every:2");
+  EXPECT_EQ(info.at("settings").at("pose_sample_fraction"), 0.5);
   EXPECT_EQ(info.at("settings").at("association").at("method"), "nn");
   EXPECT_EQ(info.at("partial"), false);
   EXPECT_FALSE(info.at("slamkit_version").get<std::string>().empty());

@@ -1,7 +1,8 @@
 // FastSLAM 1.0 and 2.0: exactness in the degenerate case (one particle, no control noise: the map is
 // a set of independent 2-D EKFs run from the true path), 2.0's better proposal against 1.0,
-// determinism across thread counts, survival of a scan that rules out every particle, and
-// per-particle maximum-likelihood association without identities.
+// determinism across thread counts, survival of a scan that rules out every particle,
+// per-particle maximum-likelihood association without identities, and 2.0's split of the proposal
+// between the sampled cloud and the Gaussian each particle carries.
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
@@ -15,6 +16,7 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "slamkit/core/angles.hpp"
 #include "slamkit/eval/metrics.hpp"
 #include "slamkit/filters/fastslam.hpp"
 #include "slamkit/sim/simulator.hpp"
@@ -282,6 +284,58 @@ TEST(FastSlam, MaximumLikelihoodAssociationWithoutIdsMakesNoWrongPairings) {
   }
 }
 
+TEST(FastSlam, Version2SamplesItsShareOfTheProposalAndCarriesTheRest) {
+  // One scan's proposal, the same in every particle: straight ahead for 0.2 s, then two landmarks of
+  // a known map seen where the prediction puts them. Whatever the share sampled, the cloud and the
+  // carried Gaussians together hold the proposal's covariance.
+  const auto motion = std::make_shared<AckermannModel>();
+  const auto sensor = std::make_shared<RangeBearingModel>();
+  const std::vector<Landmark> map = {{0, Vector2(10.0, 5.0), Matrix2::Identity() * 0.01},
+                                     {1, Vector2(15.0, -4.0), Matrix2::Identity() * 0.01}};
+  auto after_one_scan = [&](double fraction) {
+    FastSlamConfig c;
+    c.particles = 4000;
+    c.threads = 1;
+    c.pose_sample_fraction = fraction;
+    c.association.method = AssociationMethod::kKnown;
+    auto filter = std::make_unique<FastSlam>(motion, sensor, c);
+    filter->set_initial_map(map);
+    Control u(2);
+    u << 3.0, 0.0;
+    Pose2 x = Pose2::Zero();
+    for (int k = 1; k <= 8; ++k) {
+      filter->predict({0.025 * k, 0.025, u});
+      x = motion->predict(x, u, 0.025);
+    }
+    ScanEvent scan{0.2, {}};
+    for (const Landmark& lm : map) scan.observations.push_back({sensor->predict(x, lm.position), lm.id});
+    filter->update(scan);
+    return filter;
+  };
+  auto cloud_covariance = [](const FastSlam& filter) {
+    const Pose2 mean = filter.pose();
+    Matrix3 cov = Matrix3::Zero();
+    for (const WeightedPose& p : filter.pose_samples()) {
+      Eigen::Vector3d d = p.pose - mean;
+      d[2] = wrap_angle(d[2]);
+      cov += p.weight * d * d.transpose();
+    }
+    return cov;
+  };
+  const auto textbook = after_one_scan(1.0);
+  const auto carried = after_one_scan(0.01);
+  const Matrix3 proposal = textbook->pose_covariance();
+  ASSERT_GT(proposal(0, 0), 1e-6);
+  ASSERT_GT(proposal(2, 2), 1e-8);
+  EXPECT_LT((cloud_covariance(*textbook) - proposal).norm(), 1e-12 * proposal.norm())
+      << "the textbook filter carries nothing";
+  const Matrix3 cloud = cloud_covariance(*carried);
+  for (int i : {0, 2}) {
+    EXPECT_NEAR(cloud(i, i) / proposal(i, i), 0.01, 0.0015) << "the cloud holds the sampled share, entry " << i;
+    EXPECT_NEAR(carried->pose_covariance()(i, i) / proposal(i, i), 1.0, 0.1) << "cloud and carried part, entry " << i;
+  }
+}
+
 TEST(FastSlam, RejectsBadConfigAndControls) {
   const auto motion = std::make_shared<AckermannModel>();
   const auto sensor = std::make_shared<RangeBearingModel>();
@@ -294,6 +348,11 @@ TEST(FastSlam, RejectsBadConfigAndControls) {
   c = {};
   c.association.new_landmark_probability = 0.5;  // below the accept gate
   EXPECT_THROW(FastSlam(motion, sensor, c), std::invalid_argument);
+  c = {};
+  for (const double fraction : {0.0, -0.5, 1.5, std::numeric_limits<double>::quiet_NaN()}) {
+    c.pose_sample_fraction = fraction;
+    EXPECT_THROW(FastSlam(motion, sensor, c), std::invalid_argument) << fraction;
+  }
   c = {};
   EXPECT_THROW(FastSlam(nullptr, sensor, c), std::invalid_argument);
   RangeBearingModel::Params perfect;

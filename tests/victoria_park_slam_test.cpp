@@ -14,12 +14,15 @@ using namespace slamkit;
 
 namespace {
 
-Metrics run_victoria_park(const std::string& filter_name, AssociationMethod method, int particles = 100) {
+Metrics run_victoria_park(const std::string& filter_name, AssociationMethod method, int particles = 100,
+                          std::uint64_t seed = 1, double pose_sample_fraction = 1.0) {
   const Dataset data = read_victoria_park(test_data::shared_dataset("victoria_park").string());
   FilterConfig config;
   config.filter = parse_filter_kind(filter_name);
   config.association.method = method;
   config.particles = particles;
+  config.seed = seed;
+  config.pose_sample_fraction = pose_sample_fraction;
   auto filter = make_filter(config, data);
   const RunResult run = run_filter(*filter, data);
   for (const auto& p : run.trajectory) EXPECT_TRUE(p.pose.allFinite()) << "t " << p.t;
@@ -54,4 +57,19 @@ TEST(VictoriaParkSlam, EkfWithNearestNeighbourOnTheFullRun) {
 TEST(VictoriaParkSlam, FastSlam2WithHundredParticlesOnTheFullRun) {
   SLAMKIT_REQUIRE_DATASET(test_data::shared_dataset("victoria_park"));
   expect_good_run(run_victoria_park("fastslam2", AssociationMethod::kNearestNeighbour, 100));
+}
+
+TEST(VictoriaParkSlam, FastSlam2StaysWithinHalfAgainTheEkfWhateverTheSeed) {
+  // Issue 10's bound. Sampling the whole proposal (pose_sample_fraction 1) misses it in all three
+  // seeds (ATE 3.12, 4.82, 5.06 m: each run's path is one draw from a posterior metres wide); carrying
+  // 99% of it as a Gaussian per particle meets it (2.31, 2.34, 2.22 m). Seeds from the tuning set, not
+  // the ones the README reports.
+  SLAMKIT_REQUIRE_DATASET(test_data::shared_dataset("victoria_park"));
+  const Metrics ekf = run_victoria_park("ekf", AssociationMethod::kJcbb);
+  ASSERT_TRUE(ekf.ate_rmse_m);
+  for (const std::uint64_t seed : {103, 104, 105}) {
+    const Metrics fastslam = run_victoria_park("fastslam2", AssociationMethod::kNearestNeighbour, 100, seed, 0.01);
+    ASSERT_TRUE(fastslam.ate_rmse_m);
+    EXPECT_LE(*fastslam.ate_rmse_m, 1.5 * *ekf.ate_rmse_m) << "seed " << seed << ", EKF " << *ekf.ate_rmse_m << " m";
+  }
 }

@@ -47,6 +47,8 @@ void validate(const FastSlamConfig& c) {
   if (c.version != 1 && c.version != 2) fail(fmt::format("version must be 1 or 2, found {}", c.version));
   if (c.particles < 1 || c.particles > FastSlamConfig::kMaxParticles)
     fail(fmt::format("particles must be from 1 to {}, found {}", FastSlamConfig::kMaxParticles, c.particles));
+  if (!(c.pose_sample_fraction > 0.0 && c.pose_sample_fraction <= 1.0))
+    fail(fmt::format("the pose sample fraction must lie in (0, 1], found {}", c.pose_sample_fraction));
   if (c.threads > FastSlamConfig::kMaxThreads)
     fail(fmt::format("threads must be from 0 (all cores) to {}, found {}", FastSlamConfig::kMaxThreads, c.threads));
   if (c.policy.kind == ResamplePolicy::Kind::kEvery && c.policy.every < 1)

@@ -112,8 +112,10 @@ struct Anchor {
 
 struct FastSlam::Impl {
   struct Particle {
-    Pose2 pose = Pose2::Zero();  // FastSLAM 2.0 between scans: the mean of the motion prediction
-    Matrix3 pose_cov = Matrix3::Zero();  // FastSLAM 2.0: prediction covariance since the last scan
+    Pose2 pose = Pose2::Zero();  // FastSLAM 2.0: the mean of the Gaussian below
+    // FastSLAM 2.0: the pose's covariance about `pose`: the part of the last scan's proposal not
+    // sampled (FastSlamConfig::pose_sample_fraction), plus the motion noise since.
+    Matrix3 pose_cov = Matrix3::Zero();
     double log_weight = 0.0;             // log of the normalised weight
     LandmarkTree map;
     ParticlePath path;
@@ -183,8 +185,10 @@ struct FastSlam::Impl {
   /// Whether z lies beyond the new-landmark gate of landmark lm as particle p predicts it.
   bool beyond_gate(const Particle& p, const LandmarkGaussian& lm, const Vector2& z) const;
   void update_particle(std::size_t i, const ScanEvent& scan);
-  double update_landmark(LandmarkGaussian& lm, const Pose2& x, const Vector2& z) const;
-  LandmarkGaussian new_landmark(const Pose2& x, const Vector2& z, int id) const;
+  /// Landmark updates and new landmarks at pose x with covariance x_cov (FastSLAM 2.0: what the particle
+  /// carries of its pose uncertainty, see FastSlamConfig::pose_sample_fraction; else zero).
+  double update_landmark(LandmarkGaussian& lm, const Pose2& x, const Matrix3& x_cov, const Vector2& z) const;
+  LandmarkGaussian new_landmark(const Pose2& x, const Matrix3& x_cov, const Vector2& z, int id) const;
   void count_misses(Particle& p, Slot& s) const;
   /// Whether the existence rule expects particle p to see landmark lm from its pose.
   bool expected_in_view(const Particle& p, const LandmarkGaussian& lm) const;

@@ -120,7 +120,8 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
       s.pairings[k] = {AssociationDecision::kNew, next_index++};
 }
 
-double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, const Vector2& z) const {
+double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, const Matrix3& x_cov,
+                                       const Vector2& z) const {
   Matrix23 hx;
   Matrix2 hm;
   observation->jacobians(x, lm.mean, hx, hm);
@@ -128,24 +129,27 @@ double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, con
   const Matrix2 pht = lm.covariance * hm.transpose();
   Matrix2 s_inverse;
   double log_det = 0.0;
-  if (!nu.allFinite() || !invert_spd(symmetric(hm * pht + r), s_inverse, log_det)) return kMinusInf;
+  // The pose's own uncertainty adds to the measurement's: a landmark seen from an uncertain pose learns
+  // less from it.
+  const Matrix2 r_eff = r + hx * x_cov * hx.transpose();
+  if (!nu.allFinite() || !invert_spd(symmetric(hm * pht + r_eff), s_inverse, log_det)) return kMinusInf;
   const Matrix2 gain = pht * s_inverse;
   lm.mean += gain * nu;
   // Joseph form: stays symmetric positive definite however the gain is rounded.
   const Matrix2 ikh = Matrix2::Identity() - gain * hm;
-  lm.covariance = symmetric(ikh * lm.covariance * ikh.transpose() + gain * r * gain.transpose());
+  lm.covariance = symmetric(ikh * lm.covariance * ikh.transpose() + gain * r_eff * gain.transpose());
   existence.observed(lm.existence);
   lm.last_seen = static_cast<std::uint32_t>(scans - 1);
   return -0.5 * nu.dot(s_inverse * nu) - kLog2Pi - 0.5 * log_det;
 }
 
-LandmarkGaussian FastSlam::Impl::new_landmark(const Pose2& x, const Vector2& z, int id) const {
+LandmarkGaussian FastSlam::Impl::new_landmark(const Pose2& x, const Matrix3& x_cov, const Vector2& z, int id) const {
   Matrix23 gx;
   Matrix2 gz;
   observation->inverse_jacobians(x, z, gx, gz);
   LandmarkGaussian lm;
   lm.mean = observation->inverse(x, z);
-  lm.covariance = symmetric(gz * r * gz.transpose());
+  lm.covariance = symmetric(gz * r * gz.transpose() + gx * x_cov * gx.transpose());
   lm.id = id;
   lm.started = lm.last_seen = static_cast<std::uint32_t>(scans - 1);
   lm.existence = known() ? existence.given() : existence.first_observed();
@@ -172,10 +176,10 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   // the new one.
   auto update_at = [&](std::uint32_t index, const Vector2& z) {
     LandmarkGaussian& lm = p.map.mutate(index);
-    if (known()) return update_landmark(lm, p.pose, z);
+    if (known()) return update_landmark(lm, p.pose, p.pose_cov, z);
     const LandmarkGrid::Cell before = grid.cell_of(lm.mean);
     const bool was_confirmed = existence.confirmed(lm.existence);
-    const double ll = update_landmark(lm, p.pose, z);
+    const double ll = update_landmark(lm, p.pose, p.pose_cov, z);
     if (!was_confirmed && existence.confirmed(lm.existence) && lm.started >= window_start)
       s.confirmed_now.push_back(index);
     if (grid.cell_of(lm.mean) != before) s.grid_entries.emplace_back(lm.mean, index);
@@ -214,8 +218,12 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
       const Matrix3 ikh = Matrix3::Identity() - gain * hx;
       sigma = symmetric(ikh * sigma * ikh.transpose() + gain * z_cov * gain.transpose());
     }
-    p.pose = sample_gaussian(mu, sigma, s.rng);
-    p.pose_cov.setZero();
+    // Only a share of the proposal is sampled; the particle carries the rest as its pose's Gaussian,
+    // which the next proposal, the gates, the weights and the landmark updates account for (see
+    // FastSlamConfig::pose_sample_fraction).
+    const double fraction = config.pose_sample_fraction;
+    p.pose = sample_gaussian(mu, fraction * sigma, s.rng);
+    p.pose_cov = (1.0 - fraction) * sigma;
     if (!p.path.empty()) p.path.replace_newest(p.pose);
   }
 
@@ -235,7 +243,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
         beyond_gate(p, p.map[pairing.index], z))
       pairing = Pairing{};
     if (pairing.decision == AssociationDecision::kNew) {
-      p.map.push_back(new_landmark(p.pose, z, known() ? scan.observations[k].id : kUnknownId));
+      p.map.push_back(new_landmark(p.pose, p.pose_cov, z, known() ? scan.observations[k].id : kUnknownId));
       if (!known()) s.grid_entries.emplace_back(p.map[pairing.index].mean, pairing.index);
       log_likelihood += log_p0;
     } else if (pairing.decision == AssociationDecision::kDiscard) {

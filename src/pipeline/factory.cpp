@@ -64,6 +64,9 @@ void validate(const FilterConfig& config) {
   if (config.particles < 1 || config.particles > FastSlamConfig::kMaxParticles)
     throw std::invalid_argument(fmt::format("particles must be an integer from 1 to {}, found {}",
                                             FastSlamConfig::kMaxParticles, config.particles));
+  if (!(config.pose_sample_fraction > 0.0 && config.pose_sample_fraction <= 1.0))
+    throw std::invalid_argument(
+        fmt::format("pose_sample_fraction must lie in (0, 1], found {}", config.pose_sample_fraction));
   if (config.threads > FastSlamConfig::kMaxThreads)
     throw std::invalid_argument(fmt::format("threads must be from 0 (all cores) to {}, found {}",
                                             FastSlamConfig::kMaxThreads, config.threads));
@@ -102,6 +105,7 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       FastSlamConfig fs;
       fs.version = config.filter == FilterKind::kFastSlam1 ? 1 : 2;
       fs.particles = config.particles;
+      fs.pose_sample_fraction = config.pose_sample_fraction;
       fs.resample = config.resample;
       fs.policy = config.resample_when;
       fs.association = config.association;
@@ -122,6 +126,7 @@ nlohmann::json to_json(const FilterConfig& config) {
           {"ekf_update", to_string(config.ekf_update)},
           {"ekf_variant", to_string(config.ekf_variant)},
           {"particles", config.particles},
+          {"pose_sample_fraction", config.pose_sample_fraction},
           {"resample", to_string(config.resample)},
           {"resample_when", to_string(config.resample_when)},
           {"threads", config.threads}};
@@ -159,7 +164,11 @@ FilterConfig filter_config_from_json(const nlohmann::json& json, const std::stri
         config.ekf_variant = parse_ekf_variant(name());
       else if (key == "particles")
         integer(config.particles);
-      else if (key == "resample")
+      else if (key == "pose_sample_fraction") {
+        if (!value.is_number())
+          throw InputError(source, 0, fmt::format("'{}' must be a number, found {}", key, value.dump()));
+        config.pose_sample_fraction = value.get<double>();
+      } else if (key == "resample")
         config.resample = parse_resample_method(name());
       else if (key == "resample_when")
         config.resample_when = parse_resample_policy(name());
@@ -168,8 +177,8 @@ FilterConfig filter_config_from_json(const nlohmann::json& json, const std::stri
       else
         throw InputError(source, 0,
                          fmt::format("unknown key '{}' in the filter settings; expected one of: {}", key,
-                                     "filter, seed, association, ekf_update, ekf_variant, particles, resample, "
-                                     "resample_when, threads"));
+                                     "filter, seed, association, ekf_update, ekf_variant, particles, "
+                                     "pose_sample_fraction, resample, resample_when, threads"));
     } catch (const std::invalid_argument& e) {
       throw InputError(source, 0, e.what());
     }

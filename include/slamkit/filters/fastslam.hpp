@@ -9,12 +9,23 @@
 // observation, and updates the landmarks with 2-D EKFs.
 //
 // FastSLAM 2.0 proposes from the motion model AND the scan (eq. 18). Between scans a particle keeps
-// the Gaussian of its motion prediction, mean f(x, u) and covariance F S F^T + Fu M Fu^T
-// accumulated over the controls since its last scan; a scan refines that Gaussian with each paired
-// observation in turn, relinearising at the current mean (the covariance form of
-// Sigma = (Hx^T Z^-1 Hx + Sigma^-1)^-1, mu += Sigma Hx^T Z^-1 (z - zhat), Z = R + Hm P Hm^T: the
-// same by the matrix inversion lemma, but it needs no inverse of the rank-deficient motion noise),
-// and the particle's pose is drawn from the result. The weight is the proposal's normalising
+// a Gaussian of its pose, mean f(x, u) and covariance F S F^T + Fu M Fu^T accumulated over the
+// controls since its last scan (S starts from what the last scan left, below); a scan refines that
+// Gaussian with each paired observation in turn, relinearising at the current mean (the covariance
+// form of Sigma = (Hx^T Z^-1 Hx + Sigma^-1)^-1, mu += Sigma Hx^T Z^-1 (z - zhat), Z = R + Hm P Hm^T:
+// the same by the matrix inversion lemma, but it needs no inverse of the rank-deficient motion noise),
+// and the particle's pose is drawn from the result, N(mu, f Sigma) with f = pose_sample_fraction;
+// the particle keeps (1 - f) Sigma as its pose's covariance about the draw. f = 1 is the textbook
+// filter. With f < 1 the Gaussian per particle carries the part of the pose uncertainty that
+// sampling would turn into error: a particle maps its landmarks from its drawn pose, so what it draws
+// it maps, and resampling soon leaves one lineage whose path is then one draw from the posterior, as
+// far from the truth as that posterior is wide. Noise inflated to keep an EKF consistent
+// (Victoria Park's: 2 m/s, 6 degrees of steering, 1 m, 3 degrees) makes it wide, and the drawn paths
+// drift over 100 s of new ground by 5-25 m where the EKF's mean drifts by 2 m. The carried
+// covariance enters the next proposal's prior (and so the gates and the weight), and a landmark
+// update or a new landmark at the particle's pose x with covariance X adds Hx X Hx^T to R, or
+// Gx X Gx^T to the new landmark's covariance (pose and map taken as independent, as between
+// particles' landmarks). The weight is the proposal's normalising
 // constant, p(z | x_{k-1}, m) = prod_j N(z_j - zhat_j; 0, Hx S_{j-1} Hx^T + Hm P Hm^T + R), where
 // S_{j-1} is the pose covariance after the previous j-1 observations: for the first observation
 // this is the standard FastSLAM 2.0 weight at the prediction, and taking the factors in sequence
@@ -23,9 +34,9 @@
 // and so over-weights particles in scans with many observations.
 //
 // New landmarks start from the particle's (sampled) pose with the inverse observation model:
-// mean g(x, z), covariance Gz R Gz^T. Every observation not paired with a landmark (new or
-// discarded) multiplies the weight by the constant p0, the likelihood of an innovation lying exactly
-// on the new-landmark gate of a landmark observed once (S = 2R, since Hm Gz = I):
+// mean g(x, z), covariance Gz R Gz^T (plus the pose's, above). Every observation not paired with a
+// landmark (new or discarded) multiplies the weight by the constant p0, the likelihood of an
+// innovation lying exactly on the new-landmark gate of a landmark observed once (S = 2R, since Hm Gz = I):
 // log p0 = -gate/2 - log(2 pi) - log(det(2R))/2. A particle thus gains by pairing an observation
 // exactly when the pairing explains it better than a new landmark would, and particles that create
 // landmarks are not favoured over particles that recognise them.
@@ -97,6 +108,11 @@ struct FastSlamConfig {
 
   int version = 2;  // 1: FastSLAM 1.0, 2: FastSLAM 2.0
   int particles = 100;
+  /// FastSLAM 2.0: the share of a scan's proposal covariance a particle draws its pose from, in
+  /// (0, 1]; it keeps the rest as a Gaussian about the drawn pose (see above). 1, the textbook
+  /// filter, is the default because relocalisation's loop closing on the sparse worlds was built
+  /// and measured with it; 0.01 is Victoria Park's setting (README).
+  double pose_sample_fraction = 1.0;
   ResampleMethod resample = ResampleMethod::kSystematic;
   ResamplePolicy policy;  // default: when the ESS drops below half the particles
   AssociationConfig association;

@@ -12,6 +12,7 @@
 #include "slamkit/assoc/association_config.hpp"
 #include "slamkit/core/dataset.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
+#include "slamkit/filters/fastslam.hpp"
 #include "slamkit/filters/resampling.hpp"
 #include "slamkit/filters/slam_filter.hpp"
 
@@ -38,6 +39,7 @@ struct FilterConfig {
   EkfVariant ekf_variant = EkfVariant::kFull;
   // Particle filters only.
   int particles = 100;
+  double pose_sample_fraction = FastSlamConfig{}.pose_sample_fraction;  // FastSLAM 2.0 only
   ResampleMethod resample = ResampleMethod::kSystematic;
   ResamplePolicy resample_when;  // default: when the ESS drops below half the particles
   unsigned threads = 0;          // 0: all cores
