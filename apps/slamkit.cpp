@@ -260,6 +260,10 @@ int main(int argc, char** argv) {
             "EKF: full, compressed (local-area updates, the same result as full), "
             "fej (first-estimates Jacobians) or invariant (right-invariant error); fej and invariant keep "
             "the EKF consistent");
+  add_named(run_cmd, "--ukf-noise", filter.ukf_noise, parse_ukf_noise,
+            "UKF: augmented (sigma points over the vehicle and the control noise, which then moves the mean "
+            "too) or additive (over the vehicle; the control noise's spread added as zero-mean process noise, "
+            "for noise that is an allowance for model error)");
   // Association and map management: a file holding the keys run.json records under
   // settings.association, and a flag for each setting, which overrides the file.
   std::string assoc_config_path, gate_known;
@@ -321,7 +325,7 @@ int main(int argc, char** argv) {
   // Every filter and data option, which a repeated run takes from its run.json instead.
   std::vector<CLI::Option*> setting_opts = {data_opt, data_config_opt};
   for (const char* name : {"--filter", "--assoc", "--seed", "--particles", "--pose-sample-fraction", "--resample",
-                           "--resample-when", "--threads", "--ekf-update", "--ekf-variant"})
+                           "--resample-when", "--threads", "--ekf-update", "--ekf-variant", "--ukf-noise"})
     setting_opts.push_back(run_cmd->get_option(name));
   for (const char* name : assoc_flag_names) setting_opts.push_back(run_cmd->get_option(name));
   auto* repeat_opt =
@@ -483,6 +487,8 @@ int main(int argc, char** argv) {
       if (filter.filter != FilterKind::kFastSlam2 && run_cmd->count("--pose-sample-fraction") > 0)
         warn(fmt::format("--pose-sample-fraction applies to fastslam2 only; {} ignores it", to_string(filter.filter)));
       if (filter.filter == FilterKind::kUkf && run_cmd->count("--threads") > 0) warn("--threads is ignored by the UKF");
+      if (filter.filter != FilterKind::kUkf && run_cmd->count("--ukf-noise") > 0)
+        warn(fmt::format("--ukf-noise applies to ukf only; {} ignores it", to_string(filter.filter)));
       for (const char* name : {"--ekf-update", "--ekf-variant"})
         if (particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by FastSLAM", name));
       if (!particle_filter && run_cmd->count("--seed") > 0)

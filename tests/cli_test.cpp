@@ -331,6 +331,7 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
       {"--assoc nearest", "--assoc: unknown association 'nearest'; expected one of: known, nn, jcbb"},
       {"--ekf-variant sparse", "--ekf-variant: unknown EKF variant 'sparse'; expected one of: full, compressed, fej, invariant"},
       {"--ekf-update both", "--ekf-update: unknown EKF update 'both'; expected one of: joint, sequential, iterated"},
+      {"--filter ukf --ukf-noise both", "--ukf-noise: unknown UKF noise 'both'; expected one of: augmented, additive"},
       {"--resample best", "--resample: unknown resampling method 'best'; expected one of: multinomial"},
       {"--resample-when sometimes", "--resample-when: unknown resampling policy 'sometimes'; expected always"},
       {"--resample-when every:0", "K must be an integer >= 1"},
@@ -475,6 +476,12 @@ TEST_F(Cli, PrintConfigShowsEveryEffectiveSettingWithoutRunning) {
   EXPECT_EQ(config.at("settings").at("resample"), "systematic");
   EXPECT_TRUE(config.at("settings").at("association").contains("accept_probability"));
   EXPECT_EQ(config.at("dataset"), "sim:" + fs::weakly_canonical(*work_ / "sim").string());
+
+  const Result ukf = slamkit("run --filter ukf --ukf-noise additive --data sim:" + (*work_ / "sim").string() +
+                                 " --print-config",
+                             *work_);
+  ASSERT_EQ(ukf.exit_code, 0) << ukf.err;
+  EXPECT_EQ(nlohmann::json::parse(ukf.out).at("settings").at("ukf_noise"), "additive");
 }
 
 // The association file sets what it names, the flags override it, and run.json records the result.

@@ -38,15 +38,17 @@ void drive(EkfEstimator& f) {
 
 }  // namespace
 
-class UkfOnLinearGaussianSystem : public ::testing::TestWithParam<Matrix3> {};
+// Either treatment of the control noise: for a linear motion it moves no mean.
+class UkfOnLinearGaussianSystem : public ::testing::TestWithParam<std::tuple<Matrix3, UkfNoise>> {};
 
 TEST_P(UkfOnLinearGaussianSystem, EqualsTheKalmanFilter) {
+  const auto [start_covariance, noise] = GetParam();
   // A control noise with correlations, which the sigma points must carry exactly.
   auto motion = std::make_shared<LinearMotion>(
       (Matrix3() << 0.04, 0.01, 0.0, 0.01, 0.09, 0.002, 0.0, 0.002, 0.003).finished());
   auto observation = std::make_shared<LinearOffset>();
-  JointGaussian kalman(motion, observation, Pose2(1.0, -2.0, 0.3), GetParam());
-  UnscentedJointGaussian ukf(motion, observation, Pose2(1.0, -2.0, 0.3), GetParam());
+  JointGaussian kalman(motion, observation, Pose2(1.0, -2.0, 0.3), start_covariance);
+  UnscentedJointGaussian ukf(motion, observation, Pose2(1.0, -2.0, 0.3), start_covariance, noise);
   drive(kalman);
   drive(ukf);
   ASSERT_EQ(ukf.state_dim(), kalman.state_dim());
@@ -56,8 +58,42 @@ TEST_P(UkfOnLinearGaussianSystem, EqualsTheKalmanFilter) {
 }
 
 // The start pose known exactly (the default, whose covariance is singular) and uncertain.
-INSTANTIATE_TEST_SUITE_P(StartCovariance, UkfOnLinearGaussianSystem,
-                         ::testing::Values(Matrix3::Zero(), Eigen::Vector3d(0.1, 0.2, 0.01).asDiagonal().toDenseMatrix()));
+INSTANTIATE_TEST_SUITE_P(
+    StartCovarianceAndNoise, UkfOnLinearGaussianSystem,
+    ::testing::Combine(::testing::Values(Matrix3::Zero(), Eigen::Vector3d(0.1, 0.2, 0.01).asDiagonal().toDenseMatrix()),
+                       ::testing::Values(UkfNoise::kAugmented, UkfNoise::kAdditive)));
+
+// A car steering with a noisy wheel: the augmented UKF's mean takes the curvature of the motion in
+// the steering angle (E[cos(theta + gamma)] < cos(theta + E[gamma]): a shorter step), the additive
+// one stays at f(x, u) and keeps that shift as spread. From a known pose both see the same sigma
+// points of the control noise, so the second moment the additive one adds is exactly the augmented
+// one's covariance plus the shift's square.
+TEST(UkfControlNoise, AdditiveKeepsTheMeanWhereTheControlsPutItAndTheShiftAsSpread) {
+  AckermannModel::Params car;
+  car.sigma_speed = 0.5;
+  car.sigma_steer = deg2rad(20.0);
+  auto motion = std::make_shared<AckermannModel>(car);
+  auto observation = std::make_shared<LinearOffset>();
+  const Pose2 start(1.0, -2.0, 0.3);
+  Control u(2);
+  u << 4.0, deg2rad(10.0);
+  const double dt = 0.5;
+  UnscentedJointGaussian augmented(motion, observation, start, Matrix3::Zero(), UkfNoise::kAugmented);
+  UnscentedJointGaussian additive(motion, observation, start, Matrix3::Zero(), UkfNoise::kAdditive);
+  augmented.predict(u, dt);
+  additive.predict(u, dt);
+
+  const Pose2 f = motion->predict(start, u, dt);
+  EXPECT_LT((additive.pose() - f).cwiseAbs().maxCoeff(), 1e-12);
+  const Pose2 shift = augmented.pose() - f;
+  EXPECT_LT((augmented.pose().head<2>() - start.head<2>()).norm(), (f.head<2>() - start.head<2>()).norm() - 0.05)
+      << "a shorter step on average";
+  EXPECT_LT((additive.pose_covariance() - augmented.pose_covariance() - shift * shift.transpose()).cwiseAbs().maxCoeff(),
+            1e-12);
+  // To first order both spreads are the EKF's process noise.
+  const Matrix3 q = motion->process_noise(start, u, dt);
+  EXPECT_LT((additive.pose_covariance() - q).norm(), 0.1 * q.norm());
+}
 
 namespace {
 

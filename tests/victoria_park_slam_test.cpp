@@ -14,20 +14,24 @@ using namespace slamkit;
 
 namespace {
 
+Metrics run_victoria_park(const FilterConfig& config) {
+  const Dataset data = read_victoria_park(test_data::shared_dataset("victoria_park").string());
+  auto filter = make_filter(config, data);
+  const RunResult run = run_filter(*filter, data);
+  for (const auto& p : run.trajectory) EXPECT_TRUE(p.pose.allFinite()) << "t " << p.t;
+  for (const auto& lm : run.map) EXPECT_TRUE(lm.position.allFinite() && lm.covariance.allFinite());
+  return evaluate_run(run, data.truth);
+}
+
 Metrics run_victoria_park(const std::string& filter_name, AssociationMethod method, int particles = 100,
                           std::uint64_t seed = 1, double pose_sample_fraction = 1.0) {
-  const Dataset data = read_victoria_park(test_data::shared_dataset("victoria_park").string());
   FilterConfig config;
   config.filter = parse_filter_kind(filter_name);
   config.association.method = method;
   config.particles = particles;
   config.seed = seed;
   config.pose_sample_fraction = pose_sample_fraction;
-  auto filter = make_filter(config, data);
-  const RunResult run = run_filter(*filter, data);
-  for (const auto& p : run.trajectory) EXPECT_TRUE(p.pose.allFinite()) << "t " << p.t;
-  for (const auto& lm : run.map) EXPECT_TRUE(lm.position.allFinite() && lm.covariance.allFinite());
-  return evaluate_run(run, data.truth);
+  return run_victoria_park(config);
 }
 
 void expect_good_run(const Metrics& m) {
@@ -76,3 +80,22 @@ TEST_P(VictoriaParkFastSlamSeed, StaysWithinHalfAgainTheEkf) {
 }
 
 INSTANTIATE_TEST_SUITE_P(TuningSeeds, VictoriaParkFastSlamSeed, ::testing::Values(11, 17, 18));
+
+// Issue 11's bound for the UKF: its ATE within 10% of the EKF's (1.55 m, both with JCBB). The
+// textbook (augmented) UKF misses it (1.80 m): the park's control noise is an allowance for model
+// error (2 m/s, 6 degrees of steering), and through the sigma points its curvature moves the mean
+// (the car turns about 1% more on average). Added as zero-mean process noise it moves nothing; the
+// ATE is 1.54 m, and 0.94-1.05 of the EKF's over the 19 settings of
+// scripts/victoria_park_sensitivity.sh, where the augmented UKF is at 1.05-1.30 (docs/consistency.md).
+TEST(VictoriaParkSlam, UkfWithAdditiveControlNoiseWithinTenPercentOfTheEkf) {
+  SLAMKIT_REQUIRE_DATASET(test_data::shared_dataset("victoria_park"));
+  FilterConfig config;
+  config.association.method = AssociationMethod::kJcbb;
+  const Metrics ekf = run_victoria_park(config);
+  config.filter = FilterKind::kUkf;
+  config.ukf_noise = UkfNoise::kAdditive;
+  const Metrics ukf = run_victoria_park(config);
+  ASSERT_TRUE(ekf.ate_rmse_m && ukf.ate_rmse_m);
+  expect_good_run(ukf);
+  EXPECT_LE(*ukf.ate_rmse_m, 1.1 * *ekf.ate_rmse_m) << "EKF " << *ekf.ate_rmse_m << " m";
+}

@@ -22,7 +22,8 @@ std::unique_ptr<EkfEstimator> make_estimator(std::shared_ptr<const MotionModel> 
                                                        options.initial_pose, options.initial_covariance);
     case EkfVariant::kUnscented:
       return std::make_unique<UnscentedJointGaussian>(std::move(motion), std::move(observation),
-                                                      options.initial_pose, options.initial_covariance);
+                                                      options.initial_pose, options.initial_covariance,
+                                                      options.ukf_noise);
     case EkfVariant::kFirstEstimates:
     case EkfVariant::kInvariant:
     case EkfVariant::kFull:

@@ -60,6 +60,7 @@ void UnscentedJointGaussian::unscented(Transform& t, const Eigen::VectorXd& mean
   t.mean = t.centre;
   t.covariance.setZero(m, m);
   t.linearisation.setZero(m, mean.size());
+  t.shift.setZero(m);
   if (r == 0) return;
   t.images.resize(m, 2 * r);
   for (Eigen::Index j = 0; j < r; ++j) {
@@ -92,31 +93,52 @@ void UnscentedJointGaussian::unscented(Transform& t, const Eigen::VectorXd& mean
 
 UnscentedJointGaussian::UnscentedJointGaussian(std::shared_ptr<const MotionModel> motion,
                                                std::shared_ptr<const ObservationModel> observation,
-                                               const Pose2& initial_pose, const Matrix3& initial_covariance)
-    : JointGaussian(std::move(motion), std::move(observation), initial_pose, initial_covariance) {}
+                                               const Pose2& initial_pose, const Matrix3& initial_covariance,
+                                               UkfNoise noise)
+    : JointGaussian(std::move(motion), std::move(observation), initial_pose, initial_covariance), noise_(noise) {}
 
 void UnscentedJointGaussian::predict(const Control& u, double dt) {
   const ControlCovariance noise = motion_->control_noise(u, dt);
   const Eigen::Index c = noise.rows();
-  // Sigma points over [vehicle, control noise].
+  const auto subtract = [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre, Eigen::Index) {
+    y -= centre;
+    y[2] = wrap_angle(y[2]);
+  };
+  // The augmented transform draws sigma points over [vehicle, control noise]; the additive one over
+  // the vehicle alone, and over the control noise at the mean pose apart.
+  const Eigen::Index noise_in_sigma_points = noise_ == UkfNoise::kAugmented ? c : 0;
   Transform& t = motion_transform_;
-  sub_mean_.setZero(3 + c);
-  sub_mean_.head<3>() = x_.head<3>();
-  sub_covariance_.setZero(3 + c, 3 + c);
-  sub_covariance_.topLeftCorner<3, 3>() = diagonal_block<3>(0);
-  sub_covariance_.bottomRightCorner(c, c) = noise;
+  motion_mean_.setZero(3 + noise_in_sigma_points);
+  motion_mean_.head<3>() = x_.head<3>();
+  motion_covariance_.setZero(3 + noise_in_sigma_points, 3 + noise_in_sigma_points);
+  motion_covariance_.topLeftCorner<3, 3>() = diagonal_block<3>(0);
+  motion_covariance_.bottomRightCorner(noise_in_sigma_points, noise_in_sigma_points) =
+      noise.topLeftCorner(noise_in_sigma_points, noise_in_sigma_points);
   unscented(
-      t, sub_mean_, sub_covariance_, 3,
+      t, motion_mean_, motion_covariance_, 3,
       [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) {
-        y.head<3>() = motion_->predict(a.head<3>(), Control(u + a.tail(c)), dt);
+        y.head<3>() = noise_in_sigma_points > 0 ? motion_->predict(a.head<3>(), Control(u + a.tail(c)), dt)
+                                                : motion_->predict(a.head<3>(), u, dt);
       },
-      [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre, Eigen::Index) {
-        y -= centre;
-        y[2] = wrap_angle(y[2]);
-      });
+      subtract);
+  p_.topLeftCorner<3, 3>() = t.covariance;
+  if (noise_ == UkfNoise::kAdditive) {
+    Transform& n = noise_transform_;
+    const Pose2 mean_pose = x_.head<3>();
+    control_mean_ = u;
+    control_covariance_ = noise;
+    unscented(
+        n, control_mean_, control_covariance_, 3,
+        [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) {
+          y.head<3>() = motion_->predict(mean_pose, Control(a), dt);
+        },
+        subtract);
+    // The second moment about f(x, u): the spread the curvature would have shifted the mean by
+    // stays spread.
+    p_.topLeftCorner<3, 3>() += n.covariance + n.shift * n.shift.transpose();
+  }
   x_.head<3>() = t.mean;
   x_[2] = wrap_angle(x_[2]);
-  p_.topLeftCorner<3, 3>() = t.covariance;
   // P_mv <- P_mv A^T with A the vehicle part of the regression, applied lazily like F.
   pending_motion_ = t.linearisation.leftCols<3>() * pending_motion_;
 }

@@ -30,6 +30,8 @@ constexpr std::pair<EkfVariant, const char*> kEkfVariantNames[] = {{EkfVariant::
                                                                    {EkfVariant::kCompressed, "compressed"},
                                                                    {EkfVariant::kFirstEstimates, "fej"},
                                                                    {EkfVariant::kInvariant, "invariant"}};
+constexpr std::pair<UkfNoise, const char*> kUkfNoiseNames[] = {{UkfNoise::kAugmented, "augmented"},
+                                                                {UkfNoise::kAdditive, "additive"}};
 
 template <typename Enum, std::size_t N>
 Enum parse_name(const std::pair<Enum, const char*> (&names)[N], const std::string& name, const char* what) {
@@ -53,6 +55,8 @@ EkfUpdate parse_ekf_update(const std::string& name) { return parse_name(kEkfUpda
 std::string to_string(EkfUpdate update) { return name_of(kEkfUpdateNames, update); }
 EkfVariant parse_ekf_variant(const std::string& name) { return parse_name(kEkfVariantNames, name, "EKF variant"); }
 std::string to_string(EkfVariant variant) { return name_of(kEkfVariantNames, variant); }
+UkfNoise parse_ukf_noise(const std::string& name) { return parse_name(kUkfNoiseNames, name, "UKF noise"); }
+std::string to_string(UkfNoise noise) { return name_of(kUkfNoiseNames, noise); }
 
 std::vector<std::string> filter_names() {
   std::vector<std::string> names;
@@ -98,6 +102,7 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       options.joint_scan_update = config.ekf_update != EkfUpdate::kSequential;
       if (config.ekf_update == EkfUpdate::kIterated) options.update_iterations = kIteratedUpdateLinearisations;
       options.threads = config.threads;
+      options.ukf_noise = config.ukf_noise;
       return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
     }
     case FilterKind::kFastSlam1:
@@ -125,6 +130,7 @@ nlohmann::json to_json(const FilterConfig& config) {
           {"association", to_json(config.association)},
           {"ekf_update", to_string(config.ekf_update)},
           {"ekf_variant", to_string(config.ekf_variant)},
+          {"ukf_noise", to_string(config.ukf_noise)},
           {"particles", config.particles},
           {"pose_sample_fraction", config.pose_sample_fraction},
           {"resample", to_string(config.resample)},
@@ -162,6 +168,8 @@ FilterConfig filter_config_from_json(const nlohmann::json& json, const std::stri
         config.ekf_update = parse_ekf_update(name());
       else if (key == "ekf_variant")
         config.ekf_variant = parse_ekf_variant(name());
+      else if (key == "ukf_noise")
+        config.ukf_noise = parse_ukf_noise(name());
       else if (key == "particles")
         integer(config.particles);
       else if (key == "pose_sample_fraction") {
@@ -177,7 +185,7 @@ FilterConfig filter_config_from_json(const nlohmann::json& json, const std::stri
       else
         throw InputError(source, 0,
                          fmt::format("unknown key '{}' in the filter settings; expected one of: {}", key,
-                                     "filter, seed, association, ekf_update, ekf_variant, particles, "
+                                     "filter, seed, association, ekf_update, ekf_variant, ukf_noise, particles, "
                                      "pose_sample_fraction, resample, resample_when, threads"));
     } catch (const std::invalid_argument& e) {
       throw InputError(source, 0, e.what());

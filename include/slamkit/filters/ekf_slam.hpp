@@ -23,6 +23,7 @@
 #include "slamkit/assoc/sensor_view.hpp"
 #include "slamkit/filters/ekf_estimator.hpp"
 #include "slamkit/filters/slam_filter.hpp"
+#include "slamkit/filters/unscented_joint_gaussian.hpp"
 
 namespace slamkit {
 
@@ -60,6 +61,8 @@ struct EkfSlamOptions {
   int update_iterations = 1;
   /// Threads for the covariance's O(n^2) passes (0: every core); the estimate does not depend on it.
   unsigned threads = 0;
+  /// Unscented variant: how its time update treats the control noise.
+  UkfNoise ukf_noise = UkfNoise::kAugmented;
 };
 
 class EkfSlam final : public SlamFilter {

@@ -7,8 +7,10 @@
 // through its cross-covariances. With s that part and y = f(s), the transform gives y's mean and
 // covariance and the statistical linearisation A = P_ys P_ss^+; then P(rest, y) = P(rest, s) A^T,
 // exact for the Gaussian regression of y on s. In detail:
-//  * time update: sigma points over the vehicle and the control noise; A takes the place of the
-//    motion Jacobian in the map-vehicle cross-covariance (applied lazily, as in JointGaussian);
+//  * time update: sigma points over the vehicle and the control noise (UkfNoise::kAugmented), or
+//    over the vehicle with the control noise's spread added after (kAdditive, below); A takes the
+//    place of the motion Jacobian in the map-vehicle cross-covariance (applied lazily, as in
+//    JointGaussian);
 //  * observation update: sigma points over the vehicle and the landmarks the scan observes;
 //    P H^T becomes P(:, s) A^T, S the transformed covariance plus R, and the scan is one joint
 //    update (one rank-2k downdate), as in JointGaussian;
@@ -23,10 +25,25 @@
 
 namespace slamkit {
 
+/// How the UKF's time update treats the control noise.
+enum class UkfNoise {
+  /// Sigma points over the vehicle and the control noise together, so the noise moves the mean by
+  /// the motion's curvature as well as spreading it (e.g. a steering noise turns the car more on
+  /// average, E[tan(gamma)] > tan(E[gamma])): the textbook UKF, right when the noise is the
+  /// controls' real error.
+  kAugmented,
+  /// Sigma points over the vehicle only; the control noise's spread at the mean pose, taken by its
+  /// own unscented transform as the second moment about f(x, u), is added as zero-mean process
+  /// noise. For a noise that is an allowance for model error (inflated to keep a filter
+  /// consistent, as on Victoria Park), whose curvature term would be a bias, not a correction.
+  kAdditive,
+};
+
 class UnscentedJointGaussian final : public JointGaussian {
  public:
   UnscentedJointGaussian(std::shared_ptr<const MotionModel> motion, std::shared_ptr<const ObservationModel> observation,
-                         const Pose2& initial_pose = Pose2::Zero(), const Matrix3& initial_covariance = Matrix3::Zero());
+                         const Pose2& initial_pose = Pose2::Zero(), const Matrix3& initial_covariance = Matrix3::Zero(),
+                         UkfNoise noise = UkfNoise::kAugmented);
 
   void predict(const Control& u, double dt) override;
   bool update_landmark(std::size_t index, const Vector2& z) override;
@@ -64,7 +81,12 @@ class UnscentedJointGaussian final : public JointGaussian {
   static void unscented(Transform& t, const Eigen::VectorXd& mean, const Eigen::MatrixXd& cov, Eigen::Index m,
                         Image image, Subtract subtract);
 
-  Transform motion_transform_, scan_transform_, landmark_transform_;
+  UkfNoise noise_;
+  Transform motion_transform_, noise_transform_, scan_transform_, landmark_transform_;
+  // The time update's sigma points' Gaussians: [vehicle, control noise] or the vehicle, and the
+  // control (kAdditive).
+  Eigen::VectorXd motion_mean_, control_mean_;
+  Eigen::MatrixXd motion_covariance_, control_covariance_;
   // The observation update's sub-state, reused per scan.
   Eigen::VectorXd sub_mean_;
   Eigen::MatrixXd sub_covariance_, sub_columns_;  // P(s, s) and P(:, s)

@@ -37,6 +37,8 @@ struct FilterConfig {
   /// The compressed variant takes joint and sequential updates alike and equals the full EKF with
   /// the same ekf_update.
   EkfVariant ekf_variant = EkfVariant::kFull;
+  // UKF only.
+  UkfNoise ukf_noise = UkfNoise::kAugmented;
   // Particle filters only.
   int particles = 100;
   double pose_sample_fraction = FastSlamConfig{}.pose_sample_fraction;  // FastSLAM 2.0 only
@@ -54,6 +56,10 @@ std::string to_string(EkfUpdate update);
 /// "full", "compressed", "fej" or "invariant"; throws std::invalid_argument naming the accepted values.
 EkfVariant parse_ekf_variant(const std::string& name);
 std::string to_string(EkfVariant variant);
+
+/// "augmented" or "additive"; throws std::invalid_argument naming the accepted values.
+UkfNoise parse_ukf_noise(const std::string& name);
+std::string to_string(UkfNoise noise);
 
 /// The filter names parse_filter_kind accepts.
 std::vector<std::string> filter_names();
