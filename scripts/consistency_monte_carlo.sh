@@ -9,7 +9,8 @@
 #   e.g. scripts/consistency_monte_carlo.sh w1k.txt --config fov150.json --loops 1
 # Environment: SLAMKIT (the binary, default build/slamkit), RUNS (default 50), JOBS (parallel runs,
 # default 2), OUT (scratch folder, default out/consistency-<world>), FILTERS (default
-# "ekf ukf fej fej-iterated invariant invariant-iterated"; also ekf-iterated), FIRST_SEED (default 1:
+# "ekf ukf fej fej-iterated invariant invariant-iterated"; also ekf-iterated and ukf-additive, the UKF
+# with --ukf-noise additive), FIRST_SEED (default 1:
 # seeds FIRST_SEED .. FIRST_SEED + RUNS - 1; choices are made on other seeds than the table's).
 set -euo pipefail
 
@@ -35,6 +36,7 @@ filter_args() {
   case $1 in
     ekf) echo "--filter ekf" ;;
     ukf) echo "--filter ukf" ;;
+    ukf-additive) echo "--filter ukf --ukf-noise additive" ;;
     fej) echo "--filter ekf --ekf-variant fej" ;;
     fej-iterated) echo "--filter ekf --ekf-variant fej --ekf-update iterated" ;;
     invariant) echo "--filter ekf --ekf-variant invariant" ;;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# How much one Victoria Park ATE says: runs the EKF variants with JCBB at the default settings and
+# How much one Victoria Park ATE says: runs the Gaussian filters with JCBB at the default settings and
 # at 18 neighbours of them (each dataset noise parameter 10% lower and higher, each association and
 # map-management setting one step either side), and prints a markdown table of the ATEs with each
 # variant's ratio to the plain EKF's. A gap that holds over the neighbours belongs to the filter;
@@ -7,7 +7,8 @@
 #
 # Usage: scripts/victoria_park_sensitivity.sh
 # Environment: SLAMKIT (the binary, default build/slamkit), SLAMKIT_DATA (the datasets folder, as
-# for slamkit run), VARIANTS (default "full invariant fej"), OUT (scratch folder, default
+# for slamkit run), VARIANTS (default "full invariant fej"; the EKF variants' names, and ukf and
+# ukf-additive for the UKF with --ukf-noise augmented and additive), OUT (scratch folder, default
 # out/vp-sensitivity), JOBS (parallel runs, default 2), RUN_ARGS (options added to every run, e.g.
 # "--relocalise-min-pairs 0").
 set -euo pipefail
@@ -34,16 +35,24 @@ for kv in accept-probability:0.98 accept-probability:0.995 confirmed-max-misses:
   settings+=("${kv/:/=}|--${kv%%:*} ${kv##*:}")
 done
 
+filter_args() {
+  case $1 in
+    ukf) echo "--filter ukf --ukf-noise augmented" ;;
+    ukf-additive) echo "--filter ukf --ukf-noise additive" ;;
+    *) echo "--filter ekf --threads 1 --ekf-variant $1" ;;
+  esac
+}
+
 one_run() {  # label, variant, options...
   local label=$1 variant=$2
   shift 2
   [[ -f $out/$label-$variant/metrics.json ]] && return 0
   # shellcheck disable=SC2068
-  # shellcheck disable=SC2086  # the extra options are words
-  "$slamkit" run --quiet --threads 1 --filter ekf --ekf-variant "$variant" --assoc jcbb --data victoria-park $run_args $@ \
+  # shellcheck disable=SC2086,SC2046  # the extra options are words
+  "$slamkit" run --quiet $(filter_args "$variant") --assoc jcbb --data victoria-park $run_args $@ \
     --out "$out/$label-$variant" >/dev/null
 }
-export -f one_run
+export -f one_run filter_args
 export slamkit out run_args
 for s in "${settings[@]}"; do
   for v in $variants; do echo "${s%%|*} $v ${s#*|}"; done
