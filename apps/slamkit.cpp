@@ -43,6 +43,7 @@ namespace {
 
 constexpr int kExitBadInput = 1;
 constexpr int kExitUsage = 2;
+constexpr int kExitDiverged = 3;       // the filter's estimate stopped being finite
 constexpr int kExitInterrupted = 130;  // the shell's code for a program ended by SIGINT
 
 // CLI11's own range checks print the limits of a double in full (310 digits); these say the range in
@@ -545,8 +546,13 @@ int main(int argc, char** argv) {
       std::signal(SIGINT, SIG_DFL);
       progress.finish();
       stage("filter run");
-      if (run.partial) warn(fmt::format("interrupted: writing the partial result (up to t = {:.1f} s) to {}",
-                                        run.filtered.back().t, run_out));
+      if (run.diverged_at_s)
+        warn(fmt::format("the filter diverged: its pose estimate was no longer finite after the event at t = {} s; "
+                         "writing the result up to its last finite estimate (t = {:.1f} s) to {}",
+                         *run.diverged_at_s, run.filtered.back().t, run_out));
+      else if (run.partial)
+        warn(fmt::format("interrupted: writing the partial result (up to t = {:.1f} s) to {}", run.filtered.back().t,
+                         run_out));
       run.association = to_string(filter.association.method);
       run.dataset = dataset_spec;
       run.dataset_settings = settings_path;
@@ -569,6 +575,7 @@ int main(int argc, char** argv) {
       print_outputs(run_out, metrics, verbosity);
       if (recorder && verbosity != Verbosity::kQuiet)
         fmt::print("replay: {}\n", (fs::path(run_out) / "replay.html").string());
+      if (run.diverged_at_s) return kExitDiverged;
       if (run.partial) return kExitInterrupted;
     } else if (*nees_cmd) {
       std::vector<Metrics> runs;

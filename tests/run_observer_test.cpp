@@ -1,11 +1,13 @@
 // The runner's observers: they see every scan in order; a stop request ends the run after the
-// current event with a partial result that the run folder keeps as such; and the replay recorder's
-// frames hold what the filter did with each observation.
+// current event with a partial result that the run folder keeps as such, and so does a filter whose
+// estimate stops being finite; and the replay recorder's frames hold what the filter did with each
+// observation.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <atomic>
 #include <filesystem>
+#include <limits>
 
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/pipeline/factory.hpp"
@@ -76,6 +78,76 @@ TEST(RunObserver, StopGivesAPartialResultThatTheRunFolderKeeps) {
   EXPECT_FALSE(whole.partial);
   EXPECT_EQ(counter.seen_, count_scans(data));
 }
+
+// The dataset's motion model until its `healthy`-th prediction, NaN from then on: a filter fed it
+// diverges part-way through the run.
+class NanAfter final : public MotionModel {
+ public:
+  NanAfter(std::shared_ptr<const MotionModel> model, std::size_t healthy) : model_(std::move(model)), left_(healthy) {}
+  std::string name() const override { return model_->name(); }
+  int control_dim() const override { return model_->control_dim(); }
+  Pose2 predict(const Pose2& x, const Control& u, double dt) const override {
+    if (left_ == 0) return Pose2::Constant(std::numeric_limits<double>::quiet_NaN());
+    --left_;
+    return model_->predict(x, u, dt);
+  }
+  Matrix3 jacobian_state(const Pose2& x, const Control& u, double dt) const override {
+    return model_->jacobian_state(x, u, dt);
+  }
+  ControlJacobian jacobian_control(const Pose2& x, const Control& u, double dt) const override {
+    return model_->jacobian_control(x, u, dt);
+  }
+  ControlCovariance control_noise(const Control& u, double dt) const override { return model_->control_noise(u, dt); }
+
+ private:
+  std::shared_ptr<const MotionModel> model_;
+  mutable std::size_t left_;
+};
+
+class DivergedRun : public ::testing::TestWithParam<FilterKind> {};
+
+// Without the stop, the NaN pose gates out every observation and, without identities, each one would
+// start a landmark for the rest of the run.
+TEST_P(DivergedRun, StopsAtTheLastFiniteEstimateAndTheRunFolderSaysWhen) {
+  const Dataset data = default_world();
+  FilterConfig config;
+  config.filter = GetParam();
+  config.particles = 10;
+  config.threads = 1;  // the model's countdown is not thread-safe
+  config.association.method = AssociationMethod::kNearestNeighbour;
+  // The filters' first predictions come from the same controls: the EKF makes one per control, each
+  // particle one per control too, so count them.
+  const std::size_t predictions_per_control = GetParam() == FilterKind::kEkf ? 1 : 10;
+  // The filter's model only: the run's dead reckoning keeps the dataset's.
+  Dataset broken = data;
+  broken.motion = std::make_shared<NanAfter>(data.motion, 2000 * predictions_per_control);
+  auto filter = make_filter(config, broken);
+  const RunResult run = run_filter(*filter, data);
+
+  ASSERT_TRUE(run.diverged_at_s.has_value());
+  EXPECT_TRUE(run.partial);
+  double control_2001 = 0.0;
+  std::size_t controls = 0;
+  for (const Event& e : data.events)
+    if (const auto* c = std::get_if<ControlEvent>(&e); c != nullptr && ++controls == 2001) control_2001 = c->t;
+  EXPECT_EQ(*run.diverged_at_s, control_2001);
+  EXPECT_EQ(run.steps, 2000u);
+  for (const StampedPose& p : run.filtered) ASSERT_TRUE(p.pose.allFinite()) << "t " << p.t;
+  for (const StampedPose& p : run.trajectory) ASSERT_TRUE(p.pose.allFinite()) << "t " << p.t;
+  EXPECT_LT(run.filtered.back().t, *run.diverged_at_s);
+  EXPECT_GT(run.map.size(), 5u);
+  for (const Landmark& lm : run.map) ASSERT_TRUE(lm.position.allFinite() && lm.covariance.allFinite());
+
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "slamkit_diverged_run_test";
+  write_run(dir.string(), run);
+  const RunResult back = read_run(dir.string());
+  EXPECT_TRUE(back.partial);
+  EXPECT_EQ(back.diverged_at_s, run.diverged_at_s);
+  std::filesystem::remove_all(dir);
+}
+
+INSTANTIATE_TEST_SUITE_P(Filters, DivergedRun, ::testing::Values(FilterKind::kEkf, FilterKind::kFastSlam2),
+                         [](const auto& info) { return to_string(info.param); });
 
 TEST(ReplayRecorder, FramesHoldTheMapAndEachObservationsDecision) {
   const Dataset data = default_world();

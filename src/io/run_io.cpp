@@ -189,6 +189,7 @@ void write_run(const std::string& dir, const RunResult& run) {
                {"dataset_settings", run.dataset_settings},
                {"association", run.association},
                {"partial", run.partial},
+               {"diverged_at_s", run.diverged_at_s ? nlohmann::json(*run.diverged_at_s) : nlohmann::json()},
                {"history", run.history},
                {"steps", run.steps},
                {"scans", run.scans},
@@ -224,6 +225,10 @@ RunResult read_run(const std::string& dir) {
     run.dataset_settings = info.value("dataset_settings", "");
     run.statistics = info.value("statistics", std::map<std::string, double>{});
     run.partial = info.value("partial", false);
+    if (const auto at = info.find("diverged_at_s"); at != info.end() && !at->is_null()) {
+      if (!at->is_number()) throw InputError(info_path, 0, "expected 'diverged_at_s' to be a time or null, found " + at->dump());
+      run.diverged_at_s = at->get<double>();
+    }
     run.history = info.value("history", "full");
     if (run.history != "full" && run.history != "decimated" && run.history != "none")
       throw InputError(info_path, 0, "expected 'history' to be full, decimated or none, found '" + run.history + "'");

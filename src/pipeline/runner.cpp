@@ -180,6 +180,16 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
     if (options.history == History::kDecimated) filtered_thinning.limit(result.filtered, &result.pose_covariances);
   };
 
+  // A filter whose estimate is no longer finite would go on producing nothing but NaNs, and without
+  // known association would start a landmark at every observation (no gate holds a NaN); the run
+  // stops at the last finite estimate instead.
+  const auto diverged = [&](const SlamFilter& f, double t) {
+    if (f.pose().allFinite() && f.pose_covariance().allFinite()) return false;
+    result.partial = true;
+    result.diverged_at_s = t;
+    return true;
+  };
+
   double last_std_time = -INFINITY;
   const auto begin = std::chrono::steady_clock::now();
   record(start_time(dataset));
@@ -192,11 +202,13 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
     ++events_done;
     if (const auto* control = std::get_if<ControlEvent>(&event)) {
       filter.predict(*control);
+      if (diverged(filter, control->t)) break;
       ++result.steps;
       record(control->t);
     } else {
       const auto& scan = std::get<ScanEvent>(event);
       filter.update(scan);
+      if (diverged(filter, scan.t)) break;
       ++result.scans;
       if (options.history == History::kFull) {
         result.scan_times.push_back(scan.t);
@@ -222,14 +234,19 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
         observer->on_scan(filter, scan, events_done, dataset.events.size());
     }
   }
-  if (result.filtered.back().t != last_time) {  // thinned away: the final estimate always goes
+  // Thinned away: the final estimate always goes, unless it is the one that diverged.
+  if (result.filtered.back().t != last_time && !result.diverged_at_s) {
     result.filtered.push_back({last_time, filter.pose()});
     result.pose_covariances.push_back(filter.pose_covariance());
   }
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
   result.map = filter.landmarks();
+  if (result.diverged_at_s)
+    std::erase_if(result.map, [](const Landmark& lm) { return !lm.position.allFinite() || !lm.covariance.allFinite(); });
   // A particle filter's smoothed trajectory is a whole path: only a run that keeps everything takes it.
   if (options.history == History::kFull) result.trajectory = filter.smoothed_trajectory();
+  if (result.diverged_at_s)
+    std::erase_if(result.trajectory, [](const StampedPose& p) { return !p.pose.allFinite(); });
   result.smoothed = !result.trajectory.empty();
   if (!result.smoothed) result.trajectory = result.filtered;
   result.statistics = filter.statistics();

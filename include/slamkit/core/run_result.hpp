@@ -4,6 +4,7 @@
 // over time (the data of the tutorial's Figure 3) and what the filter did with each observation.
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -56,9 +57,13 @@ struct RunResult {
   /// What the run kept of its course: "full", "decimated" (series thinned, no associations) or
   /// "none" (the start and the final estimate only); see pipeline/runner.hpp.
   std::string history = "full";
-  /// The run stopped before the end of the dataset (interrupted); everything above covers the part
-  /// that ran.
+  /// The run stopped before the end of the dataset (interrupted, or diverged); everything above
+  /// covers the part that ran.
   bool partial = false;
+  /// Set when the run stopped because the filter's pose estimate stopped being finite: the time of
+  /// the event after which it was not. The trajectories end at the last finite estimate, and the
+  /// map holds only its finite landmarks.
+  std::optional<double> diverged_at_s;
   /// Where the run came from, as the front end describes it for run.json: the version, the command
   /// line, every effective setting, the dataset settings' contents (see io/run_io.hpp). Kept as JSON
   /// so that a new setting reaches run.json without a change here.
