@@ -162,31 +162,32 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
   Thinning filtered_thinning(options.decimated_samples), std_thinning(options.decimated_samples),
       particle_thinning(options.decimated_samples);
   double last_time = start_time(dataset);
+  // Returns false, recording nothing, when the estimate is no longer finite: such a filter would go on
+  // producing nothing but NaNs, and without known association would start a landmark at every
+  // observation (no gate holds a NaN), so the run stops at the last finite estimate instead.
   auto record = [&](double t) {
+    const Pose2 pose = filter.pose();
+    const Matrix3 covariance = filter.pose_covariance();
+    if (!pose.allFinite() || !covariance.allFinite()) {
+      result.partial = true;
+      result.diverged_at_s = t;
+      return false;
+    }
     last_time = t;
     // Several events can share a time (a control then the scan taken there): keep the latest state.
     if (!result.filtered.empty() && result.filtered.back().t == t) {
-      result.filtered.back().pose = filter.pose();
-      result.pose_covariances.back() = filter.pose_covariance();
-      return;
+      result.filtered.back().pose = pose;
+      result.pose_covariances.back() = covariance;
+      return true;
     }
     if (options.history == History::kNone && result.filtered.size() == 2) {
       result.filtered.pop_back();
       result.pose_covariances.pop_back();
     }
-    if (options.history == History::kDecimated && !filtered_thinning.take(t)) return;
-    result.filtered.push_back({t, filter.pose()});
-    result.pose_covariances.push_back(filter.pose_covariance());
+    if (options.history == History::kDecimated && !filtered_thinning.take(t)) return true;
+    result.filtered.push_back({t, pose});
+    result.pose_covariances.push_back(covariance);
     if (options.history == History::kDecimated) filtered_thinning.limit(result.filtered, &result.pose_covariances);
-  };
-
-  // A filter whose estimate is no longer finite would go on producing nothing but NaNs, and without
-  // known association would start a landmark at every observation (no gate holds a NaN); the run
-  // stops at the last finite estimate instead.
-  const auto diverged = [&](const SlamFilter& f, double t) {
-    if (f.pose().allFinite() && f.pose_covariance().allFinite()) return false;
-    result.partial = true;
-    result.diverged_at_s = t;
     return true;
   };
 
@@ -202,20 +203,18 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
     ++events_done;
     if (const auto* control = std::get_if<ControlEvent>(&event)) {
       filter.predict(*control);
-      if (diverged(filter, control->t)) break;
+      if (!record(control->t)) break;
       ++result.steps;
-      record(control->t);
     } else {
       const auto& scan = std::get<ScanEvent>(event);
       filter.update(scan);
-      if (diverged(filter, scan.t)) break;
+      if (!record(scan.t)) break;
       ++result.scans;
       if (options.history == History::kFull) {
         result.scan_times.push_back(scan.t);
         result.associations.push_back(filter.last_associations());
       }
       result.observations += scan.observations.size();
-      record(scan.t);
       if (options.history != History::kNone && scan.t - last_std_time >= options.std_interval_s) {
         last_std_time = scan.t;
         const bool full = options.history == History::kFull;
