@@ -117,8 +117,9 @@ void UnscentedJointGaussian::predict(const Control& u, double dt) {
   unscented(
       t, motion_mean_, motion_covariance_, 3,
       [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) {
-        y.head<3>() = noise_in_sigma_points > 0 ? motion_->predict(a.head<3>(), Control(u + a.tail(c)), dt)
-                                                : motion_->predict(a.head<3>(), u, dt);
+        Control noisy = u;
+        noisy.head(noise_in_sigma_points) += a.tail(noise_in_sigma_points);
+        y.head<3>() = motion_->predict(a.head<3>(), noisy, dt);
       },
       subtract);
   p_.topLeftCorner<3, 3>() = t.covariance;

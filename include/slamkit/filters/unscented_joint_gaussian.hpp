@@ -53,8 +53,9 @@ class UnscentedJointGaussian final : public JointGaussian {
   std::size_t add_landmark(const Vector2& z) override;
 
  private:
-  /// Buffers of one kind of unscented transform (time update, scan update, new landmark), kept per
-  /// kind so that a step reallocates nothing unless its sizes change (a scan of another size).
+  /// Buffers of one kind of unscented transform (time update, its control noise apart when additive,
+  /// scan update, new landmark), kept per kind so that a step reallocates nothing unless its sizes
+  /// change (a scan of another size).
   struct Transform {
     Eigen::MatrixXd factor;           // the covariance, then its Cholesky factor (lower triangle)
     Eigen::MatrixXd offsets;          // the sigma points less the mean, as columns (d x r)
