@@ -4,7 +4,7 @@
 # 1.0 and 2.0 (nearest neighbour per particle), all without identities, and the EKF with JCBB
 # with the settings of config/association-cluttered.json, alone and as recommended for cluttered
 # worlds (with first-estimates Jacobians and iterated updates). Per scenario and filter:
-# loops closed (metrics.json "loop_closed": loop_closure_fraction at least 0.8, see README), the
+# loops closed (metrics.json "loop_closed": loop_closure_fraction at least 0.8, see docs/metrics.md), the
 # median and range of loop_closure_fraction, wrong pairings and spurious landmarks, the mean ATE of
 # the per-step estimates and the median pose NEES.
 #
