@@ -19,6 +19,7 @@
 #include <stdexcept>
 
 #include "slamkit/core/atomic_file.hpp"
+#include "slamkit/core/atomic_folder.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/version.hpp"
@@ -320,7 +321,10 @@ int main(int argc, char** argv) {
                                     "--gate-known",           "--confirm-after",      "--provisional-max-misses",
                                     "--confirmed-max-misses", "--view-margin-m",      "--view-margin-rad",
                                     "--jcbb-max-nodes",         "--relocalise-min-pairs", "--relocalise-window-s"};
-  run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots");
+  run_cmd->add_option("--out", run_out,
+                      "Output folder for estimates, metrics and plots. Written as DIR.partial-PID beside it, it "
+                      "replaces DIR as a whole when complete, so a run that fails leaves DIR's previous run intact. "
+                      "Refused while another process writes DIR, or if DIR is not empty and holds no run.json");
   std::string repeat_path;
   bool print_config = false, replay = false, quiet = false, verbose = false;
   // Every filter and data option, which a repeated run takes from its run.json instead.
@@ -521,6 +525,9 @@ int main(int argc, char** argv) {
       };
       if (verbosity == Verbosity::kVerbose) fmt::print(stderr, "settings: {}\n", provenance.at("settings").dump());
 
+      // Taken before the data is read, so that a second run into the folder fails at once; the
+      // folder keeps its previous run until out.commit().
+      AtomicFolder out = stage_run_folder(run_out);
       const Dataset dataset = load_dataset(dataset_spec, settings_contents, settings_path);
       stage("dataset read");
       if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
@@ -557,9 +564,9 @@ int main(int argc, char** argv) {
       run.dataset = dataset_spec;
       run.dataset_settings = settings_path;
       run.provenance = std::move(provenance);
-      write_run(run_out, run);
-      write_truth(run_out, dataset);
-      const Metrics metrics = evaluate_and_report(run_out, run, dataset);
+      write_run_files(out.path(), run);
+      write_truth(out.path(), dataset);
+      const Metrics metrics = evaluate_and_report(out.path(), run, dataset);
       if (recorder) {
         // A truth with headings shares the map's frame (the start pose), as pose NEES assumes; a GPS
         // truth does not, and is brought over by the evaluation's alignment.
@@ -568,9 +575,10 @@ int main(int argc, char** argv) {
                                     : Pose2(metrics.alignment.translation.x(), metrics.alignment.translation.y(),
                                             metrics.alignment.theta);
         const nlohmann::json recording = recorder->to_json(run.filter, alignment);
-        write_file_atomically((fs::path(run_out) / "replay.json").string(), recording.dump() + "\n");
-        plot::write_replay_html((fs::path(run_out) / "replay.html").string(), recording);
+        write_file_atomically((fs::path(out.path()) / "replay.json").string(), recording.dump() + "\n");
+        plot::write_replay_html((fs::path(out.path()) / "replay.html").string(), recording);
       }
+      out.commit();
       stage("written and evaluated");
       print_outputs(run_out, metrics, verbosity);
       if (recorder && verbosity != Verbosity::kQuiet)
@@ -586,11 +594,14 @@ int main(int argc, char** argv) {
       write_monte_carlo_nees(nees_out, runs, nees_title);
       fmt::print("wrote {} ({} runs)\n", nees_out, runs.size());
     } else if (*replay_cmd) {
+      const FolderLock lock(replay_dir);
       const std::string page = (fs::path(replay_dir) / "replay.html").string();
       plot::write_replay_html(page, read_json_file((fs::path(replay_dir) / "replay.json").string()));
       fmt::print("wrote {}\n", page);
     } else if (*eval_cmd) {
+      const FolderLock lock(eval_dir);
       const RunResult run = read_run(eval_dir);
+      remove_stale_temporaries(eval_dir);  // a run folder's writers all take its lock: these are the killed ones
       // A run.json that records the settings' contents is evaluated with them, wherever the file went.
       const Dataset dataset =
           run.provenance.contains("dataset_settings_contents")
