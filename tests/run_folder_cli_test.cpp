@@ -1,7 +1,8 @@
 // Run folders from the command line, under the conditions that break them: a rerun that fails
 // half-way (a full disk) leaves the previous run whole; what a killed run left is cleared by the next
-// writer; a second writer of a folder is refused at once. slamkit runs here as a child process whose
-// limits the test sets between fork and exec, which the shell's popen of tests/cli_test.cpp cannot.
+// writer; SIGINT, SIGTERM and SIGHUP stop a run and still write it; a second writer of a folder is
+// refused at once. slamkit runs here as a child process whose limits and signals the test sets
+// between fork and exec, which the shell's popen of tests/cli_test.cpp cannot.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/resource.h>
@@ -9,6 +10,7 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -26,6 +28,9 @@ namespace {
 struct ChildSetup {
   /// RLIMIT_FSIZE, with SIGXFSZ ignored: a write past it fails (EFBIG) as it would on a full disk.
   rlim_t max_file_size = RLIM_INFINITY;
+  /// Raised while blocked before exec, so it is pending when slamkit starts and arrives the moment
+  /// slamkit unblocks it: during the run, without any timing.
+  int pending_signal = 0;
 };
 
 struct Outcome {
@@ -56,6 +61,13 @@ Outcome run_cli(const std::vector<std::string>& args, const fs::path& work, cons
       const rlimit limit{setup.max_file_size, setup.max_file_size};
       ::setrlimit(RLIMIT_FSIZE, &limit);
       ::signal(SIGXFSZ, SIG_IGN);
+    }
+    if (setup.pending_signal != 0) {
+      sigset_t set;
+      sigemptyset(&set);
+      sigaddset(&set, setup.pending_signal);
+      ::sigprocmask(SIG_BLOCK, &set, nullptr);
+      ::raise(setup.pending_signal);
     }
     ::dup2(null, STDOUT_FILENO);
     ::dup2(err, STDERR_FILENO);
@@ -160,6 +172,28 @@ TEST_F(RunFolderCli, TheNextWriterClearsWhatAKilledRunLeft) {
   const Outcome e = run_cli({"evaluate", out.string()}, *work_);
   ASSERT_EQ(e.exit_code, 0) << e.err;
   EXPECT_FALSE(fs::exists(out / "metrics.json.partial-4000004"));
+}
+
+// SIGTERM (a scheduler, kill) and SIGHUP (the terminal closed) stop a run like Ctrl-C: after the
+// current step, with the partial result written and the shell's exit code for the signal. Before,
+// only SIGINT was handled, and a signal blocked by the parent never reached the run.
+TEST_F(RunFolderCli, StopSignalsWriteThePartialRunWithTheSignalsExitCode) {
+  for (const auto& [signal, name] : {std::pair{SIGINT, "SIGINT"}, {SIGTERM, "SIGTERM"}, {SIGHUP, "SIGHUP"}}) {
+    const fs::path out = *work_ / ("stopped-" + std::string(name));
+    const Outcome r = run_cli({"run", "--filter", "ekf", "--data", data(), "--out", out.string()}, *work_,
+                              {.pending_signal = signal});
+    EXPECT_EQ(r.exit_code, 128 + signal) << name << ": " << r.err;
+    EXPECT_NE(r.err.find(std::string("stopped by ") + name + ": writing the partial result"), std::string::npos)
+        << r.err;
+    const nlohmann::json info = read_json(out / "run.json");
+    EXPECT_EQ(info["partial"], true) << name;
+    EXPECT_EQ(info["steps"], 0) << name << ": the signal was pending, so the run stops before its first step";
+    const Outcome e = run_cli({"evaluate", out.string()}, *work_);
+    EXPECT_EQ(e.exit_code, 0) << name << ": " << e.err;
+  }
+  const fs::path help = *work_ / "help.txt";
+  ASSERT_EQ(std::system((std::string(SLAMKIT_CLI) + " run --help > " + help.string()).c_str()), 0);
+  EXPECT_NE(read_file(help).find("(130 Ctrl-C, 143 SIGTERM, 129 SIGHUP)"), std::string::npos);
 }
 
 // Two writers of one folder would interleave their files. The second, a run or an evaluate, fails at
