@@ -7,10 +7,10 @@
 // The new contents are written into a sibling folder `<folder>.partial-<pid>` (holding a file
 // INCOMPLETE that says so) and moved over `<folder>` by commit(); until then `<folder>` keeps what it
 // held. Everything happens under a FolderLock, so the process holding it knows that every temporary
-// of the folder (its own AtomicFile temporaries, sibling `.partial-<pid>` folders) was left by a
-// writer that died, and removes them. commit() moves the old folder aside, the new one in, and then
-// deletes the old; a process killed between the two moves leaves `<folder>.old-<pid>`, which the
-// next writer puts back.
+// of the folder (sibling `.partial-<pid>` staging folders, AtomicFile temporaries inside it) was left
+// by a writer that died: the staging folders it removes, the temporaries go with the folder it
+// replaces. commit() moves the old folder aside, the new one in, and then deletes the old; a process
+// killed between the two moves leaves `<folder>.old-<pid>`, which the next writer puts back.
 #include <string>
 
 namespace slamkit {
