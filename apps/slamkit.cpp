@@ -4,11 +4,9 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
-#include <atomic>
 #include <charconv>
 #include <chrono>
 #include <cmath>
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -19,6 +17,7 @@
 #include <stdexcept>
 
 #include "slamkit/core/atomic_file.hpp"
+#include "slamkit/core/atomic_folder.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/version.hpp"
@@ -30,6 +29,7 @@
 #include "slamkit/io/trajectory_io.hpp"
 #include "slamkit/pipeline/replay.hpp"
 #include "slamkit/pipeline/runner.hpp"
+#include "slamkit/pipeline/stop_signals.hpp"
 #include "slamkit/plot/benchmark_plots.hpp"
 #include "slamkit/plot/replay_html.hpp"
 #include "slamkit/plot/report.hpp"
@@ -43,8 +43,7 @@ namespace {
 
 constexpr int kExitBadInput = 1;
 constexpr int kExitUsage = 2;
-constexpr int kExitDiverged = 3;       // the filter's estimate stopped being finite
-constexpr int kExitInterrupted = 130;  // the shell's code for a program ended by SIGINT
+constexpr int kExitDiverged = 3;  // the filter's estimate stopped being finite
 
 // CLI11's own range checks print the limits of a double in full (310 digits); these say the range in
 // words. An integer option is checked here as text, so that "1.5" gets the same message as "0".
@@ -106,7 +105,9 @@ void print_outputs(const std::string& dir, const Metrics& metrics, Verbosity ver
 }
 
 /// A progress line on stderr, rewritten in place, for runs that last longer than a second: how far,
-/// how fast, and when it will end. Only on a terminal, so logs and pipes stay clean.
+/// how fast, and when it will end. Only on a terminal, so logs and pipes stay clean. Written with
+/// fputs, which unlike fmt::print does not throw when the terminal has gone (SIGHUP): the run goes
+/// on to write its folder.
 class ProgressLine : public RunObserver {
  public:
   void on_scan(const SlamFilter& filter, const ScanEvent& scan, std::size_t done, std::size_t total) override {
@@ -116,14 +117,16 @@ class ProgressLine : public RunObserver {
     last_ = now;
     const double rate = static_cast<double>(done) / elapsed;
     const double eta = static_cast<double>(total - done) / rate;
-    fmt::print(stderr, "\r\033[K{:5.1f}%  t = {:.0f} s  {} landmarks  {:.0f} events/s  ETA {:.0f} s",
-               100.0 * static_cast<double>(done) / static_cast<double>(total), scan.t, filter.num_landmarks(), rate,
-               eta);
+    std::fputs(fmt::format("\r\033[K{:5.1f}%  t = {:.0f} s  {} landmarks  {:.0f} events/s  ETA {:.0f} s",
+                           100.0 * static_cast<double>(done) / static_cast<double>(total), scan.t,
+                           filter.num_landmarks(), rate, eta)
+                   .c_str(),
+               stderr);
     shown_ = true;
   }
   /// Clears the line, so what follows starts on a clean one.
   void finish() {
-    if (shown_) fmt::print(stderr, "\r\033[K");
+    if (shown_) std::fputs("\r\033[K", stderr);
   }
 
  private:
@@ -131,15 +134,6 @@ class ProgressLine : public RunObserver {
   std::chrono::steady_clock::time_point last_ = start_;
   bool shown_ = false;
 };
-
-// Set by the first Ctrl-C: the run stops after the current event and writes what it has, marked
-// partial. The handler then steps aside, so a second Ctrl-C ends the program at once.
-std::atomic<bool> g_interrupted{false};
-static_assert(std::atomic<bool>::is_always_lock_free);
-extern "C" void on_interrupt(int) {
-  g_interrupted.store(true);
-  std::signal(SIGINT, SIG_DFL);
-}
 
 /// The ground truth in TUM format beside the estimate (same times), so tools such as evo compare
 /// them as they are. A truth of positions only (GPS) gets heading 0.
@@ -320,7 +314,14 @@ int main(int argc, char** argv) {
                                     "--gate-known",           "--confirm-after",      "--provisional-max-misses",
                                     "--confirmed-max-misses", "--view-margin-m",      "--view-margin-rad",
                                     "--jcbb-max-nodes",         "--relocalise-min-pairs", "--relocalise-window-s"};
-  run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots");
+  run_cmd->add_option("--out", run_out,
+                      "Output folder for estimates, metrics and plots. Written as DIR.partial-PID beside it, it "
+                      "replaces DIR as a whole when complete, so a run that fails leaves DIR's previous run intact. "
+                      "Refused while another process writes DIR, or if DIR is not empty and holds no run.json");
+  run_cmd->footer("Exit codes: 0 done; 1 bad data or an output that cannot be written; 2 usage error; 3 the filter "
+                  "diverged (its result up to the last finite estimate is written); 128+N stopped by signal N after "
+                  "the current step, the partial result written (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP); a second "
+                  "signal ends the run at once.");
   std::string repeat_path;
   bool print_config = false, replay = false, quiet = false, verbose = false;
   // Every filter and data option, which a repeated run takes from its run.json instead.
@@ -521,6 +522,9 @@ int main(int argc, char** argv) {
       };
       if (verbosity == Verbosity::kVerbose) fmt::print(stderr, "settings: {}\n", provenance.at("settings").dump());
 
+      // Taken before the data is read, so that a second run into the folder fails at once; the
+      // folder keeps its previous run until out.commit().
+      AtomicFolder out = stage_run_folder(run_out);
       const Dataset dataset = load_dataset(dataset_spec, settings_contents, settings_path);
       stage("dataset read");
       if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
@@ -539,11 +543,15 @@ int main(int argc, char** argv) {
       if (verbosity != Verbosity::kQuiet && isatty(STDERR_FILENO)) options.observers.push_back(&progress);
       std::optional<ReplayRecorder> recorder;
       if (replay) options.observers.push_back(&recorder.emplace(dataset));
-      options.stop = &g_interrupted;
       options.history = history;
-      std::signal(SIGINT, on_interrupt);
-      RunResult run = run_filter(*slam, dataset, options);
-      std::signal(SIGINT, SIG_DFL);
+      RunResult run;
+      int stop_signal = 0;
+      {  // only while the filter runs: a stop signal before or after it ends the process at once
+        const StopSignals stop_signals;
+        options.stop = stop_signals.flag();
+        run = run_filter(*slam, dataset, options);
+        stop_signal = stop_signals.received();
+      }
       progress.finish();
       stage("filter run");
       if (run.diverged_at_s)
@@ -551,15 +559,15 @@ int main(int argc, char** argv) {
                          "writing the result up to its last finite estimate (t = {:.1f} s) to {}",
                          *run.diverged_at_s, run.filtered.back().t, run_out));
       else if (run.partial)
-        warn(fmt::format("interrupted: writing the partial result (up to t = {:.1f} s) to {}", run.filtered.back().t,
-                         run_out));
+        warn(fmt::format("stopped by {}: writing the partial result (up to t = {:.1f} s) to {}",
+                         signal_name(stop_signal), run.filtered.back().t, run_out));
       run.association = to_string(filter.association.method);
       run.dataset = dataset_spec;
       run.dataset_settings = settings_path;
       run.provenance = std::move(provenance);
-      write_run(run_out, run);
-      write_truth(run_out, dataset);
-      const Metrics metrics = evaluate_and_report(run_out, run, dataset);
+      write_run_files(out.path(), run);
+      write_truth(out.path(), dataset);
+      const Metrics metrics = evaluate_and_report(out.path(), run, dataset);
       if (recorder) {
         // A truth with headings shares the map's frame (the start pose), as pose NEES assumes; a GPS
         // truth does not, and is brought over by the evaluation's alignment.
@@ -568,15 +576,16 @@ int main(int argc, char** argv) {
                                     : Pose2(metrics.alignment.translation.x(), metrics.alignment.translation.y(),
                                             metrics.alignment.theta);
         const nlohmann::json recording = recorder->to_json(run.filter, alignment);
-        write_file_atomically((fs::path(run_out) / "replay.json").string(), recording.dump() + "\n");
-        plot::write_replay_html((fs::path(run_out) / "replay.html").string(), recording);
+        write_file_atomically((fs::path(out.path()) / "replay.json").string(), recording.dump() + "\n");
+        plot::write_replay_html((fs::path(out.path()) / "replay.html").string(), recording);
       }
+      out.commit();
       stage("written and evaluated");
       print_outputs(run_out, metrics, verbosity);
       if (recorder && verbosity != Verbosity::kQuiet)
         fmt::print("replay: {}\n", (fs::path(run_out) / "replay.html").string());
       if (run.diverged_at_s) return kExitDiverged;
-      if (run.partial) return kExitInterrupted;
+      if (run.partial) return exit_code_for_signal(stop_signal);
     } else if (*nees_cmd) {
       std::vector<Metrics> runs;
       for (const std::string& dir : nees_dirs) {
@@ -586,11 +595,14 @@ int main(int argc, char** argv) {
       write_monte_carlo_nees(nees_out, runs, nees_title);
       fmt::print("wrote {} ({} runs)\n", nees_out, runs.size());
     } else if (*replay_cmd) {
+      const FolderLock lock(replay_dir);
       const std::string page = (fs::path(replay_dir) / "replay.html").string();
       plot::write_replay_html(page, read_json_file((fs::path(replay_dir) / "replay.json").string()));
       fmt::print("wrote {}\n", page);
     } else if (*eval_cmd) {
+      const FolderLock lock(eval_dir);
       const RunResult run = read_run(eval_dir);
+      remove_stale_temporaries(eval_dir);  // a run folder's writers all take its lock: these are the killed ones
       // A run.json that records the settings' contents is evaluated with them, wherever the file went.
       const Dataset dataset =
           run.provenance.contains("dataset_settings_contents")
