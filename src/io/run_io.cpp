@@ -200,6 +200,9 @@ void write_run(const std::string& dir, const RunResult& run) {
 }
 
 RunResult read_run(const std::string& dir) {
+  if (!std::filesystem::is_directory(dir))
+    throw InputError(dir, 0, std::filesystem::exists(dir) ? "not a folder; expected a run folder written by 'slamkit run'"
+                                                          : "no such folder; expected a run folder written by 'slamkit run'");
   RunResult run;
   const std::string info_path = path_in(dir, "run.json");
   std::ifstream in(info_path);
