@@ -84,11 +84,11 @@ CLI::Validator finite_number() {
   return number_where("a finite number", [](double) { return true; });
 }
 
-/// A check by a library parser (a filter, an association method, a resampling scheme or policy, ...):
-/// a name it rejects is a usage error carrying its message, which lists the accepted names and the
-/// nearest ones.
-template <typename T>
-CLI::Validator parsed_by(T (*parse)(const std::string&)) {
+/// A check by a library parser or checker (a filter, an association method, a resampling scheme or
+/// policy, a dataset spec, ...): text it rejects with std::invalid_argument is a usage error carrying
+/// its message, which says what was expected and, for a name, the nearest ones.
+template <typename Parse>
+CLI::Validator parsed_by(Parse parse) {
   return CLI::Validator(
       [parse](std::string& text) {
         try {
@@ -193,7 +193,7 @@ std::string usage_message(const CLI::ParseError& e, const CLI::App& app, const C
   if (dynamic_cast<const CLI::ArgumentMismatch*>(&e) != nullptr)
     return what.find("missing") != std::string::npos ? fmt::format("{} needs a value", name)
                                                      : fmt::format("{} may be given only once", name);
-  if (const auto* excludes = dynamic_cast<const CLI::ExcludesError*>(&e); excludes != nullptr) {
+  if (dynamic_cast<const CLI::ExcludesError*>(&e) != nullptr) {
     const std::string other = what.substr(what.find(" excludes ") + 10);
     const bool repeat = name == "--config" || other == "--config";
     return fmt::format("{} and {} cannot be given together{}", name, other,
@@ -379,16 +379,7 @@ int main(int argc, char** argv) {
           ->add_option("--data", data_spec,
                        "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN (N 1-5; also DIR:N "
                        "and DIR/RobotN; a bare DIR is robot 1), course:DIR")
-          ->check(CLI::Validator(
-              [](std::string& spec) {
-                try {
-                  check_dataset_spec(spec);
-                } catch (const std::invalid_argument& e) {
-                  return std::string(e.what());
-                }
-                return std::string();
-              },
-              ""));
+          ->check(parsed_by(check_dataset_spec));
   auto* data_config_opt = run_cmd->add_option(
       "--data-config", data_config,
       "Dataset settings (JSON: noise, sensor limits, recommended filter settings); the defaults are the shipped "
