@@ -195,8 +195,15 @@ void write_run(const std::string& dir, const RunResult& run) {
   folder.commit();
 }
 
-RunResult read_run(const std::string& dir) {
+void require_run_folder(const std::string& dir) {
+  if (!std::filesystem::is_directory(dir))
+    throw InputError(dir, 0, std::filesystem::exists(dir) ? "not a folder; expected a run folder written by 'slamkit run'"
+                                                          : "no such folder; expected a run folder written by 'slamkit run'");
   require_complete_folder(dir);
+}
+
+RunResult read_run(const std::string& dir) {
+  require_run_folder(dir);
   RunResult run;
   const std::string info_path = path_in(dir, "run.json");
   std::ifstream in(info_path);

@@ -13,6 +13,7 @@
 #include "slamkit/core/checked_integer.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
+#include "slamkit/core/names.hpp"
 #include "slamkit/core/memory_budget.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
@@ -82,10 +83,6 @@ void check_periods(const SimulatorConfig& c, const std::string& source) {
                     c.control_period, c.observation_period));
 }
 
-void validate(const SimulatorConfig& c, const std::string& source) {
-  validate_options<SimulatorConfig>(c, source, kConfigKeys);
-  check_periods(c, source);
-}
 
 // ---- Randomness -------------------------------------------------------------------------------------
 
@@ -234,6 +231,11 @@ void set_platform(Dataset& dataset, const SimulatorConfig& config) {
 
 nlohmann::json to_json(const SimulatorConfig& config) {
   return options_to_json<SimulatorConfig>(config, kConfigKeys);
+}
+
+void validate(const SimulatorConfig& c, const std::string& source) {
+  validate_options<SimulatorConfig>(c, source, kConfigKeys);
+  check_periods(c, source);
 }
 
 SimulatorConfig simulator_config_from_json(const nlohmann::json& json, const std::string& source_name) {
@@ -395,8 +397,7 @@ Scenario scenario(const std::string& name) {
   const auto entry = std::find_if(std::begin(kScenarios), std::end(kScenarios),
                                   [&](const ScenarioEntry& e) { return name == e.name; });
   if (entry == std::end(kScenarios))
-    throw InputError(
-        fmt::format("unknown scenario '{}'; expected one of: {}", name, fmt::join(scenario_names(), ", ")));
+    throw InputError(unknown_name_message("scenario", name, scenario_names()));
   Scenario s{entry->name, entry->world(), SimulatorConfig{}};
   if (entry->loop) s.config.loops = 1;
   if (entry->forward_sensor) s.config.fov = deg2rad(180.0);

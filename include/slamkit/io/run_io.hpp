@@ -33,6 +33,9 @@ void write_run_files(const std::string& dir, const RunResult& run);
 /// Replaces the run folder `dir` by one holding `run` (stage_run_folder, write_run_files, commit).
 void write_run(const std::string& dir, const RunResult& run);
 
+/// Throws InputError naming `dir` unless it is a folder and not one being written (see AtomicFolder).
+void require_run_folder(const std::string& dir);
+
 /// Reads a run folder back. Throws InputError naming the file and line of any problem, or naming
 /// the folder if it is the incomplete staging folder of a run being written or killed.
 RunResult read_run(const std::string& dir);

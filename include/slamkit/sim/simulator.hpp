@@ -50,6 +50,9 @@ nlohmann::json to_json(const SimulatorConfig& config);
 /// Reads what to_json writes. Missing keys keep their defaults; an unknown key, a value of the wrong
 /// type or out of range is an InputError naming `source_name` and the key.
 SimulatorConfig simulator_config_from_json(const nlohmann::json& json, const std::string& source_name);
+/// Throws an InputError naming `source` and the first setting out of its range, or periods that do
+/// not divide (simulate() checks its config so); the CLI checks each of its options with it.
+void validate(const SimulatorConfig& config, const std::string& source);
 
 /// Gives `dataset` the motion and observation models and the sensor limits that describe data from
 /// a simulator with this config: what a filter should assume when it processes that data.
