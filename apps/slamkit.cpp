@@ -18,7 +18,6 @@
 #include <optional>
 #include <stdexcept>
 
-#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/version.hpp"
@@ -27,8 +26,8 @@
 #include "slamkit/io/load_dataset.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/io/sim_log.hpp"
-#include "slamkit/io/trajectory_io.hpp"
 #include "slamkit/pipeline/replay.hpp"
+#include "slamkit/pipeline/run_folder.hpp"
 #include "slamkit/pipeline/runner.hpp"
 #include "slamkit/plot/benchmark_plots.hpp"
 #include "slamkit/plot/replay_html.hpp"
@@ -141,16 +140,6 @@ extern "C" void on_interrupt(int) {
   std::signal(SIGINT, SIG_DFL);
 }
 
-/// The ground truth in TUM format beside the estimate (same times), so tools such as evo compare
-/// them as they are. A truth of positions only (GPS) gets heading 0.
-void write_truth(const std::string& dir, const Dataset& dataset) {
-  const std::string path = (fs::path(dir) / "truth.tum").string();
-  if (dataset.truth.poses.empty())
-    fs::remove(path);
-  else
-    write_tum(path, dataset.truth.poses);
-}
-
 /// The dataset settings' contents, or null for the reader's defaults.
 nlohmann::json dataset_settings_json(const std::string& path) {
   return path.empty() ? nlohmann::json() : read_json_file(path);
@@ -162,14 +151,6 @@ bool has_landmark_ids(const Dataset& dataset) {
       for (const Observation& o : scan->observations)
         if (o.id != kUnknownId) return true;
   return false;
-}
-
-/// Evaluates a run against its dataset's truth, writes metrics.json and the pictures.
-Metrics evaluate_and_report(const std::string& dir, const RunResult& run, const Dataset& dataset) {
-  const Metrics metrics = evaluate_run(run, dataset.truth);
-  write_metrics(dir, metrics);
-  write_run_plots(dir, run, dataset.truth, metrics);
-  return metrics;
 }
 
 }  // namespace
@@ -525,13 +506,7 @@ int main(int argc, char** argv) {
       stage("dataset read");
       if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
         throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
-      if (dataset_spec.starts_with("sim:"))
-        provenance["simulator"] = read_json_file((fs::path(dataset_spec.substr(4)) / "params.json").string());
-      // The source's time of t = 0, as exact decimal text (a double would lose the sub-microsecond
-      // digits of a Unix time): trajectory.tum and truth.tum times plus this are the source's times.
-      if (dataset.time_origin_s != 0 || dataset.time_origin_fraction_s != 0.0)
-        provenance["time_origin_s"] =
-            fmt::format("{}.{:09}", dataset.time_origin_s, std::llround(dataset.time_origin_fraction_s * 1e9));
+      add_dataset_provenance(provenance, dataset_spec, dataset);
 
       auto slam = make_filter(filter, dataset);
       RunOptions options;
@@ -557,20 +532,7 @@ int main(int argc, char** argv) {
       run.dataset = dataset_spec;
       run.dataset_settings = settings_path;
       run.provenance = std::move(provenance);
-      write_run(run_out, run);
-      write_truth(run_out, dataset);
-      const Metrics metrics = evaluate_and_report(run_out, run, dataset);
-      if (recorder) {
-        // A truth with headings shares the map's frame (the start pose), as pose NEES assumes; a GPS
-        // truth does not, and is brought over by the evaluation's alignment.
-        const Pose2 alignment = dataset.truth.poses_have_heading
-                                    ? Pose2::Zero()
-                                    : Pose2(metrics.alignment.translation.x(), metrics.alignment.translation.y(),
-                                            metrics.alignment.theta);
-        const nlohmann::json recording = recorder->to_json(run.filter, alignment);
-        write_file_atomically((fs::path(run_out) / "replay.json").string(), recording.dump() + "\n");
-        plot::write_replay_html((fs::path(run_out) / "replay.html").string(), recording);
-      }
+      const Metrics metrics = write_run_folder(run_out, run, dataset, recorder ? &*recorder : nullptr);
       stage("written and evaluated");
       print_outputs(run_out, metrics, verbosity);
       if (recorder && verbosity != Verbosity::kQuiet)
@@ -596,8 +558,7 @@ int main(int argc, char** argv) {
           run.provenance.contains("dataset_settings_contents")
               ? load_dataset(run.dataset, run.provenance.at("dataset_settings_contents"), run.dataset_settings)
               : load_dataset(run.dataset, run.dataset_settings);
-      write_truth(eval_dir, dataset);
-      print_outputs(eval_dir, evaluate_and_report(eval_dir, run, dataset), Verbosity::kNormal);
+      print_outputs(eval_dir, write_evaluation(eval_dir, run, dataset), Verbosity::kNormal);
     }
   } catch (const InputError& e) {
     std::cerr << "slamkit: error: " << e.what() << "\n";
