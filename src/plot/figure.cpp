@@ -80,6 +80,18 @@ std::vector<Vector2> ellipse_points(const Vector2& c, const Vector2& major, cons
   return pts;
 }
 
+/// The XML header and the root element, with a white background, of a picture of this size.
+std::string svg_open(double width, double height, std::string_view title) {
+  std::string out = fmt::format(
+      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
+      "viewBox=\"0 0 {0} {1}\" font-family=\"{2}\">\n",
+      px(width), px(height), kFontFamily);
+  if (!title.empty()) out += "<title>" + escape(title) + "</title>\n";
+  out += "<rect width=\"100%\" height=\"100%\" fill=\"#ffffff\"/>\n";
+  return out;
+}
+
 }  // namespace
 
 Figure::Figure(double width, double height) : width_(width), height_(height) {
@@ -404,22 +416,6 @@ void Figure::write_legend(std::string& out, const Frame& f, std::string_view gra
     fmt::format_to(o, "<path d=\"{}\" stroke=\"{}\" stroke-width=\"1\"/>\n", marks, kTickColor);
   }
 }
-
-namespace {
-
-/// The XML header and the root element, with a white background, of a picture of this size.
-std::string svg_open(double width, double height, std::string_view title) {
-  std::string out = fmt::format(
-      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
-      "viewBox=\"0 0 {0} {1}\" font-family=\"{2}\">\n",
-      px(width), px(height), kFontFamily);
-  if (!title.empty()) out += "<title>" + escape(title) + "</title>\n";
-  out += "<rect width=\"100%\" height=\"100%\" fill=\"#ffffff\"/>\n";
-  return out;
-}
-
-}  // namespace
 
 void Figure::write_body(std::string& out, const Frame& f, std::string_view id_suffix) const {
   // Ids are unique within a document, so every figure of a stacked picture has its own.
