@@ -20,7 +20,6 @@
 #include <optional>
 #include <stdexcept>
 
-#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/atomic_folder.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
@@ -30,9 +29,9 @@
 #include "slamkit/io/load_dataset.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/io/sim_log.hpp"
-#include "slamkit/io/trajectory_io.hpp"
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/pipeline/replay.hpp"
+#include "slamkit/pipeline/run_folder.hpp"
 #include "slamkit/pipeline/runner.hpp"
 #include "slamkit/pipeline/stop_signals.hpp"
 #include "slamkit/pipeline/settings.hpp"
@@ -253,16 +252,6 @@ class ProgressLine : public RunObserver {
   bool shown_ = false;
 };
 
-/// The ground truth in TUM format beside the estimate (same times), so tools such as evo compare
-/// them as they are. A truth of positions only (GPS) gets heading 0.
-void write_truth(const std::string& dir, const Dataset& dataset) {
-  const std::string path = (fs::path(dir) / "truth.tum").string();
-  if (dataset.truth.poses.empty())
-    fs::remove(path);
-  else
-    write_tum(path, dataset.truth.poses);
-}
-
 /// The dataset settings' contents, or null for the reader's defaults.
 nlohmann::json dataset_settings_json(const std::string& path) {
   return path.empty() ? nlohmann::json() : read_json_file(path);
@@ -288,15 +277,6 @@ std::string settings_in_words(const nlohmann::json& settings, const std::string&
     words += (words.empty() ? "" : ", ") + part;
   }
   return words;
-}
-
-/// Evaluates a run against its dataset's truth, writes metrics.json and the pictures.
-Metrics evaluate_and_report(const std::string& dir, const RunResult& run, const Dataset& dataset,
-                            const EvaluationOptions& options = {}) {
-  const Metrics metrics = evaluate_run(run, dataset.truth, options);
-  write_metrics(dir, metrics);
-  write_run_plots(dir, run, dataset.truth, metrics);
-  return metrics;
 }
 
 }  // namespace
@@ -707,13 +687,7 @@ int main(int argc, char** argv) {
       stage("dataset read");
       if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
         throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
-      if (dataset_spec.starts_with("sim:"))
-        provenance["simulator"] = read_json_file((fs::path(dataset_spec.substr(4)) / "params.json").string());
-      // The source's time of t = 0, as exact decimal text (a double would lose the sub-microsecond
-      // digits of a Unix time): trajectory.tum and truth.tum times plus this are the source's times.
-      if (dataset.time_origin_s != 0 || dataset.time_origin_fraction_s != 0.0)
-        provenance["time_origin_s"] =
-            fmt::format("{}.{:09}", dataset.time_origin_s, std::llround(dataset.time_origin_fraction_s * 1e9));
+      add_dataset_provenance(provenance, dataset_spec, dataset);
 
       auto slam = make_filter(filter, dataset);
       RunOptions options;
@@ -743,21 +717,7 @@ int main(int argc, char** argv) {
       run.dataset = dataset_spec;
       run.dataset_settings = settings_path;
       run.provenance = std::move(provenance);
-      write_run_files(out.path(), run);
-      write_truth(out.path(), dataset);
-      const Metrics metrics = evaluate_and_report(out.path(), run, dataset);
-      if (recorder) {
-        // A truth of poses with headings shares the map's frame (the start pose), as pose NEES
-        // assumes; a GPS truth or a truth of landmarks only does not, and is brought over by the
-        // evaluation's alignment.
-        const bool same_frame = dataset.truth.poses_have_heading && !dataset.truth.poses.empty();
-        const Pose2 alignment = same_frame ? Pose2::Zero()
-                                           : Pose2(metrics.alignment.translation.x(), metrics.alignment.translation.y(),
-                                                   metrics.alignment.theta);
-        const nlohmann::json recording = recorder->to_json(run.filter, alignment);
-        write_file_atomically((fs::path(out.path()) / "replay.json").string(), recording.dump() + "\n");
-        plot::write_replay_html((fs::path(out.path()) / "replay.html").string(), recording);
-      }
+      const Metrics metrics = write_run_folder(out.path(), run, dataset, recorder ? &*recorder : nullptr);
       out.commit();
       stage("written and evaluated");
       print_outputs(run_out, metrics, verbosity);
@@ -795,8 +755,7 @@ int main(int argc, char** argv) {
           run.provenance.contains("dataset_settings_contents")
               ? load_dataset(run.dataset, run.provenance.at("dataset_settings_contents"), run.dataset_settings)
               : load_dataset(run.dataset, run.dataset_settings);
-      write_truth(eval_dir, dataset);
-      print_outputs(eval_dir, evaluate_and_report(eval_dir, run, dataset, eval_options), Verbosity::kNormal);
+      print_outputs(eval_dir, write_evaluation(eval_dir, run, dataset, eval_options), Verbosity::kNormal);
     }
   } catch (const std::exception& e) {  // InputError above all: a missing or malformed file
     return bad_input(e);

@@ -113,9 +113,6 @@ std::optional<std::vector<Landmark>> map_with_true_ids(const RunResult& run, con
   return std::nullopt;
 }
 
-/// A particle filter's pose covariance is its cloud's spread (its statistics count the particles).
-bool nees_of_particle_cloud(const Metrics& m) { return m.nees_pose && m.filter_statistics.contains("particles"); }
-
 /// The map's error with no trajectory truth to align it by: aligned onto the true landmarks it is
 /// paired with, when there are enough of them.
 void score_map_alone(const std::vector<Landmark>& map, const std::vector<Landmark>& truth, Metrics& m) {
@@ -227,6 +224,8 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
   return m;
 }
 
+bool pose_nees_of_particle_cloud(const std::string& filter) { return filter.starts_with("fastslam"); }
+
 nlohmann::json to_json(const Metrics& m) {
   nlohmann::json j = {
       {"slamkit_version", version()},
@@ -261,12 +260,8 @@ nlohmann::json to_json(const Metrics& m) {
     j["nees_pose_in_95_fraction"] = nullptr;
   }
   if (m.smoothed) j["smoothed_ate_rmse_m"] = optional_json(m.smoothed_ate_rmse_m);
-  if (nees_of_particle_cloud(m)) {
-    j["nees_pose_note"] =
-        "the particle cloud's covariance: resampling depletes the cloud's history and collapses it (Bailey, "
-        "Nieto and Nebot, 'Consistency of the FastSLAM algorithm', the tutorial's reference [2]), so a NEES far "
-        "above 3 says the cloud is over-confident, not that the estimate diverged; judge accuracy by ate_rmse_m";
-  }
+  // By the filter, not by the smoothed trajectory, which a run without full history does not keep.
+  if (pose_nees_of_particle_cloud(m.filter)) j["nees_pose_note"] = std::string(kParticleCloudNeesNote);
   j["history"] = m.history;
   if (m.history == "none")
     j["history_note"] =
@@ -347,7 +342,7 @@ std::string headline(const Metrics& m) {
   if (m.association && m.association_method != "known")
     add(fmt::format("{} association: {} correct, {} wrong", m.association_method, m.association->correct,
                     m.association->wrong));
-  if (nees_of_particle_cloud(m))
+  if (m.nees_pose && pose_nees_of_particle_cloud(m.filter))
     add(fmt::format("pose NEES in 95% bounds {:.0f}% of steps (of the particle cloud, which resampling "
                     "collapses; judge accuracy by the ATE)",
                     100.0 * m.nees_pose->in_interval_fraction));

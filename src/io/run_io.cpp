@@ -49,15 +49,6 @@ std::vector<LandmarkStdSample> read_landmark_std(const std::string& path) {
   return samples;
 }
 
-const char* decision_name(AssociationDecision d) {
-  switch (d) {
-    case AssociationDecision::kUpdate: return "update";
-    case AssociationDecision::kNew: return "new";
-    case AssociationDecision::kDiscard: return "discard";
-  }
-  return "discard";
-}
-
 void write_associations(const std::string& path, const std::vector<double>& times,
                         const std::vector<std::vector<AssociationRecord>>& associations) {
   LineWriter out(path);
@@ -72,7 +63,7 @@ void write_associations(const std::string& path, const std::vector<double>& time
     }
     for (std::size_t i = 0; i < associations[k].size(); ++i) {
       out.integer(scan).text(" ").fixed(times[k], 6).text(" ").integer(static_cast<long long>(i)).text(" ");
-      out.text(decision_name(associations[k][i].decision)).text(" ").integer(associations[k][i].landmark_id);
+      out.text(to_string(associations[k][i].decision)).text(" ").integer(associations[k][i].landmark_id);
       out.end_line();
     }
   }

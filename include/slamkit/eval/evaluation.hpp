@@ -33,6 +33,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "slamkit/eval/metrics.hpp"
@@ -122,6 +123,17 @@ struct EvaluationOptions {
 };
 
 Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const EvaluationOptions& options = {});
+
+/// Whether the pose NEES of `filter`'s runs is a particle cloud's (FastSLAM's): the NEES of the
+/// Gaussian with the particles' weighted mean and covariance, which resampling collapses, so it is
+/// no consistency test. metrics.json says so in nees_pose_note, nees.svg under its title.
+bool pose_nees_of_particle_cloud(const std::string& filter);
+/// What that NEES is and why it is no consistency test: metrics.json's nees_pose_note.
+inline constexpr std::string_view kParticleCloudNeesNote =
+    "the NEES of the particle cloud's Gaussian (the particles' weighted mean and covariance), not of a posterior "
+    "the filter keeps, and no consistency test: resampling depletes the cloud's history and collapses it (Bailey, "
+    "Nieto and Nebot, 'Consistency of the FastSLAM algorithm', the tutorial's reference [2]), so a NEES far above 3 "
+    "says the cloud is over-confident, not that the estimate diverged; judge accuracy by ate_rmse_m";
 
 nlohmann::json to_json(const Metrics& metrics);
 /// Writes metrics.json into `dir`.
