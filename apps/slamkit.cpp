@@ -20,6 +20,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/atomic_folder.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
