@@ -71,26 +71,49 @@ CLI::Validator number_where(const std::string& expected, bool (*ok)(double)) {
       "");
 }
 
+/// A name the library's parser rejects is a usage error carrying the parser's message, which lists
+/// the accepted names.
+template <typename T>
+CLI::Validator accepted_by(T (*parse)(const std::string&)) {
+  return CLI::Validator(
+      [parse](std::string& text) {
+        try {
+          parse(text);
+        } catch (const std::invalid_argument& e) {
+          return std::string(e.what());
+        }
+        return std::string();
+      },
+      "");
+}
+
 /// A setting given by name and parsed by the library (a filter, an association method, a resampling
-/// scheme or policy): a name the parser rejects is a usage error carrying the parser's message,
-/// which lists the accepted names. The help shows the default under its name.
+/// scheme or policy). The help shows the default under its name.
 template <typename T>
 CLI::Option* add_named(CLI::App* cmd, const std::string& flag, T& target, T (*parse)(const std::string&),
                        const std::string& help) {
   return cmd
       ->add_option_function<std::string>(
           flag, [&target, parse](const std::string& text) { target = parse(text); }, help)
-      ->check(CLI::Validator(
-          [parse](std::string& text) {
-            try {
-              parse(text);
-            } catch (const std::invalid_argument& e) {
-              return std::string(e.what());
-            }
-            return std::string();
-          },
-          ""))
+      ->check(accepted_by(parse))
       ->default_str(to_string(target));
+}
+
+/// --family and --world-seed, which choose a world of a family; returns --family.
+CLI::Option* add_family_options(CLI::App* cmd, std::string& family, std::uint64_t& world_seed) {
+  std::string names;
+  for (const std::string& name : world_family_names()) names += (names.empty() ? "" : ", ") + name;
+  auto* family_opt =
+      cmd->add_option("--family", family,
+                      fmt::format("A random world of this family, chosen by --world-seed, with the family's "
+                                  "settings: {} (docs/world-families.md)",
+                                  names))
+          ->check(accepted_by(&world_family));
+  cmd->add_option("--world-seed", world_seed, "Which world of the --family; each seed gives its own route and landmarks")
+      ->capture_default_str()
+      ->check(integer_at_least(0))
+      ->needs(family_opt);
+  return family_opt;
 }
 
 enum class Verbosity { kQuiet, kNormal, kVerbose };
@@ -182,19 +205,21 @@ int main(int argc, char** argv) {
 
   // ---- simulate ----
   auto* simulate_cmd = app.add_subcommand("simulate", "Simulate a vehicle driving through a landmark world");
-  std::string world_path, config_path, sim_out, scenario_name = "default";
-  std::uint64_t sim_seed = 1;
+  std::string world_path, config_path, sim_out, scenario_name = "default", family_name;
+  std::uint64_t sim_seed = 1, world_seed = 1;
   int loops = 0;
   double clutter = -1.0, detection = -1.0;
   bool no_ids = false;
   std::string scenario_help = "Built-in world and settings:";
   for (const auto& n : scenario_names()) scenario_help += " " + n;
-  simulate_cmd->add_option("--scenario", scenario_name, scenario_help)->capture_default_str();
-  simulate_cmd->add_option("--world", world_path, "World file (landmarks and waypoints); replaces the scenario's world")
-      ->check(CLI::ExistingFile);
+  auto* scenario_opt = simulate_cmd->add_option("--scenario", scenario_name, scenario_help)->capture_default_str();
+  auto* world_opt =
+      simulate_cmd->add_option("--world", world_path, "World file (landmarks and waypoints); replaces the scenario's world")
+          ->check(CLI::ExistingFile);
+  add_family_options(simulate_cmd, family_name, world_seed)->excludes(scenario_opt)->excludes(world_opt);
   simulate_cmd->add_option("--config", config_path, "Simulator settings (JSON); default: the reference simulator's")
       ->check(CLI::ExistingFile);
-  simulate_cmd->add_option("--seed", sim_seed, "Random seed; the same seed gives the same log")
+  simulate_cmd->add_option("--seed", sim_seed, "Random seed of the noise; the same seeds give the same log")
       ->capture_default_str()
       ->check(integer_at_least(0));
   simulate_cmd->add_option("--loops", loops, "Laps of the route (overrides the config)")->check(integer_at_least(1));
@@ -218,6 +243,9 @@ int main(int argc, char** argv) {
   world_cmd->add_option("--band", gen.band_outer, "Landmarks lie up to this far from the route [m]")->capture_default_str();
   world_cmd->add_option("--seed", gen.seed, "Random seed")->capture_default_str()->check(integer_at_least(0));
   world_cmd->add_option("--out", world_out, "World file to write")->required();
+  auto* world_family_opt = add_family_options(world_cmd, family_name, world_seed);
+  for (const char* name : {"--landmarks", "--width", "--height", "--band", "--seed"})
+    world_family_opt->excludes(world_cmd->get_option(name));
 
   // ---- run ----
   // Every filter setting is parsed and checked here, before any data is read: a misspelt name or a
@@ -459,7 +487,7 @@ int main(int argc, char** argv) {
 
   try {
     if (*simulate_cmd) {
-      const Scenario base = scenario(scenario_name);
+      const Scenario base = family_name.empty() ? scenario(scenario_name) : world_family(family_name).member(world_seed);
       const World world = world_path.empty() ? base.world : read_world(world_path);
       SimulatorConfig config =
           config_path.empty() ? base.config : simulator_config_from_json(read_json_file(config_path), config_path);
@@ -478,8 +506,9 @@ int main(int argc, char** argv) {
     } else if (*bench_cmd) {
       for (const std::string& file : plot::write_benchmark_plots(bench_json, bench_out)) fmt::print("wrote {}\n", file);
     } else if (*world_cmd) {
-      write_world(world_out, generate_world(gen));
-      fmt::print("wrote {} ({} landmarks)\n", world_out, gen.landmarks);
+      const World world = family_name.empty() ? generate_world(gen) : world_family(family_name).member(world_seed).world;
+      write_world(world_out, world);
+      fmt::print("wrote {} ({} landmarks)\n", world_out, world.landmarks.size());
     } else if (*run_cmd) {
       const auto warn = [&](const std::string& message) { std::cerr << "slamkit: warning: " << message << "\n"; };
       const bool particle_filter = filter.filter == FilterKind::kFastSlam1 || filter.filter == FilterKind::kFastSlam2;

@@ -602,3 +602,45 @@ TEST_F(Cli, HistoryNoneWritesTheFinalEstimateAndReplayNeedsFullHistory) {
   EXPECT_EQ(unknown.exit_code, 2);
   EXPECT_NE(unknown.err.find("expected one of: full, decimated, none"), std::string::npos) << unknown.err;
 }
+
+// A world of a family is named by the family and a world seed, apart from the noise's seed: the same
+// three give the same log, which records the family and world seed, and make-world writes that world.
+TEST_F(Cli, FamilyWorldsRepeatBitForBitAndAreRecorded) {
+  const fs::path a = *work_ / "family_a", b = *work_ / "family_b", world = *work_ / "family.world";
+  const std::string args = "simulate --family sparse-cluttered --world-seed 17 --seed 2 --loops 1 --out ";
+  ASSERT_EQ(slamkit(args + a.string(), *work_).exit_code, 0);
+  ASSERT_EQ(slamkit(args + b.string(), *work_).exit_code, 0);
+  for (const char* file : {"events.txt", "truth_poses.txt", "truth_observations.txt", "world.txt", "params.json"})
+    EXPECT_EQ(read_file(a / file), read_file(b / file)) << file;
+  const nlohmann::json params = read_json(a / "params.json");
+  EXPECT_EQ(params["world"]["family"], "sparse-cluttered");
+  EXPECT_EQ(params["world"]["world_seed"], 17);
+  EXPECT_EQ(params["simulator"]["seed"], 2);
+  EXPECT_EQ(params["simulator"]["clutter_rate_per_scan"], 1.0);
+  EXPECT_EQ(params["simulator"]["fov_deg"], 180.0);
+
+  const Result w = slamkit("make-world --family sparse-cluttered --world-seed 17 --out " + world.string(), *work_);
+  ASSERT_EQ(w.exit_code, 0) << w.err;
+  EXPECT_EQ(read_file(world), read_file(a / "world.txt"));
+  const Result other = slamkit("simulate --family sparse-cluttered --world-seed 18 --seed 2 --loops 1 --out " +
+                                   (*work_ / "family_c").string(),
+                               *work_);
+  ASSERT_EQ(other.exit_code, 0) << other.err;
+  EXPECT_NE(read_file(*work_ / "family_c" / "world.txt"), read_file(a / "world.txt"));
+
+  const Result help = slamkit("simulate --help", *work_);
+  EXPECT_NE(help.out.find("sparse, sparse-cluttered, dense, dense-cluttered"), std::string::npos) << help.out;
+}
+
+TEST_F(Cli, FamilyMistakesAreUsageErrors) {
+  const std::string out = " --out " + (*work_ / "family_never").string();
+  const Result slip = slamkit("simulate --family sparse-clutered" + out, *work_);
+  EXPECT_EQ(slip.exit_code, 2);
+  EXPECT_EQ(count_lines(slip.err), 1u) << slip.err;
+  EXPECT_NE(slip.err.find("did you mean 'sparse-cluttered'?"), std::string::npos) << slip.err;
+  EXPECT_EQ(slamkit("make-world --family denes" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit("simulate --world-seed 3" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit("simulate --family sparse --scenario sparse" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit("make-world --family sparse --landmarks 10" + out, *work_).exit_code, 2);
+  EXPECT_FALSE(fs::exists(*work_ / "family_never"));
+}

@@ -9,6 +9,8 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <stdexcept>
+#include <string_view>
 
 #include "slamkit/core/checked_integer.hpp"
 #include "slamkit/core/error.hpp"
@@ -389,6 +391,64 @@ const ScenarioEntry kScenarios[] = {
     {"sparse-cluttered", &sparse_world, false, true, true},
 };
 
+// The reference simulator's example looks ahead of the vehicle only.
+void use_forward_sensor(SimulatorConfig& c) { c.fov = deg2rad(180.0); }
+
+// The detection of the data-association experiments.
+void use_cluttered_detection(SimulatorConfig& c) {
+  c.clutter_rate = 1.0;
+  c.detection_probability = 0.9;
+  c.provide_ids = false;
+}
+
+struct FamilyEntry {
+  const char* name;
+  double landmarks_per_km;
+  bool cluttered;
+};
+
+// The sparse world's density (35 landmarks on 640 m), and three times that.
+constexpr double kSparsePerKm = 55.0, kDensePerKm = 165.0;
+const FamilyEntry kFamilies[] = {
+    {"sparse", kSparsePerKm, false},
+    {"sparse-cluttered", kSparsePerKm, true},
+    {"dense", kDensePerKm, false},
+    {"dense-cluttered", kDensePerKm, true},
+};
+
+template <typename Entry, std::size_t N>
+std::vector<std::string> names_of(const Entry (&table)[N]) {
+  std::vector<std::string> names;
+  for (const Entry& e : table) names.emplace_back(e.name);
+  return names;
+}
+
+// Edit distance (insertions, deletions, substitutions), for suggesting a name.
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+// " did you mean 'X'?" for the known name nearest `name`, if it is near enough to be a slip (a third
+// of its letters at most); else nothing.
+std::string did_you_mean(const std::string& name, const std::vector<std::string>& known) {
+  const auto nearest = std::min_element(known.begin(), known.end(), [&](const std::string& a, const std::string& b) {
+    return edit_distance(name, a) < edit_distance(name, b);
+  });
+  if (nearest == known.end() || 3 * edit_distance(name, *nearest) > nearest->size()) return "";
+  return fmt::format(" did you mean '{}'?", *nearest);
+}
+
 }  // namespace
 
 Scenario scenario(const std::string& name) {
@@ -399,19 +459,34 @@ Scenario scenario(const std::string& name) {
         fmt::format("unknown scenario '{}'; expected one of: {}", name, fmt::join(scenario_names(), ", ")));
   Scenario s{entry->name, entry->world(), SimulatorConfig{}};
   if (entry->loop) s.config.loops = 1;
-  if (entry->forward_sensor) s.config.fov = deg2rad(180.0);
-  if (entry->cluttered) {
-    s.config.clutter_rate = 1.0;
-    s.config.detection_probability = 0.9;
-    s.config.provide_ids = false;
-  }
+  if (entry->forward_sensor) use_forward_sensor(s.config);
+  if (entry->cluttered) use_cluttered_detection(s.config);
   return s;
 }
 
-std::vector<std::string> scenario_names() {
-  std::vector<std::string> names;
-  for (const ScenarioEntry& e : kScenarios) names.emplace_back(e.name);
-  return names;
+std::vector<std::string> scenario_names() { return names_of(kScenarios); }
+
+Scenario WorldFamily::member(std::uint64_t world_seed) const {
+  Scenario s{fmt::format("{} world {}", name, world_seed), random_world(world, world_seed), config};
+  s.world.origin = WorldOrigin{name, world_seed};
+  return s;
 }
+
+WorldFamily world_family(const std::string& name) {
+  const auto entry = std::find_if(std::begin(kFamilies), std::end(kFamilies),
+                                  [&](const FamilyEntry& e) { return name == e.name; });
+  if (entry == std::end(kFamilies)) {
+    const std::vector<std::string> names = world_family_names();
+    throw std::invalid_argument(fmt::format("unknown world family '{}';{} expected one of: {}", name,
+                                            did_you_mean(name, names), fmt::join(names, ", ")));
+  }
+  WorldFamily family{entry->name, RandomWorldOptions{}, SimulatorConfig{}};
+  family.world.landmarks_per_km = entry->landmarks_per_km;
+  use_forward_sensor(family.config);
+  if (entry->cluttered) use_cluttered_detection(family.config);
+  return family;
+}
+
+std::vector<std::string> world_family_names() { return names_of(kFamilies); }
 
 }  // namespace slamkit
