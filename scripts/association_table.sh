@@ -103,7 +103,9 @@ if [[ ${SUMMARY_ONLY:-0} != 1 ]]; then
     (( status == 0 )) || echo "association_table.sh: $dir: slamkit run exited $status" >&2
   }
   export -f simulate_one run_one
+  # shellcheck disable=SC2016  # $1, the job's line, is for the inner bash to expand
   printf '%s\n' "${sims[@]}" | xargs -d '\n' -n 1 -P "$jobs" bash -c 'simulate_one "$1"' _
+  # shellcheck disable=SC2016
   printf '%s\n' "${jobs_list[@]}" | xargs -d '\n' -n 1 -P "$jobs" bash -c 'run_one "$1"' _
 fi
 

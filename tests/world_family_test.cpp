@@ -348,7 +348,9 @@ TEST(WorldFamily, TheOriginRoundTripsThroughWorldFilesAndIsRecordedInTheLog) {
   ASSERT_TRUE(r.origin.has_value());
   EXPECT_EQ(r.origin->family, "dense-cluttered");
   EXPECT_EQ(r.origin->seed, 12345678901234567890ULL);
-  EXPECT_FALSE(read_world(scratch.file("w.txt")).landmarks.empty());
+  World unreadable = r;
+  unreadable.origin->family = "two words";
+  EXPECT_THROW(write_world(scratch.file("w2.txt"), unreadable), std::invalid_argument);
 
   s.config.loops = 1;
   const std::string log = scratch.file("log");

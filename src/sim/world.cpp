@@ -11,6 +11,7 @@
 #include <iterator>
 #include <limits>
 #include <random>
+#include <stdexcept>
 #include <unordered_map>
 
 #include "slamkit/core/angles.hpp"
@@ -163,11 +164,11 @@ std::vector<Landmark> scatter_beside_route(const std::vector<Vector2>& corners, 
     const double side = uniform01(rng) < 0.5 ? 1.0 : -1.0;
     const double offset = band.inner + (band.outer - band.inner) * uniform01(rng);
     const Vector2 p = a + (s - cumulative[i]) * dir + side * offset * Vector2(-dir.y(), dir.x());
-    const bool crowded = distance_to_closed_route(corners, p) < band.inner ||
-                         std::any_of(landmarks.begin(), landmarks.end(), [&](const Landmark& l) {
-                           return (l.position - p).norm() < band.spacing;
-                         });
-    if (crowded) {
+    const bool rejected = distance_to_closed_route(corners, p) < band.inner ||
+                          std::any_of(landmarks.begin(), landmarks.end(), [&](const Landmark& l) {
+                            return (l.position - p).norm() < band.spacing;
+                          });
+    if (rejected) {
       ++rejected_in_a_row;
       continue;
     }
@@ -325,7 +326,7 @@ World random_world(const RandomWorldOptions& o, std::uint64_t seed) {
   // Two streams, so that the landmark options leave a seed's route unchanged.
   std::mt19937_64 route_rng(seed);
   std::mt19937_64 landmark_rng(seed ^ 0x9e3779b97f4a7c15ULL);
-  std::vector<Vector2> corners = random_route(o, route_rng);
+  const std::vector<Vector2> corners = random_route(o, route_rng);
 
   // In the frame of the start, the middle of the first leg facing along it; the lap then runs from
   // the end of that leg round to its beginning.
@@ -469,6 +470,11 @@ World read_world(const std::string& path) {
 }
 
 void write_world(const std::string& path, const World& world) {
+  // read_world takes the family's name as one field.
+  if (world.origin && (world.origin->family.empty() ||
+                       world.origin->family.find_first_of(" \t\r\n#") != std::string::npos))
+    throw std::invalid_argument(
+        fmt::format("write_world: the family name must be one word, found '{}'", world.origin->family));
   fmt::memory_buffer out;
   auto it = std::back_inserter(out);
   fmt::format_to(it,

@@ -111,7 +111,8 @@ World random_world(const RandomWorldOptions& options, std::uint64_t seed);
 World read_world(const std::string& path);
 
 /// Writes `world` in the format above, numbers in their shortest exact form so that read_world
-/// gives back the same values. Throws InputError if the file cannot be written.
+/// gives back the same values. Throws InputError if the file cannot be written, and
+/// std::invalid_argument for an origin whose family name is not one word.
 void write_world(const std::string& path, const World& world);
 
 }  // namespace slamkit
