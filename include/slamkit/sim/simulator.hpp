@@ -108,8 +108,8 @@ std::vector<std::string> scenario_names();
 /// the geometry of the sparse scenario, the reference simulator's (its vehicle, a 30 m range, a 180
 /// degree field of view, 0.1 m and 1 degree noise), and drives its route twice: the second lap
 /// re-observes every landmark of the first after a lap of drift. The families:
-///   sparse            55 landmarks per km of route, the sparse world's density: about 1.5 in view,
-///                     none over some stretches
+///   sparse            55 landmarks per km of route, the sparse world's density: about 1.4 in view
+///                     per sweep, none in a fifth of the sweeps
 ///   sparse-cluttered  sparse with the detection of the cluttered scenario (a false detection per
 ///                     scan on average, 90% detection, no ids)
 ///   dense             165 per km, about 4 in view

@@ -77,14 +77,14 @@ World sparse_world();
 /// Throws InputError when an option is out of range (non-positive size, empty band, ...).
 World generate_world(const WorldGenOptions& options);
 
-/// A random world after the sparse world's pattern, for families of worlds (simulator.hpp): the
-/// route is a closed polygon of `min_corners` to `max_corners` straight legs round a centre, in
-/// random order of turn (counter-clockwise or clockwise), min_lap_m to max_lap_m long; concave
-/// corners make shapes other than convex rings. Every leg is at least min_leg_m long, every corner
-/// turns by at most max_turn, and legs that share no corner are at least min_leg_gap_m apart, so the
-/// route never crosses itself and the reference vehicle (turning radius 8 m) reaches every corner.
-/// The vehicle starts at the origin facing +x, in the middle of the leg from the last waypoint to the
-/// first, so each lap ends by driving back through the start area. Landmarks: landmarks_per_km per kilometre of route, at
+/// A random world after the sparse world's pattern, for families of worlds (simulator.hpp). The
+/// route is a closed polygon of min_corners to max_corners straight legs round a centre, driven
+/// counter-clockwise or clockwise, min_lap_m to max_lap_m long; concave corners make shapes other
+/// than convex rings. Every leg is at least min_leg_m long, every corner turns by at most max_turn,
+/// and legs that share no corner are at least min_leg_gap_m apart, so the route never crosses itself
+/// and the reference vehicle (turning radius 8 m) reaches every corner. The vehicle starts at the
+/// origin facing +x, in the middle of the leg from the last waypoint to the first, so each lap ends
+/// by driving back through the start area. Landmarks: landmarks_per_km per kilometre of route, at
 /// uniformly random places along it on a random side, band_inner to band_outer metres from every
 /// leg and at least min_spacing apart.
 struct RandomWorldOptions {
