@@ -105,8 +105,8 @@ CLI::Option* add_family_options(CLI::App* cmd, std::string& family, std::uint64_
   for (const std::string& name : world_family_names()) names += (names.empty() ? "" : ", ") + name;
   auto* family_opt =
       cmd->add_option("--family", family,
-                      fmt::format("A random world of this family, chosen by --world-seed, with the family's "
-                                  "settings: {} (docs/world-families.md)",
+                      fmt::format("A random world of this family ({}), chosen by --world-seed; simulate uses "
+                                  "the family's settings (docs/world-families.md)",
                                   names))
           ->check(accepted_by(&world_family));
   cmd->add_option("--world-seed", world_seed, "Which world of the --family; each seed gives its own route and landmarks")
