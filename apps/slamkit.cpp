@@ -210,6 +210,23 @@ std::string usage_message(const CLI::ParseError& e, const CLI::App& app, const C
   return what;  // ValidationError: the message of one of the checks above, prefixed with the option
 }
 
+/// --family and --world-seed, which choose a world of a family; returns --family.
+CLI::Option* add_family_options(CLI::App* cmd, std::string& family, std::uint64_t& world_seed) {
+  std::string names;
+  for (const std::string& name : world_family_names()) names += (names.empty() ? "" : ", ") + name;
+  auto* family_opt =
+      cmd->add_option("--family", family,
+                      fmt::format("A random world of this family ({}), chosen by --world-seed; simulate uses "
+                                  "the family's settings (docs/world-families.md)",
+                                  names))
+          ->check(parsed_by(&world_family));
+  cmd->add_option("--world-seed", world_seed, "Which world of the --family; each seed gives its own route and landmarks")
+      ->capture_default_str()
+      ->check(integer_at_least(0))
+      ->needs(family_opt);
+  return family_opt;
+}
+
 enum class Verbosity { kQuiet, kNormal, kVerbose };
 
 void print_outputs(const std::string& dir, const Metrics& metrics, Verbosity verbosity) {
@@ -294,19 +311,22 @@ int main(int argc, char** argv) {
 
   // ---- simulate ----
   auto* simulate_cmd = app.add_subcommand("simulate", "Simulate a vehicle driving through a landmark world");
-  std::string world_path, config_path, sim_out, scenario_name = "default";
-  std::uint64_t sim_seed = 1;
+  std::string world_path, config_path, sim_out, scenario_name = "default", family_name;
+  std::uint64_t sim_seed = 1, world_seed = 1;
   int loops = 0;
   double clutter = -1.0, detection = -1.0;
   bool no_ids = false;
-  simulate_cmd
+  auto* scenario_opt =
+      simulate_cmd
       ->add_option("--scenario", scenario_name,
                    fmt::format("Built-in world and settings: {}", fmt::join(scenario_names(), ", ")))
       ->capture_default_str()
       ->check(one_of("scenario", scenario_names()));
-  simulate_cmd->add_option("--world", world_path, "World file (landmarks and waypoints); replaces the scenario's world");
+  auto* world_opt =
+      simulate_cmd->add_option("--world", world_path, "World file (landmarks and waypoints); replaces the scenario's world");
+  add_family_options(simulate_cmd, family_name, world_seed)->excludes(scenario_opt)->excludes(world_opt);
   simulate_cmd->add_option("--config", config_path, "Simulator settings (JSON); default: the reference simulator's");
-  simulate_cmd->add_option("--seed", sim_seed, "Random seed; the same seed gives the same log")
+  simulate_cmd->add_option("--seed", sim_seed, "Random seed of the noise; the same seeds give the same log")
       ->capture_default_str()
       ->check(integer_at_least(0));
   simulate_cmd->add_option("--loops", loops, "Laps of the route (overrides the config)")->check(integer_at_least(1));
@@ -332,6 +352,9 @@ int main(int argc, char** argv) {
       ->check(positive);
   world_cmd->add_option("--seed", gen.seed, "Random seed")->capture_default_str()->check(integer_at_least(0));
   world_cmd->add_option("--out", world_out, "World file to write")->required();
+  auto* world_family_opt = add_family_options(world_cmd, family_name, world_seed);
+  for (const char* name : {"--landmarks", "--width", "--height", "--band", "--seed"})
+    world_family_opt->excludes(world_cmd->get_option(name));
 
   // ---- run ----
   // Every filter setting is parsed and checked here, before any data is read: a misspelt name or a
@@ -597,7 +620,7 @@ int main(int argc, char** argv) {
 
   try {
     if (*simulate_cmd) {
-      const Scenario base = scenario(scenario_name);
+      const Scenario base = family_name.empty() ? scenario(scenario_name) : world_family(family_name).member(world_seed);
       const World world = world_path.empty() ? base.world : read_world(world_path);
       SimulatorConfig config =
           config_path.empty() ? base.config : simulator_config_from_json(read_json_file(config_path), config_path);
@@ -627,13 +650,13 @@ int main(int argc, char** argv) {
       for (const std::string& file : plot::write_benchmark_plots(bench_json, bench_out)) fmt::print("wrote {}\n", file);
     } else if (*world_cmd) {
       World world;
-      try {
-        world = generate_world(gen);  // every input is an option, so an error is a usage error
+      try {  // every input is an option, so an error is a usage error
+        world = family_name.empty() ? generate_world(gen) : world_family(family_name).member(world_seed).world;
       } catch (const InputError& e) {
         return usage_error(e.what());
       }
       write_world(world_out, world);
-      fmt::print("wrote {} ({} landmarks)\n", world_out, gen.landmarks);
+      fmt::print("wrote {} ({} landmarks)\n", world_out, world.landmarks.size());
     } else if (*run_cmd) {
       const auto warn = [&](const std::string& message) { std::cerr << "slamkit: warning: " << message << "\n"; };
       const bool particle_filter = filter.filter == FilterKind::kFastSlam1 || filter.filter == FilterKind::kFastSlam2;

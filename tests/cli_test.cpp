@@ -642,6 +642,9 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"simulate", 2, "missing --out: Output folder for the log and ground truth"},
       {"simulate --out", 2, "--out needs a value"},
       {"simulate --sede 3 --out " + out, 2, "unknown option '--sede' (did you mean '--seed'?)"},
+      {"simulate --family sparse-clutered --out " + out, 2,
+       "--family: unknown world family 'sparse-clutered' (did you mean 'sparse-cluttered'?)"},
+      {"simulate --world-seed x --family sparse --out " + out, 2, "--world-seed: expected an integer >= 0, found x"},
 
       {"make-world --landmarks 0 --out " + out, 2, "--landmarks: expected an integer >= 1, found 0"},
       {"make-world --landmarks 20000000 --out " + out, 2, "world generation: landmarks must be from 0 to 1e7"},
@@ -651,6 +654,8 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"make-world --band nan --out " + out, 2, "--band: expected > 0, found nan"},
       {"make-world --seed x --out " + out, 2, "--seed: expected an integer >= 0, found x"},
       {"make-world", 2, "missing --out: World file to write"},
+      {"make-world --family denes --out " + out, 2, "--family: unknown world family 'denes' (did you mean 'dense'?)"},
+      {"make-world --world-seed -1 --family dense --out " + out, 2, "--world-seed: expected an integer >= 0, found -1"},
 
       {"run --filter ekff" + data, 2, "--filter: unknown filter 'ekff' (did you mean 'ekf'?)"},
       {"run --assoc jcb" + data, 2, "--assoc: unknown association 'jcb' (did you mean 'jcbb'?)"},
@@ -824,4 +829,45 @@ TEST_F(Cli, VictoriaParkRecommendsAnAssociationForEveryFilter) {
   EXPECT_EQ(settings("--filter fastslam2").at("pose_sample_fraction"), 0.01);
   EXPECT_EQ(settings("--filter fastslam2 --pose-sample-fraction 1").at("pose_sample_fraction"), 1.0);
   EXPECT_EQ(settings("--filter ukf --ukf-noise augmented").at("ukf_noise"), "augmented");
+
+// A world of a family is named by the family and a world seed, apart from the noise's seed: the same
+// three give the same log, which records the family and world seed, and make-world writes that world.
+TEST_F(Cli, FamilyWorldsRepeatBitForBitAndAreRecorded) {
+  const fs::path a = *work_ / "family_a", b = *work_ / "family_b", world = *work_ / "family.world";
+  const std::string args = "simulate --family sparse-cluttered --world-seed 17 --seed 2 --loops 1 --out ";
+  ASSERT_EQ(slamkit(args + a.string(), *work_).exit_code, 0);
+  ASSERT_EQ(slamkit(args + b.string(), *work_).exit_code, 0);
+  for (const char* file : {"events.txt", "truth_poses.txt", "truth_observations.txt", "world.txt", "params.json"})
+    EXPECT_EQ(read_file(a / file), read_file(b / file)) << file;
+  const nlohmann::json params = read_json(a / "params.json");
+  EXPECT_EQ(params["world"]["family"], "sparse-cluttered");
+  EXPECT_EQ(params["world"]["world_seed"], 17);
+  EXPECT_EQ(params["simulator"]["seed"], 2);
+  EXPECT_EQ(params["simulator"]["clutter_rate_per_scan"], 1.0);
+  EXPECT_EQ(params["simulator"]["fov_deg"], 180.0);
+
+  const Result w = slamkit("make-world --family sparse-cluttered --world-seed 17 --out " + world.string(), *work_);
+  ASSERT_EQ(w.exit_code, 0) << w.err;
+  EXPECT_EQ(read_file(world), read_file(a / "world.txt"));
+  const Result other = slamkit("simulate --family sparse-cluttered --world-seed 18 --seed 2 --loops 1 --out " +
+                                   (*work_ / "family_c").string(),
+                               *work_);
+  ASSERT_EQ(other.exit_code, 0) << other.err;
+  EXPECT_NE(read_file(*work_ / "family_c" / "world.txt"), read_file(a / "world.txt"));
+
+  const Result help = slamkit("simulate --help", *work_);
+  EXPECT_NE(help.out.find("sparse, sparse-cluttered, dense, dense-cluttered"), std::string::npos) << help.out;
+}
+
+TEST_F(Cli, FamilyMistakesAreUsageErrors) {
+  const std::string out = " --out " + (*work_ / "family_never").string();
+  const Result slip = slamkit("simulate --family sparse-clutered" + out, *work_);
+  EXPECT_EQ(slip.exit_code, 2);
+  EXPECT_EQ(count_lines(slip.err), 1u) << slip.err;
+  EXPECT_NE(slip.err.find("did you mean 'sparse-cluttered'?"), std::string::npos) << slip.err;
+  EXPECT_EQ(slamkit("make-world --family denes" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit("simulate --world-seed 3" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit("simulate --family sparse --scenario sparse" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit("make-world --family sparse --landmarks 10" + out, *work_).exit_code, 2);
+  EXPECT_FALSE(fs::exists(*work_ / "family_never"));
 }

@@ -106,4 +106,34 @@ Scenario scenario(const std::string& name);
 /// The names scenario() knows, in the order above.
 std::vector<std::string> scenario_names();
 
+/// A family of random worlds (random_world) with one simulator config, so that settings can be
+/// chosen on some of its worlds and reported on others (docs/world-families.md). Every family has
+/// the geometry of the sparse scenario, the reference simulator's (its vehicle, a 30 m range, a 180
+/// degree field of view, 0.1 m and 1 degree noise), and drives its route twice: the second lap
+/// re-observes every landmark of the first after a lap of drift. The families:
+///   sparse            55 landmarks per km of route, the sparse world's density: about 1.4 in view
+///                     per sweep, none in a fifth of the sweeps
+///   sparse-cluttered  sparse with the detection of the cluttered scenario (a false detection per
+///                     scan on average, 90% detection, no ids)
+///   dense             165 per km, about 4 in view
+///   dense-cluttered   dense with the detection of cluttered
+/// The families with and without clutter share their worlds: a seed gives the same route and
+/// landmarks in sparse and sparse-cluttered, and the same route in all four.
+struct WorldFamily {
+  std::string name;
+  RandomWorldOptions world;
+  SimulatorConfig config;
+
+  /// The world of `world_seed` (its origin recorded) with the family's config; config.seed, the
+  /// noise's, stays 1 for the caller to set.
+  Scenario member(std::uint64_t world_seed) const;
+};
+
+/// The family called `name`. Throws std::invalid_argument for an unknown name, suggesting the
+/// closest known one and listing them all.
+WorldFamily world_family(const std::string& name);
+
+/// The names world_family() knows, in the order above.
+std::vector<std::string> world_family_names();
+
 }  // namespace slamkit
