@@ -829,6 +829,7 @@ TEST_F(Cli, VictoriaParkRecommendsAnAssociationForEveryFilter) {
   EXPECT_EQ(settings("--filter fastslam2").at("pose_sample_fraction"), 0.01);
   EXPECT_EQ(settings("--filter fastslam2 --pose-sample-fraction 1").at("pose_sample_fraction"), 1.0);
   EXPECT_EQ(settings("--filter ukf --ukf-noise augmented").at("ukf_noise"), "augmented");
+}
 
 // A world of a family is named by the family and a world seed, apart from the noise's seed: the same
 // three give the same log, which records the family and world seed, and make-world writes that world.
