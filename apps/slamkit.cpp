@@ -315,11 +315,15 @@ int main(int argc, char** argv) {
                       "Relocalisation: how long a landmark must be unseen to count as old, and how far back one "
                       "counts as recently mapped [s]")
       ->capture_default_str();
+  run_cmd->add_option("--detection-probability", assoc_flags.detection_probability,
+                      "With --clutter-per-scan: the probability that a landmark in view is detected, which a pending landmark's evidence assumes")
+      ->capture_default_str();
   const char* assoc_flag_names[] = {"--assoc-config",         "--accept-probability", "--new-landmark-probability",
                                     "--min-pairing-probability", "--clutter-per-scan",
                                     "--gate-known",           "--confirm-after",      "--provisional-max-misses",
                                     "--confirmed-max-misses", "--view-margin-m",      "--view-margin-rad",
-                                    "--jcbb-max-nodes",         "--relocalise-min-pairs", "--relocalise-window-s"};
+                                    "--jcbb-max-nodes",         "--relocalise-min-pairs", "--relocalise-window-s",
+                                    "--detection-probability"};
   run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots");
   std::string repeat_path;
   bool print_config = false, replay = false, quiet = false, verbose = false;
@@ -443,6 +447,7 @@ int main(int argc, char** argv) {
         if (given("--jcbb-max-nodes")) a.jcbb_max_nodes = assoc_flags.jcbb_max_nodes;
         if (given("--relocalise-min-pairs")) a.relocalise_min_pairs = assoc_flags.relocalise_min_pairs;
         if (given("--relocalise-window-s")) a.relocalise_window_s = assoc_flags.relocalise_window_s;
+        if (given("--detection-probability")) a.detection_probability = assoc_flags.detection_probability;
         validate(filter);
         settings_contents = dataset_settings_json(data_config);
       }
