@@ -446,7 +446,9 @@ int main(int argc, char** argv) {
                "the other candidates and clutter (0: off)",
                assoc.min_pairing_probability);
   real_setting("--clutter-per-scan", "clutter_per_scan",
-               "Expected false detections per scan, for --min-pairing-probability", assoc.clutter_per_scan);
+               "Expected false detections per scan: with it a new landmark waits, pending, until it is more "
+               "probably real than false, and --min-pairing-probability weighs pairings against clutter",
+               assoc.clutter_per_scan);
   run_cmd
       ->add_option_function<std::string>(
           "--gate-known",
@@ -471,6 +473,10 @@ int main(int argc, char** argv) {
                "Relocalisation: how long a landmark must be unseen to count as old, and how far back one "
                "counts as recently mapped [s]",
                assoc.relocalise_window_s);
+  real_setting("--detection-probability", "detection_probability",
+               "With --clutter-per-scan: the probability that a landmark in view is detected, which a pending "
+               "landmark's evidence assumes",
+               assoc.detection_probability);
   run_cmd->add_option("--out", run_out,
                       "Output folder for estimates, metrics and plots. Written as DIR.partial-PID beside it, it "
                       "replaces DIR as a whole when complete, so a run that fails leaves DIR's previous run intact. "

@@ -692,6 +692,7 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"run --jcbb-max-nodes 0" + data, 2, "--jcbb-max-nodes: expected an integer >= 1, found 0"},
       {"run --relocalise-min-pairs 1" + data, 2, "relocalise_min_pairs must be 0 (off) or >= 2, found 1"},
       {"run --relocalise-window-s 0" + data, 2, "relocalise_window_s must be finite and > 0, found 0"},
+      {"run --detection-probability 1" + data, 2, "detection_probability must be in (0, 1), found 1"},
       {"run --data sim:" + sim, 2, "--out is required"},
       {"run --config /nonexistent/run.json --out " + out, 1,
        "/nonexistent/run.json: cannot open file for reading (No such file or directory)"},

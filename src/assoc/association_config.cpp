@@ -28,6 +28,7 @@ constexpr OptionKey<AssociationConfig> kNumericKeys[] = {
     {"jcbb_max_nodes", IntegerOption<AssociationConfig, std::uint64_t>{[](AssociationConfig& c) -> std::uint64_t& { return c.jcbb_max_nodes; }, 1}},
     {"relocalise_min_pairs", IntegerOption<AssociationConfig, std::uint64_t>{[](AssociationConfig& c) -> std::uint64_t& { return c.relocalise_min_pairs; }, 0}},
     {"relocalise_window_s", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.relocalise_window_s; }, option_ranges::kFinite}},
+    {"detection_probability", RealOption<AssociationConfig>{[](AssociationConfig& c) -> double& { return c.detection_probability; }, option_ranges::kFinite}},
 };
 
 }  // namespace
@@ -72,6 +73,8 @@ void validate(const AssociationConfig& c) {
   if (c.relocalise_min_pairs == 1) fail("relocalise_min_pairs", "0 (off) or >= 2", c.relocalise_min_pairs);
   if (!(std::isfinite(c.relocalise_window_s) && c.relocalise_window_s > 0.0))
     fail("relocalise_window_s", "finite and > 0", c.relocalise_window_s);
+  if (!(c.detection_probability > 0.0 && c.detection_probability < 1.0))
+    fail("detection_probability", "in (0, 1)", c.detection_probability);
 }
 
 nlohmann::json to_json(const AssociationConfig& config) {

@@ -37,6 +37,14 @@ std::optional<OriginTable> score_associations(const RunResult& run, const Ground
   std::unordered_map<int, double> last_seen;      // true id -> time of its latest observation
   std::unordered_map<int, std::size_t> started_at;  // filter landmark id -> the scan that started it
   std::unordered_map<int, std::size_t> return_at;   // true id -> the scan of its first return
+  // The origins the filter reported: a particle filter's records are the best particle's of each
+  // scan, so a landmark may have been started where no record shows it.
+  for (const auto& [id, origin] : run.landmark_origins) {
+    if (origin.scan >= truth.observation_ids.size() || origin.observation >= truth.observation_ids[origin.scan].size())
+      return std::nullopt;
+    table.origin[id] = truth.observation_ids[origin.scan][origin.observation];
+    started_at[id] = origin.scan;
+  }
   for (std::size_t k = 0; k < run.associations.size(); ++k) {
     const auto& records = run.associations[k];
     const auto& ids = truth.observation_ids[k];

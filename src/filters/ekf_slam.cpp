@@ -52,6 +52,7 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
       association_view_((validate(options.sensor), association_view(options.sensor, options.association))),
       clutter_density_(clutter_density(options.association, options.sensor)),
       existence_rule_(options.association, options.sensor),
+      pending_(options.association, options.sensor),
       // Cells of a third of the sensor range: a query touches a few dozen cells at most.
       grid_(std::max(5.0, options.sensor.max_range / 3.0)),
       relocalise_(options.association.method != AssociationMethod::kKnown &&
@@ -67,6 +68,7 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
     register_landmark(id, existence_rule_.given());
     next_id_ = std::max(next_id_, id + 1);
   }
+  first_started_id_ = next_id_;
 }
 
 std::vector<Landmark> EkfSlam::landmarks() const {
@@ -90,6 +92,10 @@ std::map<std::string, double> EkfSlam::statistics() const {
     s["outliers_rejected"] = static_cast<double>(outliers_);
   if (association_.method != AssociationMethod::kKnown)
     s["association_pairs_evaluated"] = static_cast<double>(association_stats_.candidate_pairs);
+  if (association_.method != AssociationMethod::kKnown && pending_.active()) {
+    s["observations_pending"] = static_cast<double>(pending_observations_);
+    s["landmarks_pending"] = static_cast<double>(pending_.size());
+  }
   if (relocalise_) {
     s["relocalisations"] = static_cast<double>(relocalisations_);
     s["landmarks_fused"] = static_cast<double>(landmarks_fused_);
@@ -159,6 +165,7 @@ void EkfSlam::rebin(std::size_t index) {
 void EkfSlam::update(const ScanEvent& scan) {
   last_associations_.assign(scan.observations.size(), AssociationRecord{});
   now_ = scan.t;
+  ++scans_;
   if (first_scan_) {
     // The start pose is known relative to the map (a map given to the constructor included), so the
     // vehicle starts anchored to it.
@@ -279,10 +286,19 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
     last_seen_[index] = now_;
   }
   apply_joint_batch();
+  pending_.begin_scan(now_, estimator_->pose());
   for (std::size_t k = 0; k < pairings.size(); ++k) {
     if (pairings[k].decision == AssociationDecision::kNew) {
+      const int detections =
+          pending_.offer(scan.observations[k].z, estimator_->observation_model(),
+                         static_cast<std::size_t>(next_id_ - first_started_id_), scans_);
+      if (detections == 0) {
+        ++pending_observations_;
+        continue;
+      }
       const int id = next_id_++;
       add_landmark(scan.observations[k].z, id);
+      for (int d = 1; d < detections; ++d) existence_rule_.observed(existence_.back());
       last_associations_[k] = {AssociationDecision::kNew, id};
     } else if (last_associations_[k].decision == AssociationDecision::kDiscard) {
       ++discarded_;
@@ -298,6 +314,7 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
     drift_since_rebuild_ = 0.0;
   }
   manage_map();
+  pending_.end_scan(estimator_->observation_model(), existence_rule_.detection_view());
   // A fusion moves the vehicle and the map, which may bring further duplicates into the gate.
   if (recent_confirmed_)
     while (relocalise()) {

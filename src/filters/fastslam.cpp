@@ -83,6 +83,7 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
       association_view(slamkit::association_view(cfg.sensor, cfg.association)),
       clutter_density(slamkit::clutter_density(cfg.association, cfg.sensor)),
       existence(cfg.association, cfg.sensor),
+      pending(cfg.association, cfg.sensor),
       resample_rng(splitmix64(cfg.seed ^ 0x526573616d706c65ULL)),
       grid(std::max(5.0, 0.5 * cfg.sensor.max_range)),
       relocalise_association(cfg.association) {
@@ -190,6 +191,37 @@ void FastSlam::Impl::gather_candidates() {
   make_room(relocalise_candidates, grid.max_entries());
   grid.list(sensor, radius + std::max(travelled, drift_reach), relocalise_candidates);
   sort_unique(relocalise_candidates);
+}
+
+void FastSlam::Impl::decide_new_landmarks(const ScanEvent& scan) {
+  const std::size_t n_obs = scan.observations.size();
+  make_room(start_detections, n_obs);
+  start_detections.assign(n_obs, 1);
+  pending.begin_scan(scan.t, particles[best].pose);
+  const auto started = static_cast<std::size_t>(next_id - first_started_id);
+  for (std::size_t k = 0; k < n_obs; ++k) {
+    double weight_new = 0.0;
+    for (std::size_t i = 0; i < particles.size(); ++i)
+      if (slots[i].pairings[k].decision == AssociationDecision::kNew) weight_new += weights[i];
+    // Explained by the particles that hold most of the weight: those that see a new landmark in it
+    // are off, and start it as they would anyway.
+    if (weight_new <= 0.5) continue;
+    start_detections[k] = pending.offer(scan.observations[k].z, *observation, started, scans - 1);
+    if (start_detections[k] == 0) ++pending_observations;
+  }
+  pending.end_scan(*observation, existence.detection_view());
+  // The observations that wait are discarded by every particle, and the new landmarks' indices follow.
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    auto next_index = static_cast<std::uint32_t>(particles[i].map.size());
+    for (std::size_t k = 0; k < n_obs; ++k) {
+      Pairing& pairing = slots[i].pairings[k];
+      if (pairing.decision != AssociationDecision::kNew) continue;
+      if (start_detections[k] == 0)
+        pairing = Pairing{};
+      else
+        pairing.index = next_index++;
+    }
+  }
 }
 
 void FastSlam::Impl::assign_new_ids(std::size_t observations, std::size_t scan_index) {
@@ -331,6 +363,12 @@ void FastSlam::update(const ScanEvent& scan) {
     s.plan_known_association(scan, scan_index);
   else
     s.gather_candidates();
+  if (!s.known()) {
+    s.pool.run(s.particles.size(), kUpdateGrain, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) s.associate(s.particles[i], s.slots[i], scan);
+    });
+    if (s.pending.active()) s.decide_new_landmarks(scan);
+  }
   s.pool.run(s.particles.size(), kUpdateGrain, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) s.update_particle(i, scan);
   });
@@ -408,13 +446,19 @@ std::map<std::string, double> FastSlam::statistics() const {
   });
   std::size_t searches = 0;
   for (const Impl::Slot& slot : s.slots) searches += slot.relocalisation_searches;
-  return {{"particles", n},
-          {"landmarks_provisional", static_cast<double>(provisional)},
-          {"ess_mean", s.scans > 0 ? s.ess_sum / static_cast<double>(s.scans) : n},
-          {"resamples", static_cast<double>(s.resamples)},
-          {"weight_collapses", static_cast<double>(s.collapses)},
-          {"relocalisations", static_cast<double>(s.relocalisations)},
-          {"relocalisation_searches", static_cast<double>(searches)}};
+  std::map<std::string, double> statistics = {
+      {"particles", n},
+      {"landmarks_provisional", static_cast<double>(provisional)},
+      {"ess_mean", s.scans > 0 ? s.ess_sum / static_cast<double>(s.scans) : n},
+      {"resamples", static_cast<double>(s.resamples)},
+      {"weight_collapses", static_cast<double>(s.collapses)},
+      {"relocalisations", static_cast<double>(s.relocalisations)},
+      {"relocalisation_searches", static_cast<double>(searches)}};
+  if (!s.known() && s.pending.active()) {
+    statistics["observations_pending"] = static_cast<double>(s.pending_observations);
+    statistics["landmarks_pending"] = static_cast<double>(s.pending.size());
+  }
+  return statistics;
 }
 
 void FastSlam::set_initial_map(const std::vector<Landmark>& map) {
@@ -437,6 +481,7 @@ void FastSlam::set_initial_map(const std::vector<Landmark>& map) {
     if (!s.known()) s.grid.insert(s.grid.cell_of(g.mean), static_cast<std::uint32_t>(tree.size()));
     tree.push_back(g);
   }
+  s.first_started_id = s.next_id;
   for (Impl::Particle& p : s.particles) p.map = tree;
 }
 

@@ -16,6 +16,7 @@
 #include "slamkit/assoc/association.hpp"
 #include "slamkit/assoc/landmark_existence.hpp"
 #include "slamkit/assoc/landmark_grid.hpp"
+#include "slamkit/assoc/pending_landmarks.hpp"
 #include "slamkit/assoc/sensor_view.hpp"
 #include "slamkit/filters/fastslam.hpp"
 #include "slamkit/filters/landmark_tree.hpp"
@@ -209,6 +210,9 @@ struct FastSlam::Impl {
   /// drift_of(p, lm.last_seen) as a covariance of lm's predicted measurement, and the measurement's
   /// Jacobian in the landmark.
   Matrix2 drift_in_measurement(const Particle& p, const LandmarkGaussian& lm, Matrix2& hm) const;
+  /// With pending landmarks: after every particle's association, which of the scan's observations
+  /// start landmarks (start_detections), and the particles' pairings to match.
+  void decide_new_landmarks(const ScanEvent& scan);
   void assign_new_ids(std::size_t observations, std::size_t scan_index);
   void record_associations(std::size_t slot);
   void reweight_and_resample();
@@ -232,6 +236,12 @@ struct FastSlam::Impl {
   SensorView association_view;
   double clutter_density;  // of config.association over the sensor's view
   ExistenceRule existence;
+  // New landmarks where clutter is expected (assoc/pending_landmarks.hpp): the filter decides for
+  // every particle, from the best one's pose, whether an observation most particles cannot explain
+  // starts a landmark, and with how many detections.
+  PendingLandmarks pending;
+  std::vector<int> start_detections;  // per observation of the current scan
+  std::size_t pending_observations = 0;
   double log_p0 = 0.0;
 
   std::vector<Particle> particles;
@@ -254,6 +264,7 @@ struct FastSlam::Impl {
   std::vector<std::uint32_t> scan_candidates;
 
   int next_id = 0;
+  int first_started_id = 0;  // ids from here on were started by update()
   std::vector<int> new_ids;  // per observation of the current scan
   // Sorted by id. Ids made by update() increase, so they are appended; a vector rather than a hash
   // map, so that a new id costs an allocation only when the capacity doubles (or not after reserve).

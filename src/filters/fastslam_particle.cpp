@@ -165,9 +165,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
     make_room(s.pairings, n_obs);
     s.pairings = known_plan;
     if (gate_known) reject_known_outliers(p, s, scan);
-  } else {
-    associate(p, s, scan);
-  }
+  }  // else associate() has run for every particle (FastSlam::update)
   s.grid_entries.clear();
   make_room(s.grid_entries, n_obs);
   s.confirmed_now.clear();
@@ -244,6 +242,8 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
       pairing = Pairing{};
     if (pairing.decision == AssociationDecision::kNew) {
       p.map.push_back(new_landmark(p.pose, p.pose_cov, z, known() ? scan.observations[k].id : kUnknownId));
+      if (pending.active())
+        for (int d = 1; d < start_detections[k]; ++d) existence.observed(p.map.mutate(pairing.index).existence);
       if (!known()) s.grid_entries.emplace_back(p.map[pairing.index].mean, pairing.index);
       log_likelihood += log_p0;
     } else if (pairing.decision == AssociationDecision::kDiscard) {

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "slamkit/core/error.hpp"
@@ -116,6 +117,39 @@ void read_associations(const std::string& path, RunResult& run) {
   }
 }
 
+void write_landmark_origins(const std::string& path, const std::map<int, LandmarkOrigin>& origins) {
+  LineWriter out(path);
+  out.text("# landmark_id scan observation  (the observation each landmark was started from, 0-based)");
+  out.end_line();
+  for (const auto& [id, origin] : origins) {
+    out.integer(id).text(" ").integer(static_cast<long long>(origin.scan)).text(" ");
+    out.integer(static_cast<long long>(origin.observation));
+    out.end_line();
+  }
+  out.finish();
+}
+
+std::map<int, LandmarkOrigin> read_landmark_origins(const std::string& path, std::size_t scans) {
+  std::map<int, LandmarkOrigin> origins;
+  TextReader in(path);
+  while (in.next()) {
+    in.expect_fields(3, "landmark_id scan observation");
+    const long id = in.integer(0, "landmark_id");
+    const long scan = in.integer(1, "scan");
+    const long observation = in.integer(2, "observation");
+    if (id < 0 || id > std::numeric_limits<int>::max())
+      in.fail(fmt::format("expected a landmark id from 0 to {}, found {}", std::numeric_limits<int>::max(), id));
+    if (scan < 0 || static_cast<std::size_t>(scan) >= scans)
+      in.fail(fmt::format("expected a scan from 0 to {}, found {}", scans == 0 ? 0 : scans - 1, scan));
+    if (observation < 0) in.fail(fmt::format("expected an observation index >= 0, found {}", observation));
+    if (!origins.try_emplace(static_cast<int>(id), LandmarkOrigin{static_cast<std::size_t>(scan),
+                                                                  static_cast<std::size_t>(observation)})
+             .second)
+      in.fail(fmt::format("landmark {} is given twice", id));
+  }
+  return origins;
+}
+
 void write_particles(const std::string& path, const std::vector<ParticleSample>& samples) {
   LineWriter out(path);
   out.text("# t x y theta weight  (particle clouds over time)");
@@ -162,6 +196,7 @@ void write_run_files(const std::string& dir, const RunResult& run) {
   write_map(path_in(dir, "map.txt"), run.map);
   write_landmark_std(path_in(dir, "landmark_std.txt"), run.landmark_std);
   write_associations(path_in(dir, "associations.txt"), run.scan_times, run.associations);
+  if (!run.landmark_origins.empty()) write_landmark_origins(path_in(dir, "landmark_origins.txt"), run.landmark_origins);
   if (!run.particles.empty()) write_particles(path_in(dir, "particles.txt"), run.particles);
 
   nlohmann::json info = run.provenance;
@@ -247,6 +282,8 @@ RunResult read_run(const std::string& dir) {
   run.map = read_map(path_in(dir, "map.txt"));
   run.landmark_std = read_landmark_std(path_in(dir, "landmark_std.txt"));
   read_associations(path_in(dir, "associations.txt"), run);
+  if (fs::exists(path_in(dir, "landmark_origins.txt")))
+    run.landmark_origins = read_landmark_origins(path_in(dir, "landmark_origins.txt"), run.scans);
   if (fs::exists(path_in(dir, "particles.txt"))) run.particles = read_particles(path_in(dir, "particles.txt"));
   // Only a run that kept its full history has every scan's associations.
   if (run.history == "full" && run.associations.size() != run.scans)

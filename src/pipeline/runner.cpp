@@ -148,6 +148,20 @@ void check_events(const Dataset& dataset) {
   }
 }
 
+namespace {
+
+void record_origins(const SlamFilter& filter, RunResult& result) {
+  auto add = [&](int id) {
+    if (id == kUnknownId || result.landmark_origins.count(id)) return;
+    if (const std::optional<LandmarkOrigin> origin = filter.landmark_origin(id)) result.landmark_origins[id] = *origin;
+  };
+  for (const auto& records : result.associations)
+    for (const AssociationRecord& r : records) add(r.landmark_id);
+  for (const Landmark& lm : result.map) add(lm.id);
+}
+
+}  // namespace
+
 RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOptions& options) {
   check_events(dataset);
   RunResult result;
@@ -249,6 +263,7 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
     std::erase_if(result.trajectory, [](const StampedPose& p) { return !p.pose.allFinite(); });
   result.smoothed = !result.trajectory.empty();
   if (!result.smoothed) result.trajectory = result.filtered;
+  if (options.history == History::kFull) record_origins(filter, result);
   result.statistics = filter.statistics();
   result.dead_reckoning = dead_reckoning(dataset, options);
   if (result.partial)

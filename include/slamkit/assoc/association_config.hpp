@@ -85,13 +85,17 @@ struct AssociationConfig {
   ///    duplicate is fused into the landmark it duplicates.
   std::size_t relocalise_min_pairs = 2;
   double relocalise_window_s = 30.0;
+  /// The probability that a landmark in view is detected: with clutter_per_scan, how the evidence
+  /// of a pending landmark (assoc/pending_landmarks.hpp) weighs a scan that does not see it.
+  double detection_probability = 0.9;
 };
 
 /// Throws std::invalid_argument naming the first setting out of its range and the range:
 /// 0 < accept_probability < 1, accept_probability <= new_landmark_probability < 1,
 /// 0 <= min_pairing_probability < 1, finite clutter_per_scan >= 0,
 /// confirm_after >= 1, provisional_max_misses >= 1, confirmed_max_misses >= 0, finite view margins
-/// >= 0, jcbb_max_nodes >= 1, relocalise_min_pairs 0 or >= 2, finite relocalise_window_s > 0.
+/// >= 0, jcbb_max_nodes >= 1, relocalise_min_pairs 0 or >= 2, finite relocalise_window_s > 0,
+/// 0 < detection_probability < 1.
 void validate(const AssociationConfig& config);
 
 /// Every setting, under the names association_config_from_json reads (run.json's provenance).

@@ -2,6 +2,8 @@
 // What a filter did with each observation of a scan. Filters produce these records, association
 // decides them, the run folder stores them and evaluation scores them, so the type lives here, below
 // all of those modules.
+#include <cstddef>
+
 #include "slamkit/core/types.hpp"
 
 namespace slamkit {
@@ -24,6 +26,13 @@ struct AssociationRecord {
   AssociationDecision decision = AssociationDecision::kDiscard;
   /// The landmark updated or created (its map id); kUnknownId when discarded.
   int landmark_id = kUnknownId;
+};
+
+/// The observation a landmark was started from: observation `observation` of the `scan`-th scan
+/// given to the filter (0-based both; the indices of GroundTruth::observation_ids).
+struct LandmarkOrigin {
+  std::size_t scan = 0;
+  std::size_t observation = 0;
 };
 
 }  // namespace slamkit

@@ -46,6 +46,9 @@ struct RunResult {
   /// Per scan, in stream order, what the filter did with each observation.
   std::vector<double> scan_times;
   std::vector<std::vector<AssociationRecord>> associations;
+  /// The origins of the landmarks named in `associations` and `map`, where the filter reports them
+  /// (SlamFilter::landmark_origin); evaluation prefers them to the "new" records.
+  std::map<int, LandmarkOrigin> landmark_origins;
   /// Particle clouds (particle filters only), sampled like landmark_std.
   std::vector<ParticleSample> particles;
   /// Filter-specific figures (SlamFilter::statistics at the end of the run).

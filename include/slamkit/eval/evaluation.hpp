@@ -18,7 +18,8 @@
 //   nees_pose_*             normalised estimation error squared of the pose (3 dof), unaligned (the
 //                           map frame is the truth frame at the start), where the truth has headings
 //   association             where the truth names the landmark of every observation: each filter
-//                           landmark's origin is the true landmark of the observation that started it;
+//                           landmark's origin is the true landmark of the observation that started it
+//                           (as RunResult::landmark_origins gives it, else as the "new" records show);
 //                           a pairing is correct when the observation's true landmark is the origin of
 //                           the landmark it updated, wrong otherwise (clutter paired with a landmark
 //                           included); missed when an observation of a true landmark the filter already

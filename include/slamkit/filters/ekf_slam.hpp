@@ -20,6 +20,7 @@
 #include "slamkit/assoc/landmark_existence.hpp"
 #include "slamkit/assoc/landmark_grid.hpp"
 #include "slamkit/assoc/map_matching.hpp"
+#include "slamkit/assoc/pending_landmarks.hpp"
 #include "slamkit/assoc/sensor_view.hpp"
 #include "slamkit/filters/ekf_estimator.hpp"
 #include "slamkit/filters/slam_filter.hpp"
@@ -148,6 +149,10 @@ class EkfSlam final : public SlamFilter {
   SensorView association_view_;
   double clutter_density_;  // of association_ over the sensor's view
   ExistenceRule existence_rule_;
+  PendingLandmarks pending_;  // observations that may start landmarks, where clutter is expected
+  std::size_t scans_ = 0;
+  int first_started_id_ = 0;  // ids from here on were started by update()
+  std::size_t pending_observations_ = 0;
   LandmarkGrid grid_;
   double drift_since_rebuild_ = 0.0;  // vehicle corrections since the grid was last rebuilt [m]
   std::vector<AssociationRecord> last_associations_;

@@ -122,13 +122,6 @@ struct FastSlamConfig {
   SensorLimits sensor;
 };
 
-/// The observation a landmark was started from: observation `observation` of the `scan`-th scan
-/// given to update() (0-based both; the indices of GroundTruth::observation_ids).
-struct LandmarkOrigin {
-  std::size_t scan = 0;
-  std::size_t observation = 0;
-};
-
 class FastSlam final : public SlamFilter {
  public:
   /// Throws std::invalid_argument for a missing model or a config value out of range.
@@ -172,7 +165,7 @@ class FastSlam final : public SlamFilter {
   void set_initial_map(const std::vector<Landmark>& map);
   /// Which observation started the landmark with this map id; nullopt for an id never created by
   /// update() (e.g. from set_initial_map).
-  std::optional<LandmarkOrigin> landmark_origin(int id) const;
+  std::optional<LandmarkOrigin> landmark_origin(int id) const override;
 
   /// Pre-allocates what `steps` more predict() calls and `landmarks` more map ids made by update()
   /// (without identities) add for good: the poses by which the particles' shared past grows, one per

@@ -4,6 +4,7 @@
 // current estimate. The runner feeds a dataset's event stream through it and never needs to know
 // which filter it drives.
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,11 @@ class SlamFilter {
   virtual std::vector<Landmark> landmarks() const = 0;
   /// One record per observation of the last scan given to update(), in the scan's order.
   virtual const std::vector<AssociationRecord>& last_associations() const = 0;
+  /// Which observation started the landmark with this map id, for filters whose recorded decisions
+  /// need not show it: a particle filter records the best particle's decisions, and a landmark of
+  /// the final map may have been started in a particle that was not the best then. Filters whose
+  /// records show every start (the Gaussian filters) return nothing.
+  virtual std::optional<LandmarkOrigin> landmark_origin(int /*id*/) const { return std::nullopt; }
 
   /// The whole trajectory as the filter now believes it, where that differs from the sequence of
   /// its per-step estimates (FastSLAM: the highest-weight particle's path). Empty otherwise.

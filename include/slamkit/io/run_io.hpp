@@ -5,6 +5,9 @@
 //   dead_reckoning.tum   the controls integrated without any observation, for contrast
 //   map.txt              final map `id x y c_xx c_xy c_yy`
 //   landmark_std.txt     `t id std_x std_y`: landmark standard deviations over time (Figure 3)
+//   associations.txt     `scan t observation decision landmark_id`, every observation's decision
+//   landmark_origins.txt `landmark_id scan observation`: where the filter reports it (particle
+//                        filters), the observation each landmark named above was started from
 //   run.json             filter, dataset spec, counts, wall time, "partial" (true if interrupted),
 //                        and the run's provenance (RunResult::provenance) alongside
 //   metrics.json         the evaluation (written by the evaluation, see eval/evaluation.hpp)
