@@ -1,25 +1,14 @@
 #!/usr/bin/env bash
-<<<<<<< HEAD
-# Data association where it is hard, as a Markdown table: the `sparse` and `sparse-cluttered`
-# scenarios over several seeds, for EKF-SLAM with nearest neighbour and with JCBB and for FastSLAM
-# 1.0 and 2.0 (nearest neighbour per particle), all without identities, and the EKF with JCBB
-# with the settings of config/association-cluttered.json, alone and as recommended for cluttered
-# worlds (with first-estimates Jacobians and iterated updates). Per scenario and filter:
-# loops closed (metrics.json "loop_closed": loop_closure_fraction at least 0.8, see docs/metrics.md), the
-# median and range of loop_closure_fraction, wrong pairings and spurious landmarks, the mean ATE of
-# the per-step estimates and the median pose NEES.
-=======
 # Data association where it is hard, as a Markdown table: worlds (built-in scenarios, by default
 # `sparse` and `sparse-cluttered` over several seeds, or worlds of a family) x filters: EKF-SLAM with
 # nearest neighbour and with JCBB, FastSLAM 1.0 and 2.0 (nearest neighbour per particle), all
 # without identities, and the EKF with JCBB with the settings of config/association-cluttered.json,
 # alone and as recommended for cluttered worlds (with first-estimates Jacobians and iterated
 # updates). Per world set and filter: loops closed (metrics.json "loop_closed": loop_closure_fraction
-# at least 0.8), the median and range of loop_closure_fraction and of wrong pairings, spurious
+# at least 0.8, see docs/metrics.md), the median and range of loop_closure_fraction and of wrong pairings, spurious
 # landmarks (runs with none / sum / largest), the mean ATE of the per-step estimates, the median pose
 # NEES and the mean time of a run (filter, evaluation and files). Every run's figures also go to
 # $OUT/runs.csv.
->>>>>>> world-family
 #
 # Environment:
 #   SCENARIOS     world sets, space-separated (default "sparse sparse-cluttered"): a built-in scenario
