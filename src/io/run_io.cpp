@@ -5,8 +5,6 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <nlohmann/json.hpp>
 
@@ -202,9 +200,8 @@ void write_run(const std::string& dir, const RunResult& run) {
 RunResult read_run(const std::string& dir) {
   RunResult run;
   const std::string info_path = path_in(dir, "run.json");
-  std::ifstream in(info_path);
-  if (!in) throw InputError(info_path, 0, "cannot open file for reading (is this a slamkit run folder?)");
-  const nlohmann::json info = parse_json(std::string(std::istreambuf_iterator<char>(in), {}), info_path);
+  if (!fs::exists(info_path)) throw InputError(info_path, 0, "missing file (is this a slamkit run folder?)");
+  const nlohmann::json info = read_json_file(info_path);
   try {
     run.filter = info.at("filter").get<std::string>();
     run.dataset = info.at("dataset").get<std::string>();

@@ -11,10 +11,12 @@
 #include <limits>
 #include <random>
 #include <unordered_map>
+#include <utility>
 
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/checked_integer.hpp"
+#include "slamkit/core/coordinates.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/text_reader.hpp"
 
@@ -90,6 +92,8 @@ class RoundedRectRoute {
 // and simulated observations).
 constexpr double kMaxExtent = 1e6;
 constexpr int kMaxLandmarks = 10'000'000;
+// A generated world reaches a band's width beyond its extent, and must read back as a world file.
+static_assert(2 * kMaxExtent <= kMaxAbsCoordinate);
 
 void require(bool ok, const char* option, const char* expected, double found) {
   if (!ok)
@@ -266,14 +270,6 @@ World generate_world(const WorldGenOptions& o) {
   return world;
 }
 
-// A coordinate of a world file, in metres: finite and inside the largest world (see kMaxExtent),
-// with room for the band around a route.
-double coordinate(const TextReader& in, std::size_t field, const char* what) {
-  const double v = in.number(field, what);
-  if (std::abs(v) > 2.0 * kMaxExtent) in.fail(fmt::format("expected {} within +-2e6 m, found {}", what, v));
-  return v;
-}
-
 World read_world(const std::string& path) {
   TextReader in(path);
   World world;
@@ -288,11 +284,11 @@ World read_world(const std::string& path) {
         in.fail(fmt::format("expected a landmark id from 0 to {}, found {}", INT_MAX, id));
       if (const auto [it, fresh] = line_of_id.emplace(id, in.line_number()); !fresh)
         in.fail(fmt::format("duplicate landmark id {} (first defined on line {})", id, it->second));
-      const Vector2 p(coordinate(in, 2, "landmark x"), coordinate(in, 3, "landmark y"));
+      const Vector2 p(in.coordinate(2, "landmark x"), in.coordinate(3, "landmark y"));
       world.landmarks.push_back(Landmark{static_cast<int>(id), p, Matrix2::Zero()});
     } else if (keyword == "waypoint") {
       in.expect_fields(3, "waypoint <x> <y>");
-      const Vector2 p(coordinate(in, 1, "waypoint x"), coordinate(in, 2, "waypoint y"));
+      const Vector2 p(in.coordinate(1, "waypoint x"), in.coordinate(2, "waypoint y"));
       if (!world.waypoints.empty() && p == world.waypoints.back())
         in.fail("waypoint repeats the previous one; expected a distinct point");
       world.waypoints.push_back(p);
@@ -310,7 +306,7 @@ World read_world(const std::string& path) {
       if (start_line != 0)
         in.fail(fmt::format("duplicate start line (first on line {}); expected at most one", start_line));
       start_line = in.line_number();
-      world.start = Pose2(coordinate(in, 1, "start x"), coordinate(in, 2, "start y"),
+      world.start = Pose2(in.coordinate(1, "start x"), in.coordinate(2, "start y"),
                           wrap_angle(deg2rad(in.number(3, "start heading in degrees"))));
     } else {
       in.fail(fmt::format("unknown keyword '{}'; expected 'landmark', 'waypoint', 'route' or 'start'", keyword));

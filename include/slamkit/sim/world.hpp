@@ -12,7 +12,7 @@
 // Lines may be interleaved; only the order of the waypoint lines matters. A closed route ends where
 // it began: after the last waypoint the vehicle heads back to the first. An open route ends at its
 // last waypoint. At least two waypoints are required, and no waypoint may repeat the one before it.
-// Every number must be finite.
+// Every number must be finite, and every coordinate within +-kMaxAbsCoordinate (2e6 m).
 #include <cstdint>
 #include <optional>
 #include <string>
