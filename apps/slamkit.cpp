@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 #include <fstream>
 #include <iostream>
+#include <new>
 #include <optional>
 #include <stdexcept>
 
@@ -29,6 +30,8 @@
 #include "slamkit/io/sim_log.hpp"
 #include "slamkit/io/trajectory_io.hpp"
 #include "slamkit/pipeline/replay.hpp"
+#include "slamkit/pipeline/run_memory.hpp"
+#include "slamkit/pipeline/run_settings.hpp"
 #include "slamkit/pipeline/runner.hpp"
 #include "slamkit/plot/benchmark_plots.hpp"
 #include "slamkit/plot/replay_html.hpp"
@@ -172,9 +175,14 @@ Metrics evaluate_and_report(const std::string& dir, const RunResult& run, const 
   return metrics;
 }
 
-}  // namespace
+/// std::bad_alloc's own text says nothing a user can act on.
+int out_of_memory() {
+  std::cerr << "slamkit: error: out of memory: the command needs more than this process may use (for a run: fewer "
+               "--particles, --history decimated or none, or a shorter dataset)\n";
+  return kExitBadInput;
+}
 
-int main(int argc, char** argv) {
+int run_command(int argc, char** argv) {
   CLI::App app{"slamkit: landmark-based SLAM (EKF-SLAM) with a simulator, evaluation and plots"};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Show help for every command");
@@ -407,6 +415,7 @@ int main(int argc, char** argv) {
   // any data is read. A repeated run takes them from its run.json, checked the same way.
   const Verbosity verbosity = quiet ? Verbosity::kQuiet : verbose ? Verbosity::kVerbose : Verbosity::kNormal;
   nlohmann::json settings_contents;
+  std::string settings_source;  // names the settings' contents in errors where they are not data_config's
   if (*run_cmd) {
     const auto usage_error = [](const std::string& message) {
       std::cerr << "slamkit: error: " << message << " (see 'slamkit run --help')\n";
@@ -414,13 +423,12 @@ int main(int argc, char** argv) {
     };
     try {
       if (!repeat_path.empty()) {
-        const nlohmann::json previous = read_json_file(repeat_path);
-        if (!previous.contains("settings") || !previous.contains("dataset"))
-          throw InputError(repeat_path, 0, "expected the run.json of a run folder (with 'settings' and 'dataset')");
-        filter = filter_config_from_json(previous.at("settings"), repeat_path);
-        data_spec = previous.at("dataset").get<std::string>();
-        data_config = previous.value("dataset_settings", "");
-        settings_contents = previous.value("dataset_settings_contents", nlohmann::json());
+        RunSettings previous = run_settings_from_json(read_json_file(repeat_path), repeat_path);
+        filter = previous.filter;
+        data_spec = previous.dataset;
+        data_config = previous.dataset_settings;
+        settings_contents = std::move(previous.dataset_settings_contents);
+        settings_source = previous.dataset_settings_source;
       } else {
         if (data_spec.empty()) return usage_error("--data is required (or --config with an earlier run.json)");
         if (!assoc_config_path.empty()) {
@@ -521,7 +529,8 @@ int main(int argc, char** argv) {
       };
       if (verbosity == Verbosity::kVerbose) fmt::print(stderr, "settings: {}\n", provenance.at("settings").dump());
 
-      const Dataset dataset = load_dataset(dataset_spec, settings_contents, settings_path);
+      const Dataset dataset =
+          load_dataset(dataset_spec, settings_contents, settings_source.empty() ? settings_path : settings_source);
       stage("dataset read");
       if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
         throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
@@ -533,14 +542,15 @@ int main(int argc, char** argv) {
         provenance["time_origin_s"] =
             fmt::format("{}.{:09}", dataset.time_origin_s, std::llround(dataset.time_origin_fraction_s * 1e9));
 
-      auto slam = make_filter(filter, dataset);
       RunOptions options;
+      options.history = history;
+      require_run_memory(filter, dataset, options);
+      auto slam = make_filter(filter, dataset);
       ProgressLine progress;
       if (verbosity != Verbosity::kQuiet && isatty(STDERR_FILENO)) options.observers.push_back(&progress);
       std::optional<ReplayRecorder> recorder;
       if (replay) options.observers.push_back(&recorder.emplace(dataset));
       options.stop = &g_interrupted;
-      options.history = history;
       std::signal(SIGINT, on_interrupt);
       RunResult run = run_filter(*slam, dataset, options);
       std::signal(SIGINT, SIG_DFL);
@@ -602,9 +612,26 @@ int main(int argc, char** argv) {
   } catch (const InputError& e) {
     std::cerr << "slamkit: error: " << e.what() << "\n";
     return kExitBadInput;
+  } catch (const std::bad_alloc&) {
+    return out_of_memory();
   } catch (const std::exception& e) {
     std::cerr << "slamkit: error: " << e.what() << "\n";
     return kExitBadInput;
   }
   return 0;
+}
+
+}  // namespace
+
+// What escapes a command's own handlers (reading the settings, say) still ends in one line and a
+// non-zero exit, never in std::terminate.
+int main(int argc, char** argv) {
+  try {
+    return run_command(argc, argv);
+  } catch (const std::bad_alloc&) {
+    return out_of_memory();
+  } catch (const std::exception& e) {
+    std::cerr << "slamkit: error: " << e.what() << "\n";
+    return kExitBadInput;
+  }
 }
