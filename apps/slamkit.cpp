@@ -486,8 +486,13 @@ int run_command(int argc, char** argv) {
     } else if (*bench_cmd) {
       for (const std::string& file : plot::write_benchmark_plots(bench_json, bench_out)) fmt::print("wrote {}\n", file);
     } else if (*world_cmd) {
-      write_world(world_out, generate_world(gen));
-      fmt::print("wrote {} ({} landmarks)\n", world_out, gen.landmarks);
+      WorldGenReport report;
+      write_world(world_out, generate_world(gen, &report));
+      fmt::print("wrote {} ({} landmarks{})\n", world_out, gen.landmarks,
+                 report.spacing < gen.min_spacing
+                     ? fmt::format(", {:.3g} m apart at least: the band cannot hold them {} m apart", report.spacing,
+                                   gen.min_spacing)
+                     : "");
     } else if (*run_cmd) {
       const auto warn = [&](const std::string& message) { std::cerr << "slamkit: warning: " << message << "\n"; };
       const bool particle_filter = filter.filter == FilterKind::kFastSlam1 || filter.filter == FilterKind::kFastSlam2;
