@@ -217,7 +217,8 @@ int run_command(int argc, char** argv) {
   auto* world_cmd = app.add_subcommand("make-world", "Generate a world file (a loop route with landmarks)");
   WorldGenOptions gen;
   std::string world_out;
-  world_cmd->add_option("--landmarks", gen.landmarks, "Number of landmarks")
+  world_cmd->add_option("--landmarks", gen.landmarks,
+                        "Number of landmarks, up to 1e7 (in a band that cannot hold them 3 m apart, closer)")
       ->capture_default_str()
       ->check(integer_at_least(1));
   const CLI::Validator positive = number_where("> 0", [](double v) { return v > 0.0 && std::isfinite(v); });
@@ -237,7 +238,9 @@ int run_command(int argc, char** argv) {
   add_named(run_cmd, "--assoc", filter.association.method, parse_association_method,
             "Data association: known (ids from the log), nn, jcbb");
   auto* data_opt = run_cmd->add_option(
-      "--data", data_spec, "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN, course:DIR");
+      "--data", data_spec,
+      "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN, course:DIR. Its files must be regular "
+      "files, with lines up to 1 MiB, positions within +-2e6 m and at least one observation");
   auto* data_config_opt =
       run_cmd
           ->add_option("--data-config", data_config,
@@ -246,7 +249,9 @@ int run_command(int argc, char** argv) {
   run_cmd->add_option("--seed", filter.seed, "Random seed for stochastic filters")
       ->capture_default_str()
       ->check(integer_at_least(0));
-  run_cmd->add_option("--particles", filter.particles, "FastSLAM: number of particles")
+  run_cmd->add_option("--particles", filter.particles,
+                      "FastSLAM: number of particles; a run whose estimated memory (particles x landmarks, and "
+                      "the history kept) exceeds what this process may use is refused before it starts")
       ->capture_default_str()
       ->check(integer_at_least(1));
   run_cmd
