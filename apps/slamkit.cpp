@@ -1,14 +1,16 @@
 // slamkit command-line tool: a thin layer over the library. Each subcommand parses its options,
 // calls the public API, and reports. Bad input of any kind ends in one line on stderr naming the
-// file, the line and what was expected, and a non-zero exit code.
+// file, the line and what was expected, and a non-zero exit code: 2 for a usage error (an unknown
+// option, subcommand or name, a value out of range, a malformed dataset spec), 1 for bad data (a
+// missing or malformed file), 3 for a run whose filter diverged, 130 for an interrupted run.
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
 #include <atomic>
+#include <cctype>
 #include <charconv>
 #include <chrono>
 #include <cmath>
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -20,19 +22,22 @@
 #include <stdexcept>
 
 #include "slamkit/core/atomic_file.hpp"
+#include "slamkit/core/atomic_folder.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
+#include "slamkit/core/names.hpp"
 #include "slamkit/core/version.hpp"
 #include "slamkit/eval/evaluation.hpp"
-#include "slamkit/pipeline/factory.hpp"
 #include "slamkit/io/load_dataset.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/io/sim_log.hpp"
-#include "slamkit/io/trajectory_io.hpp"
+#include "slamkit/pipeline/factory.hpp"
 #include "slamkit/pipeline/replay.hpp"
+#include "slamkit/pipeline/run_folder.hpp"
 #include "slamkit/pipeline/run_memory.hpp"
-#include "slamkit/pipeline/run_settings.hpp"
 #include "slamkit/pipeline/runner.hpp"
+#include "slamkit/pipeline/stop_signals.hpp"
+#include "slamkit/pipeline/settings.hpp"
 #include "slamkit/plot/benchmark_plots.hpp"
 #include "slamkit/plot/replay_html.hpp"
 #include "slamkit/plot/report.hpp"
@@ -46,8 +51,7 @@ namespace {
 
 constexpr int kExitBadInput = 1;
 constexpr int kExitUsage = 2;
-constexpr int kExitDiverged = 3;       // the filter's estimate stopped being finite
-constexpr int kExitInterrupted = 130;  // the shell's code for a program ended by SIGINT
+constexpr int kExitDiverged = 3;  // the filter's estimate stopped being finite
 
 // CLI11's own range checks print the limits of a double in full (310 digits); these say the range in
 // words. An integer option is checked here as text, so that "1.5" gets the same message as "0".
@@ -64,36 +68,165 @@ CLI::Validator integer_at_least(unsigned long long min) {
       "");
 }
 
+/// A number `ok` accepts; NaN and infinities (which CLI11 converts from "nan" and "1e400") are
+/// refused by every range here.
 CLI::Validator number_where(const std::string& expected, bool (*ok)(double)) {
   return CLI::Validator(
       [=](std::string& text) {
         double v = 0.0;
-        if (!CLI::detail::lexical_cast(text, v) || !ok(v)) return fmt::format("expected {}, found {}", expected, text);
+        if (!CLI::detail::lexical_cast(text, v) || !std::isfinite(v) || !ok(v))
+          return fmt::format("expected {}, found {}", expected, text);
         return std::string();
       },
       "");
 }
 
-/// A setting given by name and parsed by the library (a filter, an association method, a resampling
-/// scheme or policy): a name the parser rejects is a usage error carrying the parser's message,
-/// which lists the accepted names. The help shows the default under its name.
+/// Any finite number: for settings whose range the library states (validate), in one place.
+CLI::Validator finite_number() {
+  return number_where("a finite number", [](double) { return true; });
+}
+
+/// A check by a library parser or checker (a filter, an association method, a resampling scheme or
+/// policy, a dataset spec, ...): text it rejects with std::invalid_argument is a usage error carrying
+/// its message, which says what was expected and, for a name, the nearest ones.
+template <typename Parse>
+CLI::Validator parsed_by(Parse parse) {
+  return CLI::Validator(
+      [parse](std::string& text) {
+        try {
+          parse(text);
+        } catch (const std::invalid_argument& e) {
+          return std::string(e.what());
+        }
+        return std::string();
+      },
+      "");
+}
+
+/// One of `names`, with the nearest ones suggested when the text is none of them.
+CLI::Validator one_of(std::string what, std::vector<std::string> names) {
+  return CLI::Validator(
+      [what, names](std::string& text) {
+        if (std::find(names.begin(), names.end(), text) != names.end()) return std::string();
+        return unknown_name_message(what, text, names);
+      },
+      "");
+}
+
+/// A setting named on the command line and parsed by the library into `target`. The help shows the
+/// default under its name.
 template <typename T>
 CLI::Option* add_named(CLI::App* cmd, const std::string& flag, T& target, T (*parse)(const std::string&),
                        const std::string& help) {
   return cmd
       ->add_option_function<std::string>(
           flag, [&target, parse](const std::string& text) { target = parse(text); }, help)
-      ->check(CLI::Validator(
-          [parse](std::string& text) {
-            try {
-              parse(text);
-            } catch (const std::invalid_argument& e) {
-              return std::string(e.what());
-            }
-            return std::string();
-          },
-          ""))
+      ->check(parsed_by(parse))
       ->default_str(to_string(target));
+}
+
+/// A filter setting given as a flag: its value goes into `settings` under run.json's key (a JSON
+/// pointer, "/particles" or "/association/accept_probability"), the top layer of the run's settings
+/// (pipeline/settings.hpp). `default_text` is what the help shows.
+template <typename T>
+CLI::Option* add_setting(CLI::App* cmd, const std::string& flag, nlohmann::json& settings, const std::string& key,
+                         const std::string& help, const std::string& default_text) {
+  return cmd
+      ->add_option_function<T>(
+          flag, [&settings, key](const T& value) { settings[nlohmann::json::json_pointer(key)] = value; }, help)
+      ->default_str(default_text);
+}
+
+/// The same for a setting given by name, checked by its library parser.
+template <typename T>
+CLI::Option* add_named_setting(CLI::App* cmd, const std::string& flag, nlohmann::json& settings,
+                               const std::string& key, T (*parse)(const std::string&), const std::string& help,
+                               const T& default_value) {
+  return add_setting<std::string>(cmd, flag, settings, key, help, to_string(default_value))->check(parsed_by(parse));
+}
+
+/// A command's options by their long names, for suggestions.
+std::vector<std::string> option_names(const CLI::App& cmd) {
+  std::vector<std::string> names;
+  for (const CLI::Option* option : cmd.get_options())
+    for (const std::string& name : option->get_lnames()) names.push_back("--" + name);
+  return names;
+}
+
+/// What an option stands for in a message: its flag, or its positional name in capitals ("DIR"),
+/// and its help line.
+std::string option_label(const CLI::App& cmd, const std::string& name) {
+  for (const CLI::Option* option : cmd.get_options()) {
+    if (!option->check_name(name)) continue;
+    std::string label = name;
+    if (option->get_lnames().empty())
+      for (char& c : label) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    return fmt::format("{}: {}", label, option->get_description());
+  }
+  return name;
+}
+
+/// CLI11's parse errors in slamkit's words, naming what was wrong and what was expected. `cmd` is the
+/// subcommand being parsed, if CLI11 got that far.
+std::string usage_message(const CLI::ParseError& e, const CLI::App& app, const CLI::App* cmd, int argc, char** argv) {
+  const std::string what = e.what();
+  std::vector<std::string> commands;
+  for (const CLI::App* sub : app.get_subcommands({})) commands.push_back(sub->get_name());
+  if (cmd == nullptr) {
+    // CLI11 reports a misspelt subcommand as a missing one, or as an unexpected argument.
+    if (argc > 1 && argv[1][0] != '-') return unknown_name_message("subcommand", argv[1], commands);
+    if (argc > 1) return fmt::format("unknown option '{}'; expected a subcommand first: {}", argv[1], fmt::join(commands, ", "));
+    return fmt::format("expected a subcommand: {}", fmt::join(commands, ", "));
+  }
+  if (dynamic_cast<const CLI::ExtrasError*>(&e) != nullptr) {
+    const std::vector<std::string> extras = cmd->remaining();
+    const std::string first = extras.empty() ? what : extras.front();
+    if (first.size() > 1 && first[0] == '-') {
+      const std::string name = first.substr(0, first.find('='));
+      // "-f" is no option of slamkit's (every option is long): suggest the long ones it begins.
+      const std::string as_long = name[1] == '-' ? name : "--" + name.substr(1);
+      return fmt::format("unknown option '{}'{}", name, did_you_mean(as_long, option_names(*cmd)));
+    }
+    return fmt::format("unexpected argument '{}'; options are written --NAME VALUE", first);
+  }
+  const std::string name = what.substr(0, what.find_first_of(": "));
+  if (dynamic_cast<const CLI::RequiredError*>(&e) != nullptr)
+    return fmt::format("missing {}", option_label(*cmd, name));
+  if (dynamic_cast<const CLI::ArgumentMismatch*>(&e) != nullptr)
+    return what.find("missing") != std::string::npos ? fmt::format("{} needs a value", name)
+                                                     : fmt::format("{} may be given only once", name);
+  if (dynamic_cast<const CLI::ExcludesError*>(&e) != nullptr) {
+    const std::string other = what.substr(what.find(" excludes ") + 10);
+    const bool repeat = name == "--config" || other == "--config";
+    return fmt::format("{} and {} cannot be given together{}", name, other,
+                       repeat ? ": --config repeats a run with every setting its run.json records" : "");
+  }
+  if (dynamic_cast<const CLI::ConversionError*>(&e) != nullptr) {
+    // "Could not convert: --no-ids = maybe": every option with a value is checked before it is
+    // converted, so only a flag given a value that is not true or false gets here.
+    const auto flag = what.find("--"), equals = what.find(" = ");
+    if (flag != std::string::npos && equals != std::string::npos && equals > flag)
+      return fmt::format("{} is a flag: expected no value (or true or false), found '{}'",
+                         what.substr(flag, equals - flag), what.substr(equals + 3));
+  }
+  return what;  // ValidationError: the message of one of the checks above, prefixed with the option
+}
+
+/// --family and --world-seed, which choose a world of a family; returns --family.
+CLI::Option* add_family_options(CLI::App* cmd, std::string& family, std::uint64_t& world_seed) {
+  std::string names;
+  for (const std::string& name : world_family_names()) names += (names.empty() ? "" : ", ") + name;
+  auto* family_opt =
+      cmd->add_option("--family", family,
+                      fmt::format("A random world of this family ({}), chosen by --world-seed; simulate uses "
+                                  "the family's settings (docs/world-families.md)",
+                                  names))
+          ->check(parsed_by(&world_family));
+  cmd->add_option("--world-seed", world_seed, "Which world of the --family; each seed gives its own route and landmarks")
+      ->capture_default_str()
+      ->check(integer_at_least(0))
+      ->needs(family_opt);
+  return family_opt;
 }
 
 enum class Verbosity { kQuiet, kNormal, kVerbose };
@@ -109,7 +242,9 @@ void print_outputs(const std::string& dir, const Metrics& metrics, Verbosity ver
 }
 
 /// A progress line on stderr, rewritten in place, for runs that last longer than a second: how far,
-/// how fast, and when it will end. Only on a terminal, so logs and pipes stay clean.
+/// how fast, and when it will end. Only on a terminal, so logs and pipes stay clean. Written with
+/// fputs, which unlike fmt::print does not throw when the terminal has gone (SIGHUP): the run goes
+/// on to write its folder.
 class ProgressLine : public RunObserver {
  public:
   void on_scan(const SlamFilter& filter, const ScanEvent& scan, std::size_t done, std::size_t total) override {
@@ -119,14 +254,16 @@ class ProgressLine : public RunObserver {
     last_ = now;
     const double rate = static_cast<double>(done) / elapsed;
     const double eta = static_cast<double>(total - done) / rate;
-    fmt::print(stderr, "\r\033[K{:5.1f}%  t = {:.0f} s  {} landmarks  {:.0f} events/s  ETA {:.0f} s",
-               100.0 * static_cast<double>(done) / static_cast<double>(total), scan.t, filter.num_landmarks(), rate,
-               eta);
+    std::fputs(fmt::format("\r\033[K{:5.1f}%  t = {:.0f} s  {} landmarks  {:.0f} events/s  ETA {:.0f} s",
+                           100.0 * static_cast<double>(done) / static_cast<double>(total), scan.t,
+                           filter.num_landmarks(), rate, eta)
+                   .c_str(),
+               stderr);
     shown_ = true;
   }
   /// Clears the line, so what follows starts on a clean one.
   void finish() {
-    if (shown_) fmt::print(stderr, "\r\033[K");
+    if (shown_) std::fputs("\r\033[K", stderr);
   }
 
  private:
@@ -134,25 +271,6 @@ class ProgressLine : public RunObserver {
   std::chrono::steady_clock::time_point last_ = start_;
   bool shown_ = false;
 };
-
-// Set by the first Ctrl-C: the run stops after the current event and writes what it has, marked
-// partial. The handler then steps aside, so a second Ctrl-C ends the program at once.
-std::atomic<bool> g_interrupted{false};
-static_assert(std::atomic<bool>::is_always_lock_free);
-extern "C" void on_interrupt(int) {
-  g_interrupted.store(true);
-  std::signal(SIGINT, SIG_DFL);
-}
-
-/// The ground truth in TUM format beside the estimate (same times), so tools such as evo compare
-/// them as they are. A truth of positions only (GPS) gets heading 0.
-void write_truth(const std::string& dir, const Dataset& dataset) {
-  const std::string path = (fs::path(dir) / "truth.tum").string();
-  if (dataset.truth.poses.empty())
-    fs::remove(path);
-  else
-    write_tum(path, dataset.truth.poses);
-}
 
 /// The dataset settings' contents, or null for the reader's defaults.
 nlohmann::json dataset_settings_json(const std::string& path) {
@@ -167,12 +285,18 @@ bool has_landmark_ids(const Dataset& dataset) {
   return false;
 }
 
-/// Evaluates a run against its dataset's truth, writes metrics.json and the pictures.
-Metrics evaluate_and_report(const std::string& dir, const RunResult& run, const Dataset& dataset) {
-  const Metrics metrics = evaluate_run(run, dataset.truth);
-  write_metrics(dir, metrics);
-  write_run_plots(dir, run, dataset.truth, metrics);
-  return metrics;
+/// "pose_sample_fraction 0.01, association.method nn": a partial settings object in one line.
+std::string settings_in_words(const nlohmann::json& settings, const std::string& prefix = "") {
+  std::string words;
+  for (const auto& item : settings.items()) {
+    const std::string part = item.value().is_object()
+                                 ? settings_in_words(item.value(), prefix + item.key() + ".")
+                                 : fmt::format("{}{} {}", prefix, item.key(),
+                                               item.value().is_string() ? item.value().get<std::string>()
+                                                                        : item.value().dump());
+    words += (words.empty() ? "" : ", ") + part;
+  }
+  return words;
 }
 
 /// std::bad_alloc's own text says nothing a user can act on.
@@ -183,33 +307,40 @@ int out_of_memory() {
 }
 
 int run_command(int argc, char** argv) {
-  CLI::App app{"slamkit: landmark-based SLAM (EKF-SLAM) with a simulator, evaluation and plots"};
+  CLI::App app{"slamkit: landmark-based SLAM (EKF-SLAM, UKF, FastSLAM) with a simulator, evaluation and plots"};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Show help for every command");
   app.set_version_flag("--version", version(), "Print the version and exit");
+  app.footer(
+      "Exit codes: 0 done, 1 bad data (a missing or malformed file), 2 usage error, 3 the filter diverged, "
+      "130 interrupted.\nDocumentation: docs/ of the source tree, installed in PREFIX/share/doc/slamkit; which "
+      "filter, association and settings for which situation: choosing.md there.");
 
   // ---- simulate ----
   auto* simulate_cmd = app.add_subcommand("simulate", "Simulate a vehicle driving through a landmark world");
-  std::string world_path, config_path, sim_out, scenario_name = "default";
-  std::uint64_t sim_seed = 1;
+  std::string world_path, config_path, sim_out, scenario_name = "default", family_name;
+  std::uint64_t sim_seed = 1, world_seed = 1;
   int loops = 0;
   double clutter = -1.0, detection = -1.0;
   bool no_ids = false;
-  std::string scenario_help = "Built-in world and settings:";
-  for (const auto& n : scenario_names()) scenario_help += " " + n;
-  simulate_cmd->add_option("--scenario", scenario_name, scenario_help)->capture_default_str();
-  simulate_cmd->add_option("--world", world_path, "World file (landmarks and waypoints); replaces the scenario's world")
-      ->check(CLI::ExistingFile);
-  simulate_cmd->add_option("--config", config_path, "Simulator settings (JSON); default: the reference simulator's")
-      ->check(CLI::ExistingFile);
-  simulate_cmd->add_option("--seed", sim_seed, "Random seed; the same seed gives the same log")
+  auto* scenario_opt =
+      simulate_cmd
+      ->add_option("--scenario", scenario_name,
+                   fmt::format("Built-in world and settings: {}", fmt::join(scenario_names(), ", ")))
+      ->capture_default_str()
+      ->check(one_of("scenario", scenario_names()));
+  auto* world_opt =
+      simulate_cmd->add_option("--world", world_path, "World file (landmarks and waypoints); replaces the scenario's world");
+  add_family_options(simulate_cmd, family_name, world_seed)->excludes(scenario_opt)->excludes(world_opt);
+  simulate_cmd->add_option("--config", config_path, "Simulator settings (JSON); default: the reference simulator's");
+  simulate_cmd->add_option("--seed", sim_seed, "Random seed of the noise; the same seeds give the same log")
       ->capture_default_str()
       ->check(integer_at_least(0));
   simulate_cmd->add_option("--loops", loops, "Laps of the route (overrides the config)")->check(integer_at_least(1));
   simulate_cmd->add_option("--clutter", clutter, "False detections per scan (Poisson mean)")
-      ->check(number_where(">= 0", [](double v) { return v >= 0.0 && std::isfinite(v); }));
+      ->check(number_where(">= 0", [](double v) { return v >= 0.0; }));
   simulate_cmd->add_option("--detection-prob", detection, "Probability of detecting a landmark in view")
-      ->check(number_where("in [0, 1]", [](double v) { return v >= 0.0 && v <= 1.0; }));
+      ->check(number_where("in (0, 1]", [](double v) { return v > 0.0 && v <= 1.0; }));
   simulate_cmd->add_flag("--no-ids", no_ids, "Withhold landmark identities from the log (kept in the truth)");
   simulate_cmd->add_option("--out", sim_out, "Output folder for the log and ground truth")->required();
 
@@ -221,136 +352,160 @@ int run_command(int argc, char** argv) {
                         "Number of landmarks, up to 1e7 (in a band that cannot hold them 3 m apart, closer)")
       ->capture_default_str()
       ->check(integer_at_least(1));
-  const CLI::Validator positive = number_where("> 0", [](double v) { return v > 0.0 && std::isfinite(v); });
+  const CLI::Validator positive = number_where("> 0", [](double v) { return v > 0.0; });
   world_cmd->add_option("--width", gen.width, "Route width [m]")->capture_default_str()->check(positive);
   world_cmd->add_option("--height", gen.height, "Route height [m]")->capture_default_str()->check(positive);
-  world_cmd->add_option("--band", gen.band_outer, "Landmarks lie up to this far from the route [m]")->capture_default_str();
+  world_cmd->add_option("--band", gen.band_outer, "Landmarks lie up to this far from the route [m]")
+      ->capture_default_str()
+      ->check(positive);
   world_cmd->add_option("--seed", gen.seed, "Random seed")->capture_default_str()->check(integer_at_least(0));
   world_cmd->add_option("--out", world_out, "World file to write")->required();
+  auto* world_family_opt = add_family_options(world_cmd, family_name, world_seed);
+  for (const char* name : {"--landmarks", "--width", "--height", "--band", "--seed"})
+    world_family_opt->excludes(world_cmd->get_option(name));
 
   // ---- run ----
   // Every filter setting is parsed and checked here, before any data is read: a misspelt name or a
-  // value out of range is a usage error.
-  auto* run_cmd = app.add_subcommand("run", "Run a SLAM filter on a dataset and evaluate it");
-  FilterConfig filter;
+  // value out of range is a usage error. The flags are the top layer of the run's settings; below
+  // them lie --assoc-config, the dataset's recommendation and the defaults (pipeline/settings.hpp).
+  auto* run_cmd = app.add_subcommand(
+      "run",
+      "Run a SLAM filter on a dataset and evaluate it. Settings come from, lowest first: the defaults, the "
+      "dataset's recommended settings for the filter (the \"recommended\" object of its config file; Victoria "
+      "Park's name an association method for every filter, --ukf-noise additive and --pose-sample-fraction 0.01), "
+      "--assoc-config, and the flags; --print-config shows the result");
+  const FilterConfig defaults;
+  nlohmann::json flag_settings = nlohmann::json::object();
   std::string data_spec, run_out, data_config;
-  add_named(run_cmd, "--filter", filter.filter, parse_filter_kind, "Filter: ekf, ukf, fastslam1, fastslam2");
-  add_named(run_cmd, "--assoc", filter.association.method, parse_association_method,
-            "Data association: known (ids from the log), nn, jcbb");
-  auto* data_opt = run_cmd->add_option(
-      "--data", data_spec,
-      "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN, course:DIR. Its files must be regular "
-      "files, with lines up to 1 MiB, positions within +-2e6 m and at least one observation");
-  auto* data_config_opt =
+  add_named_setting(run_cmd, "--filter", flag_settings, "/filter", parse_filter_kind,
+                    "Filter: ekf, ukf, fastslam1, fastslam2", defaults.filter);
+  add_named_setting(run_cmd, "--assoc", flag_settings, "/association/method", parse_association_method,
+                    "Data association: known (ids from the log), nn, jcbb", defaults.association.method);
+  auto* data_opt =
       run_cmd
-          ->add_option("--data-config", data_config,
-                       "Dataset settings (JSON: noise, sensor limits); the defaults are config/*.json")
-          ->check(CLI::ExistingFile);
-  run_cmd->add_option("--seed", filter.seed, "Random seed for stochastic filters")
-      ->capture_default_str()
+          ->add_option("--data", data_spec,
+                       "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN (N 1-5; also DIR:N "
+                       "and DIR/RobotN; a bare DIR is robot 1), course:DIR. Its files must be regular files, with "
+                       "lines up to 1 MiB, positions within +-2e6 m and at least one observation")
+          ->check(parsed_by(check_dataset_spec));
+  auto* data_config_opt = run_cmd->add_option(
+      "--data-config", data_config,
+      "Dataset settings (JSON: noise, sensor limits, recommended filter settings); the defaults are the shipped "
+      "config/*.json, installed in PREFIX/share/slamkit/config");
+  add_setting<std::uint64_t>(run_cmd, "--seed", flag_settings, "/seed", "Random seed for stochastic filters",
+                             std::to_string(defaults.seed))
       ->check(integer_at_least(0));
-  run_cmd->add_option("--particles", filter.particles,
-                      "FastSLAM: number of particles; a run whose estimated memory (particles x landmarks, and "
-                      "the history kept) exceeds what this process may use is refused before it starts")
-      ->capture_default_str()
+  add_setting<int>(run_cmd, "--particles", flag_settings, "/particles",
+                   "FastSLAM: number of particles; a run whose estimated memory (particles x landmarks, and the "
+                   "history kept) exceeds what this process may use is refused before it starts",
+                   std::to_string(defaults.particles))
       ->check(integer_at_least(1));
-  run_cmd
-      ->add_option("--pose-sample-fraction", filter.pose_sample_fraction,
-                   "FastSLAM 2.0: share of the proposal's covariance a particle draws its pose from, in (0, 1]; "
-                   "it carries the rest as a Gaussian (1: the textbook filter)")
-      ->capture_default_str();
-  add_named(run_cmd, "--resample", filter.resample, parse_resample_method,
-            "FastSLAM: multinomial, stratified, systematic or residual");
-  add_named(run_cmd, "--resample-when", filter.resample_when, parse_resample_policy,
-            "FastSLAM: always, every:K (scans) or ess:F (effective sample size below F*N)");
-  run_cmd->add_option("--threads", filter.threads, "FastSLAM and EKF: worker threads (0: all cores); the result does not depend on it")
-      ->capture_default_str()
+  add_setting<double>(run_cmd, "--pose-sample-fraction", flag_settings, "/pose_sample_fraction",
+                      "FastSLAM 2.0: share of the proposal's covariance a particle draws its pose from, in (0, 1]; "
+                      "it carries the rest as a Gaussian (1: the textbook filter)",
+                      fmt::format("{}", defaults.pose_sample_fraction))
+      ->check(finite_number());
+  add_named_setting(run_cmd, "--resample", flag_settings, "/resample", parse_resample_method,
+                    "FastSLAM: multinomial, stratified, systematic or residual", defaults.resample);
+  add_named_setting(run_cmd, "--resample-when", flag_settings, "/resample_when", parse_resample_policy,
+                    "FastSLAM: always, every:K (scans) or ess:F (effective sample size below F*N)",
+                    defaults.resample_when);
+  add_setting<unsigned>(run_cmd, "--threads", flag_settings, "/threads",
+                        "FastSLAM and EKF: worker threads (0: all cores); the result does not depend on it",
+                        std::to_string(defaults.threads))
       ->check(integer_at_least(0));
-  add_named(run_cmd, "--ekf-update", filter.ekf_update, parse_ekf_update,
-            "EKF and UKF: joint (a scan at once) or sequential (one observation after another). "
-            "EKF full, fej or invariant: iterated (joint, relinearised at the "
-            "result until it converges; keeps a loop closure after a long drift consistent)");
-  add_named(run_cmd, "--ekf-variant", filter.ekf_variant, parse_ekf_variant,
-            "EKF: full, compressed (local-area updates, the same result as full), "
-            "fej (first-estimates Jacobians) or invariant (right-invariant error); fej and invariant keep "
-            "the EKF consistent");
-  add_named(run_cmd, "--ukf-noise", filter.ukf_noise, parse_ukf_noise,
-            "UKF: augmented (sigma points over the vehicle and the control noise, which then moves the mean "
-            "too) or additive (over the vehicle; the control noise's spread added as zero-mean process noise, "
-            "for noise that is an allowance for model error)");
+  add_named_setting(run_cmd, "--ekf-update", flag_settings, "/ekf_update", parse_ekf_update,
+                    "EKF and UKF: joint (a scan at once) or sequential (one observation after another). "
+                    "EKF full, fej or invariant: iterated (joint, relinearised at the "
+                    "result until it converges; keeps a loop closure after a long drift consistent)",
+                    defaults.ekf_update);
+  add_named_setting(run_cmd, "--ekf-variant", flag_settings, "/ekf_variant", parse_ekf_variant,
+                    "EKF: full, compressed (local-area updates, the same result as full), "
+                    "fej (first-estimates Jacobians) or invariant (right-invariant error); fej and invariant keep "
+                    "the EKF consistent",
+                    defaults.ekf_variant);
+  add_named_setting(run_cmd, "--ukf-noise", flag_settings, "/ukf_noise", parse_ukf_noise,
+                    "UKF: augmented (sigma points over the vehicle and the control noise, which then moves the mean "
+                    "too) or additive (over the vehicle; the control noise's spread added as zero-mean process "
+                    "noise, for noise that is an allowance for model error)",
+                    defaults.ukf_noise);
   // Association and map management: a file holding the keys run.json records under
-  // settings.association, and a flag for each setting, which overrides the file.
-  std::string assoc_config_path, gate_known;
-  AssociationConfig assoc_flags;
+  // settings.association, and a flag for each setting, which overrides the file. Their ranges are
+  // validate(AssociationConfig)'s, checked with the other settings before any data is read.
+  std::string assoc_config_path;
+  const AssociationConfig& assoc = defaults.association;
   run_cmd->add_option("--assoc-config", assoc_config_path,
-                      "Association and map-management settings (JSON, the keys of run.json's settings.association); "
-                      "the flags below override it")
-      ->check(CLI::ExistingFile);
-  run_cmd->add_option("--accept-probability", assoc_flags.accept_probability,
-                      "Pair an observation with a landmark only inside this chi-square quantile of its innovation")
-      ->capture_default_str();
-  run_cmd->add_option("--new-landmark-probability", assoc_flags.new_landmark_probability,
-                      "Start a landmark only outside this quantile for every candidate (between: discarded)")
-      ->capture_default_str();
-  run_cmd->add_option("--min-pairing-probability", assoc_flags.min_pairing_probability,
-                      "Pair an observation only if that landmark explains it with at least this probability against "
-                      "the other candidates and clutter (0: off)")
-      ->capture_default_str();
-  run_cmd->add_option("--clutter-per-scan", assoc_flags.clutter_per_scan,
-                      "Expected false detections per scan, for --min-pairing-probability")
-      ->capture_default_str();
-  run_cmd->add_option("--gate-known", gate_known,
-                      "Known ids: reject an observation beyond the new-landmark gate (default: EKF and UKF on, FastSLAM off)")
-      ->check(CLI::IsMember({"on", "off"}));
-  run_cmd->add_option("--confirm-after", assoc_flags.confirm_after, "Observations that confirm a new landmark")
-      ->capture_default_str()
-      ->check(integer_at_least(1));
-  run_cmd->add_option("--provisional-max-misses", assoc_flags.provisional_max_misses,
-                      "Scans in a row a provisional landmark may be missed in view")
-      ->capture_default_str()
-      ->check(integer_at_least(1));
-  run_cmd->add_option("--confirmed-max-misses", assoc_flags.confirmed_max_misses,
-                      "Scans in a row a confirmed landmark may be missed in view (0: never removed)")
-      ->capture_default_str()
-      ->check(integer_at_least(0));
-  run_cmd->add_option("--view-margin-m", assoc_flags.view_margin_m, "Range margin of \"in view\" for misses [m]")
-      ->capture_default_str();
-  run_cmd->add_option("--view-margin-rad", assoc_flags.view_margin_rad, "Bearing margin of \"in view\" for misses [rad]")
-      ->capture_default_str();
-  run_cmd->add_option("--jcbb-max-nodes", assoc_flags.jcbb_max_nodes, "JCBB: search nodes per scan")
-      ->capture_default_str()
-      ->check(integer_at_least(1));
-  run_cmd->add_option("--relocalise-min-pairs", assoc_flags.relocalise_min_pairs,
-                      "Without identities: recognise landmarks unseen for the window only when this many landmarks "
-                      "started since pair jointly with them, and fuse the duplicates (0: off)")
-      ->capture_default_str();
-  run_cmd->add_option("--relocalise-window-s", assoc_flags.relocalise_window_s,
-                      "Relocalisation: how long a landmark must be unseen to count as old, and how far back one "
-                      "counts as recently mapped [s]")
-      ->capture_default_str();
-  const char* assoc_flag_names[] = {"--assoc-config",         "--accept-probability", "--new-landmark-probability",
-                                    "--min-pairing-probability", "--clutter-per-scan",
-                                    "--gate-known",           "--confirm-after",      "--provisional-max-misses",
-                                    "--confirmed-max-misses", "--view-margin-m",      "--view-margin-rad",
-                                    "--jcbb-max-nodes",         "--relocalise-min-pairs", "--relocalise-window-s"};
-  run_cmd->add_option("--out", run_out, "Output folder for estimates, metrics and plots");
+                      "Association and map-management settings (JSON, the keys of run.json's settings.association; "
+                      "config/association-cluttered.json for cluttered worlds); the flags below override it");
+  const auto real_setting = [&](const std::string& flag, const std::string& key, const std::string& help, double value) {
+    add_setting<double>(run_cmd, flag, flag_settings, "/association/" + key, help, fmt::format("{}", value))
+        ->check(finite_number());
+  };
+  const auto count_setting = [&](const std::string& flag, const std::string& key, const std::string& help,
+                                 auto value, unsigned long long min) {
+    add_setting<decltype(value)>(run_cmd, flag, flag_settings, "/association/" + key, help, std::to_string(value))
+        ->check(integer_at_least(min));
+  };
+  real_setting("--accept-probability", "accept_probability",
+               "Pair an observation with a landmark only inside this chi-square quantile of its innovation",
+               assoc.accept_probability);
+  real_setting("--new-landmark-probability", "new_landmark_probability",
+               "Start a landmark only outside this quantile for every candidate (between: discarded)",
+               assoc.new_landmark_probability);
+  real_setting("--min-pairing-probability", "min_pairing_probability",
+               "Pair an observation only if that landmark explains it with at least this probability against "
+               "the other candidates and clutter (0: off)",
+               assoc.min_pairing_probability);
+  real_setting("--clutter-per-scan", "clutter_per_scan",
+               "Expected false detections per scan, for --min-pairing-probability", assoc.clutter_per_scan);
+  run_cmd
+      ->add_option_function<std::string>(
+          "--gate-known",
+          [&](const std::string& on) { flag_settings["association"]["gate_known"] = on == "on"; },
+          "Known ids: reject an observation beyond the new-landmark gate (default: EKF and UKF on, FastSLAM off)")
+      ->check(one_of("value", {"on", "off"}));
+  count_setting("--confirm-after", "confirm_after", "Observations that confirm a new landmark", assoc.confirm_after, 1);
+  count_setting("--provisional-max-misses", "provisional_max_misses",
+                "Scans in a row a provisional landmark may be missed in view", assoc.provisional_max_misses, 1);
+  count_setting("--confirmed-max-misses", "confirmed_max_misses",
+                "Scans in a row a confirmed landmark may be missed in view (0: never removed)",
+                assoc.confirmed_max_misses, 0);
+  real_setting("--view-margin-m", "view_margin_m", "Range margin of \"in view\" for misses [m]", assoc.view_margin_m);
+  real_setting("--view-margin-rad", "view_margin_rad", "Bearing margin of \"in view\" for misses [rad]",
+               assoc.view_margin_rad);
+  count_setting("--jcbb-max-nodes", "jcbb_max_nodes", "JCBB: search nodes per scan", assoc.jcbb_max_nodes, 1);
+  count_setting("--relocalise-min-pairs", "relocalise_min_pairs",
+                "Without identities: recognise landmarks unseen for the window only when this many landmarks "
+                "started since pair jointly with them, and fuse the duplicates (0: off)",
+                assoc.relocalise_min_pairs, 0);
+  real_setting("--relocalise-window-s", "relocalise_window_s",
+               "Relocalisation: how long a landmark must be unseen to count as old, and how far back one "
+               "counts as recently mapped [s]",
+               assoc.relocalise_window_s);
+  run_cmd->add_option("--out", run_out,
+                      "Output folder for estimates, metrics and plots. Written as DIR.partial-PID beside it, it "
+                      "replaces DIR as a whole when complete, so a run that fails leaves DIR's previous run intact. "
+                      "Refused while another process writes DIR, or if DIR is not empty and holds no run.json");
+  run_cmd->footer("Exit codes: 0 done; 1 bad data or an output that cannot be written; 2 usage error; 3 the filter "
+                  "diverged (its result up to the last finite estimate is written); 128+N stopped by signal N after "
+                  "the current step, the partial result written (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP); a second "
+                  "signal ends the run at once.");
   std::string repeat_path;
   bool print_config = false, replay = false, quiet = false, verbose = false;
   // Every filter and data option, which a repeated run takes from its run.json instead.
   std::vector<CLI::Option*> setting_opts = {data_opt, data_config_opt};
-  for (const char* name : {"--filter", "--assoc", "--seed", "--particles", "--pose-sample-fraction", "--resample",
-                           "--resample-when", "--threads", "--ekf-update", "--ekf-variant", "--ukf-noise"})
-    setting_opts.push_back(run_cmd->get_option(name));
-  for (const char* name : assoc_flag_names) setting_opts.push_back(run_cmd->get_option(name));
-  auto* repeat_opt =
-      run_cmd
-          ->add_option("--config", repeat_path,
-                       "Repeat a run: the run.json of its folder gives the dataset, the dataset settings and every "
-                       "filter setting (no other filter or data option may be given)")
-          ->check(CLI::ExistingFile);
+  for (CLI::Option* opt : run_cmd->get_options())
+    if (opt != data_opt && opt != data_config_opt && !opt->check_lname("out") && !opt->check_lname("help") &&
+        !opt->check_lname("help-all"))
+      setting_opts.push_back(opt);
+  auto* repeat_opt = run_cmd->add_option(
+      "--config", repeat_path,
+      "Repeat a run: the run.json of its folder gives the dataset, the dataset settings and every filter setting "
+      "(no other filter or data option may be given)");
   for (CLI::Option* opt : setting_opts) repeat_opt->excludes(opt);
   run_cmd->add_flag("--print-config", print_config,
-                    "Print the effective settings (as run.json records them) and exit without running");
+                    "Print the effective settings (as run.json records them, with the recommended ones applied) and "
+                    "exit without running");
   run_cmd->add_flag("--replay", replay,
                     "Also record the run scan by scan and write replay.html, a page that plays it back");
   History history = History::kFull;
@@ -366,32 +521,40 @@ int run_command(int argc, char** argv) {
   // ---- replay ----
   auto* replay_cmd = app.add_subcommand("replay", "Write replay.html for a run folder recorded with 'run --replay'");
   std::string replay_dir;
-  replay_cmd->add_option("dir", replay_dir, "Run folder holding replay.json")->required()->check(CLI::ExistingDirectory);
+  replay_cmd->add_option("dir", replay_dir, "Run folder holding replay.json")->required();
 
   // ---- evaluate ----
   auto* eval_cmd = app.add_subcommand("evaluate", "Recompute metrics.json and the plots of a run folder");
   std::string eval_dir;
-  eval_cmd->add_option("dir", eval_dir, "Run folder written by 'slamkit run'")->required()->check(CLI::ExistingDirectory);
+  EvaluationOptions eval_options;
+  eval_cmd->add_option("dir", eval_dir, "Run folder written by 'slamkit run'")->required();
+  add_named(eval_cmd, "--match", eval_options.time_matching, parse_time_matching,
+            "How estimate and truth samples are paired in time: interpolate (the estimate at every truth time) or "
+            "evo (as evo_ape: each sample of the shorter trajectory with the other's nearest, within "
+            "--max-time-difference, nothing interpolated; docs/evaluation.md says why the two differ)");
+  eval_cmd
+      ->add_option("--max-time-difference", eval_options.max_time_difference_s,
+                   "With --match evo: samples further apart in time are not paired [s] (evo's --t_max_diff)")
+      ->capture_default_str()
+      ->check(number_where(">= 0", [](double v) { return v >= 0.0; }));
 
-  // ---- plot-bench ----
+  // ---- plot-nees ----
   auto* nees_cmd = app.add_subcommand(
       "plot-nees", "Draw the pose NEES of Monte Carlo runs (one filter, logs differing only in their seed) averaged "
                    "over the runs, with the 95% interval of the mean");
   std::vector<std::string> nees_dirs;
   std::string nees_out, nees_title = "Pose NEES over Monte Carlo runs";
-  nees_cmd->add_option("dirs", nees_dirs, "Run folders written by 'slamkit run'")
-      ->required()
-      ->check(CLI::ExistingDirectory);
+  nees_cmd->add_option("dirs", nees_dirs, "Run folders written by 'slamkit run'")->required();
   nees_cmd->add_option("--out", nees_out, "SVG file to write")->required();
   nees_cmd->add_option("--title", nees_title, "Figure title")->capture_default_str();
 
+  // ---- plot-bench ----
   auto* bench_cmd =
       app.add_subcommand("plot-bench", "Plot benchmark results (Google Benchmark JSON) against map size and particles");
   std::vector<std::string> bench_json;
   std::string bench_out;
   bench_cmd->add_option("json", bench_json, "Files written by slamkit_bench --benchmark_out (later ones override)")
-      ->required()
-      ->check(CLI::ExistingFile);
+      ->required();
   bench_cmd->add_option("--out", bench_out, "Folder for the SVG plots")->required();
 
   try {
@@ -404,28 +567,29 @@ int run_command(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     const auto parsed = app.get_subcommands();
-    const std::string help = parsed.empty() ? "slamkit --help" : "slamkit " + parsed.front()->get_name() + " --help";
-    // CLI11 reports a misspelt subcommand as a missing one, or as an unexpected argument.
-    if (parsed.empty() && argc > 1 && argv[1][0] != '-') {
-      std::string names;
-      for (const CLI::App* sub : app.get_subcommands({})) names += (names.empty() ? "" : ", ") + sub->get_name();
-      std::cerr << "slamkit: error: unknown subcommand '" << argv[1] << "'; expected one of: " << names << " (see '"
-                << help << "')\n";
-    } else {
-      std::cerr << "slamkit: error: " << e.what() << " (see '" << help << "')\n";
-    }
+    const CLI::App* cmd = parsed.empty() ? nullptr : parsed.front();
+    const std::string help = cmd == nullptr ? "slamkit --help" : "slamkit " + cmd->get_name() + " --help";
+    std::cerr << "slamkit: error: " << usage_message(e, app, cmd, argc, argv) << " (see '" << help << "')\n";
     return kExitUsage;
   }
-  // The filter settings as a whole, by the library's own check (which make_filter repeats), before
-  // any data is read. A repeated run takes them from its run.json, checked the same way.
+  const auto usage_error = [&](const std::string& message) {
+    const auto parsed = app.get_subcommands();
+    std::cerr << "slamkit: error: " << message << " (see 'slamkit " << parsed.front()->get_name() << " --help')\n";
+    return kExitUsage;
+  };
+  const auto bad_input = [](const std::exception& e) {
+    std::cerr << "slamkit: error: " << e.what() << "\n";
+    return kExitBadInput;
+  };
+
+  // The filter settings as a whole, layered and checked by the library (make_filter repeats the
+  // check), before any data is read. A repeated run takes them from its run.json, checked the same way.
   const Verbosity verbosity = quiet ? Verbosity::kQuiet : verbose ? Verbosity::kVerbose : Verbosity::kNormal;
-  nlohmann::json settings_contents;
+  FilterConfig filter;
+  nlohmann::json settings_contents, recommendation;
+  std::string recommendation_source;
   std::string settings_source;  // names the settings' contents in errors where they are not data_config's
   if (*run_cmd) {
-    const auto usage_error = [](const std::string& message) {
-      std::cerr << "slamkit: error: " << message << " (see 'slamkit run --help')\n";
-      return kExitUsage;
-    };
     try {
       if (!repeat_path.empty()) {
         RunSettings previous = run_settings_from_json(read_json_file(repeat_path), repeat_path);
@@ -434,36 +598,31 @@ int run_command(int argc, char** argv) {
         data_config = previous.dataset_settings;
         settings_contents = std::move(previous.dataset_settings_contents);
         settings_source = previous.dataset_settings_source;
+        recommendation = std::move(previous.recommended_settings);
       } else {
         if (data_spec.empty()) return usage_error("--data is required (or --config with an earlier run.json)");
-        if (!assoc_config_path.empty()) {
-          const AssociationMethod method = filter.association.method;
-          filter.association = association_config_from_json(read_json_file(assoc_config_path), assoc_config_path);
-          if (run_cmd->count("--assoc") > 0) filter.association.method = method;
-        }
-        AssociationConfig& a = filter.association;
-        const auto given = [&](const char* name) { return run_cmd->count(name) > 0; };
-        if (given("--accept-probability")) a.accept_probability = assoc_flags.accept_probability;
-        if (given("--new-landmark-probability")) a.new_landmark_probability = assoc_flags.new_landmark_probability;
-        if (given("--gate-known")) a.gate_known = gate_known == "on";
-        if (given("--min-pairing-probability")) a.min_pairing_probability = assoc_flags.min_pairing_probability;
-        if (given("--clutter-per-scan")) a.clutter_per_scan = assoc_flags.clutter_per_scan;
-        if (given("--confirm-after")) a.confirm_after = assoc_flags.confirm_after;
-        if (given("--provisional-max-misses")) a.provisional_max_misses = assoc_flags.provisional_max_misses;
-        if (given("--confirmed-max-misses")) a.confirmed_max_misses = assoc_flags.confirmed_max_misses;
-        if (given("--view-margin-m")) a.view_margin_m = assoc_flags.view_margin_m;
-        if (given("--view-margin-rad")) a.view_margin_rad = assoc_flags.view_margin_rad;
-        if (given("--jcbb-max-nodes")) a.jcbb_max_nodes = assoc_flags.jcbb_max_nodes;
-        if (given("--relocalise-min-pairs")) a.relocalise_min_pairs = assoc_flags.relocalise_min_pairs;
-        if (given("--relocalise-window-s")) a.relocalise_window_s = assoc_flags.relocalise_window_s;
-        validate(filter);
         settings_contents = dataset_settings_json(data_config);
+        SettingsSources sources;
+        sources.recommended_source =
+            data_config.empty() ? fmt::format("the built-in settings of {}", data_spec.substr(0, data_spec.find(':')))
+                                : data_config;
+        sources.recommended = recommended_settings(data_spec, settings_contents, sources.recommended_source);
+        if (!assoc_config_path.empty()) {
+          sources.association = read_json_file(assoc_config_path);
+          sources.association_source = assoc_config_path;
+        }
+        sources.explicit_settings = flag_settings;
+        const LayeredSettings layered = layer_settings(sources);
+        filter = layered.config;
+        if (!layered.recommendation_applied.empty()) {
+          recommendation = {{"source", sources.recommended_source}, {"applied", layered.recommendation_applied}};
+          recommendation_source = sources.recommended_source;
+        }
       }
     } catch (const std::invalid_argument& e) {
       return usage_error(e.what());
     } catch (const InputError& e) {  // a settings file or run.json that cannot be read or is wrong
-      std::cerr << "slamkit: error: " << e.what() << "\n";
-      return kExitBadInput;
+      return bad_input(e);
     }
     if (run_out.empty() && !print_config) return usage_error("--out is required");
     if (replay && history != History::kFull)
@@ -472,14 +631,24 @@ int run_command(int argc, char** argv) {
 
   try {
     if (*simulate_cmd) {
-      const Scenario base = scenario(scenario_name);
+      const Scenario base = family_name.empty() ? scenario(scenario_name) : world_family(family_name).member(world_seed);
       const World world = world_path.empty() ? base.world : read_world(world_path);
       SimulatorConfig config =
           config_path.empty() ? base.config : simulator_config_from_json(read_json_file(config_path), config_path);
+      // The base settings were checked as they were read, so a setting out of range now is the flag's.
+      const auto flag = [&](const char* name, auto apply) {
+        if (simulate_cmd->count(name) == 0) return;
+        apply(config);
+        validate(config, name);
+      };
       if (simulate_cmd->count("--seed") || config_path.empty()) config.seed = sim_seed;
-      if (loops > 0) config.loops = loops;
-      if (clutter >= 0.0) config.clutter_rate = clutter;
-      if (detection >= 0.0) config.detection_probability = detection;
+      try {
+        flag("--loops", [&](SimulatorConfig& c) { c.loops = loops; });
+        flag("--clutter", [&](SimulatorConfig& c) { c.clutter_rate = clutter; });
+        flag("--detection-prob", [&](SimulatorConfig& c) { c.detection_probability = detection; });
+      } catch (const InputError& e) {
+        return usage_error(e.what());
+      }
       if (no_ids) config.provide_ids = false;
       const Dataset log = simulate(world, config);
       write_sim_log(sim_out, log, config, world);
@@ -491,13 +660,19 @@ int run_command(int argc, char** argv) {
     } else if (*bench_cmd) {
       for (const std::string& file : plot::write_benchmark_plots(bench_json, bench_out)) fmt::print("wrote {}\n", file);
     } else if (*world_cmd) {
+      World world;
       WorldGenReport report;
-      write_world(world_out, generate_world(gen, &report));
-      fmt::print("wrote {} ({} landmarks{})\n", world_out, gen.landmarks,
-                 report.spacing < gen.min_spacing
-                     ? fmt::format(", {:.3g} m apart at least: the band cannot hold them {} m apart", report.spacing,
-                                   gen.min_spacing)
-                     : "");
+      try {  // every input is an option, so an error is a usage error
+        world = family_name.empty() ? generate_world(gen, &report) : world_family(family_name).member(world_seed).world;
+      } catch (const InputError& e) {
+        return usage_error(e.what());
+      }
+      write_world(world_out, world);
+      const bool closer = family_name.empty() && report.spacing < gen.min_spacing;
+      fmt::print("wrote {} ({} landmarks{})\n", world_out, world.landmarks.size(),
+                 closer ? fmt::format(", {:.3g} m apart at least: the band cannot hold them {} m apart", report.spacing,
+                                      gen.min_spacing)
+                        : "");
     } else if (*run_cmd) {
       const auto warn = [&](const std::string& message) { std::cerr << "slamkit: warning: " << message << "\n"; };
       const bool particle_filter = filter.filter == FilterKind::kFastSlam1 || filter.filter == FilterKind::kFastSlam2;
@@ -514,7 +689,8 @@ int run_command(int argc, char** argv) {
         warn("--seed is ignored by the EKF and the UKF, which draw no random numbers");
 
       // Everything needed to repeat the run from any folder: absolute paths, the dataset settings'
-      // contents (the file may change or move), every filter setting by name.
+      // contents (the file may change or move), every filter setting by name, and which of them the
+      // dataset recommended.
       nlohmann::json provenance = {
           {"slamkit_version", version()},
           {"command_line", std::vector<std::string>(argv, argv + argc)},
@@ -523,6 +699,7 @@ int run_command(int argc, char** argv) {
           {"dataset_settings_contents", settings_contents},
           {"settings", to_json(filter)},
       };
+      if (!recommendation.is_null()) provenance["recommended_settings"] = recommendation;
       const std::string dataset_spec = absolute_dataset_spec(data_spec);
       const std::string settings_path = data_config.empty() ? "" : fs::absolute(data_config).lexically_normal().string();
       if (print_config) {
@@ -538,19 +715,20 @@ int run_command(int argc, char** argv) {
                      std::chrono::duration<double>(std::chrono::steady_clock::now() - stage_start).count());
       };
       if (verbosity == Verbosity::kVerbose) fmt::print(stderr, "settings: {}\n", provenance.at("settings").dump());
+      if (verbosity != Verbosity::kQuiet && !recommendation_source.empty())
+        fmt::print(stderr, "slamkit: {}'s recommended settings for {}: {} (from {}; a flag overrides each)\n",
+                   data_spec.substr(0, data_spec.find(':')), to_string(filter.filter),
+                   settings_in_words(recommendation.at("applied")), recommendation_source);
 
+      // Taken before the data is read, so that a second run into the folder fails at once; the
+      // folder keeps its previous run until out.commit().
+      AtomicFolder out = stage_run_folder(run_out);
       const Dataset dataset =
           load_dataset(dataset_spec, settings_contents, settings_source.empty() ? settings_path : settings_source);
       stage("dataset read");
       if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
         throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
-      if (dataset_spec.starts_with("sim:"))
-        provenance["simulator"] = read_json_file((fs::path(dataset_spec.substr(4)) / "params.json").string());
-      // The source's time of t = 0, as exact decimal text (a double would lose the sub-microsecond
-      // digits of a Unix time): trajectory.tum and truth.tum times plus this are the source's times.
-      if (dataset.time_origin_s != 0 || dataset.time_origin_fraction_s != 0.0)
-        provenance["time_origin_s"] =
-            fmt::format("{}.{:09}", dataset.time_origin_s, std::llround(dataset.time_origin_fraction_s * 1e9));
+      add_dataset_provenance(provenance, dataset_spec, dataset);
 
       RunOptions options;
       options.history = history;
@@ -560,10 +738,14 @@ int run_command(int argc, char** argv) {
       if (verbosity != Verbosity::kQuiet && isatty(STDERR_FILENO)) options.observers.push_back(&progress);
       std::optional<ReplayRecorder> recorder;
       if (replay) options.observers.push_back(&recorder.emplace(dataset));
-      options.stop = &g_interrupted;
-      std::signal(SIGINT, on_interrupt);
-      RunResult run = run_filter(*slam, dataset, options);
-      std::signal(SIGINT, SIG_DFL);
+      RunResult run;
+      int stop_signal = 0;
+      {  // only while the filter runs: a stop signal before or after it ends the process at once
+        const StopSignals stop_signals;
+        options.stop = stop_signals.flag();
+        run = run_filter(*slam, dataset, options);
+        stop_signal = stop_signals.received();
+      }
       progress.finish();
       stage("filter run");
       if (run.diverged_at_s)
@@ -571,32 +753,20 @@ int run_command(int argc, char** argv) {
                          "writing the result up to its last finite estimate (t = {:.1f} s) to {}",
                          *run.diverged_at_s, run.filtered.back().t, run_out));
       else if (run.partial)
-        warn(fmt::format("interrupted: writing the partial result (up to t = {:.1f} s) to {}", run.filtered.back().t,
-                         run_out));
+        warn(fmt::format("stopped by {}: writing the partial result (up to t = {:.1f} s) to {}",
+                         signal_name(stop_signal), run.filtered.back().t, run_out));
       run.association = to_string(filter.association.method);
       run.dataset = dataset_spec;
       run.dataset_settings = settings_path;
       run.provenance = std::move(provenance);
-      write_run(run_out, run);
-      write_truth(run_out, dataset);
-      const Metrics metrics = evaluate_and_report(run_out, run, dataset);
-      if (recorder) {
-        // A truth with headings shares the map's frame (the start pose), as pose NEES assumes; a GPS
-        // truth does not, and is brought over by the evaluation's alignment.
-        const Pose2 alignment = dataset.truth.poses_have_heading
-                                    ? Pose2::Zero()
-                                    : Pose2(metrics.alignment.translation.x(), metrics.alignment.translation.y(),
-                                            metrics.alignment.theta);
-        const nlohmann::json recording = recorder->to_json(run.filter, alignment);
-        write_file_atomically((fs::path(run_out) / "replay.json").string(), recording.dump() + "\n");
-        plot::write_replay_html((fs::path(run_out) / "replay.html").string(), recording);
-      }
+      const Metrics metrics = write_run_folder(out.path(), run, dataset, recorder ? &*recorder : nullptr);
+      out.commit();
       stage("written and evaluated");
       print_outputs(run_out, metrics, verbosity);
       if (recorder && verbosity != Verbosity::kQuiet)
         fmt::print("replay: {}\n", (fs::path(run_out) / "replay.html").string());
       if (run.diverged_at_s) return kExitDiverged;
-      if (run.partial) return kExitInterrupted;
+      if (run.partial) return exit_code_for_signal(stop_signal);
     } else if (*nees_cmd) {
       std::vector<Metrics> runs;
       for (const std::string& dir : nees_dirs) {
@@ -606,27 +776,33 @@ int run_command(int argc, char** argv) {
       write_monte_carlo_nees(nees_out, runs, nees_title);
       fmt::print("wrote {} ({} runs)\n", nees_out, runs.size());
     } else if (*replay_cmd) {
+      const fs::path recording = fs::path(replay_dir) / "replay.json";
+      if (!fs::is_directory(replay_dir))
+        throw InputError(replay_dir, 0, "no such folder; expected a run folder recorded with 'slamkit run --replay'");
+      if (!fs::exists(recording))
+        throw InputError(recording.string(), 0, "missing; record the run with 'slamkit run --replay'");
+      const FolderLock lock(replay_dir);
       const std::string page = (fs::path(replay_dir) / "replay.html").string();
-      plot::write_replay_html(page, read_json_file((fs::path(replay_dir) / "replay.json").string()));
+      plot::write_replay_html(page, read_json_file(recording.string()));
       fmt::print("wrote {}\n", page);
     } else if (*eval_cmd) {
+      if (eval_cmd->count("--max-time-difference") > 0 && eval_options.time_matching != TimeMatching::kEvo)
+        return usage_error("--max-time-difference applies to --match evo");
+      require_run_folder(eval_dir);  // before the lock, which would create a missing folder's parent
+      const FolderLock lock(eval_dir);
       const RunResult run = read_run(eval_dir);
+      remove_stale_temporaries(eval_dir);  // a run folder's writers all take its lock: these are the killed ones
       // A run.json that records the settings' contents is evaluated with them, wherever the file went.
       const Dataset dataset =
           run.provenance.contains("dataset_settings_contents")
               ? load_dataset(run.dataset, run.provenance.at("dataset_settings_contents"), run.dataset_settings)
               : load_dataset(run.dataset, run.dataset_settings);
-      write_truth(eval_dir, dataset);
-      print_outputs(eval_dir, evaluate_and_report(eval_dir, run, dataset), Verbosity::kNormal);
+      print_outputs(eval_dir, write_evaluation(eval_dir, run, dataset, eval_options), Verbosity::kNormal);
     }
-  } catch (const InputError& e) {
-    std::cerr << "slamkit: error: " << e.what() << "\n";
-    return kExitBadInput;
   } catch (const std::bad_alloc&) {
     return out_of_memory();
-  } catch (const std::exception& e) {
-    std::cerr << "slamkit: error: " << e.what() << "\n";
-    return kExitBadInput;
+  } catch (const std::exception& e) {  // InputError above all: a missing or malformed file
+    return bad_input(e);
   }
   return 0;
 }

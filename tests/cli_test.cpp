@@ -7,7 +7,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -206,7 +208,7 @@ TEST_F(Cli, UnknownOptionFilterAndDatasetKind) {
   EXPECT_NE(filter.err.find("unknown filter 'nope'"), std::string::npos) << filter.err;
 
   const Result kind = slamkit("run --data tape:/x --out " + (*work_ / "w").string(), *work_);
-  EXPECT_NE(kind.exit_code, 0);
+  EXPECT_EQ(kind.exit_code, 2);
   EXPECT_NE(kind.err.find("unknown dataset kind 'tape'"), std::string::npos) << kind.err;
 
   const Result no_cmd = slamkit("", *work_);
@@ -329,7 +331,8 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
     const char* options;
     const char* message;
   } cases[] = {
-      {"--filter ekff", "--filter: unknown filter 'ekff'; expected one of: ekf, ukf, fastslam1, fastslam2"},
+      {"--filter ekff",
+       "--filter: unknown filter 'ekff' (did you mean 'ekf'?); expected one of: ekf, ukf, fastslam1, fastslam2"},
       {"--filter ukf --ekf-variant fej", "EKF variant 'fej' applies to the filter 'ekf', not 'ukf'"},
       {"--assoc nearest", "--assoc: unknown association 'nearest'; expected one of: known, nn, jcbb"},
       {"--ekf-variant sparse", "--ekf-variant: unknown EKF variant 'sparse'; expected one of: full, compressed, fej, invariant"},
@@ -370,7 +373,7 @@ TEST_F(Cli, NumericRangesAreStatedInWords) {
   } cases[] = {
       {"simulate --loops 0 --out x", "--loops: expected an integer >= 1, found 0"},
       {"simulate --clutter -1 --out x", "--clutter: expected >= 0, found -1"},
-      {"simulate --detection-prob 2 --out x", "--detection-prob: expected in [0, 1], found 2"},
+      {"simulate --detection-prob 2 --out x", "--detection-prob: expected in (0, 1], found 2"},
       {"make-world --width 0 --out x", "--width: expected > 0, found 0"},
       {"make-world --landmarks 0 --out x", "--landmarks: expected an integer >= 1, found 0"},
   };
@@ -548,7 +551,8 @@ TEST_F(Cli, VersionUnknownSubcommandAndIgnoredOptions) {
   const Result typo = slamkit("rnu --filter ekf", *work_);
   EXPECT_EQ(typo.exit_code, 2);
   EXPECT_EQ(count_lines(typo.err), 1u) << typo.err;
-  EXPECT_NE(typo.err.find("unknown subcommand 'rnu'; expected one of: simulate, make-world, run"), std::string::npos)
+  EXPECT_NE(typo.err.find("unknown subcommand 'rnu' (did you mean 'run'?); expected one of: simulate, make-world, run"),
+            std::string::npos)
       << typo.err;
 
   const fs::path out = *work_ / "ignored";
@@ -604,6 +608,272 @@ TEST_F(Cli, HistoryNoneWritesTheFinalEstimateAndReplayNeedsFullHistory) {
   const Result unknown = slamkit("run --history some" + data + " --out " + out.string(), *work_);
   EXPECT_EQ(unknown.exit_code, 2);
   EXPECT_NE(unknown.err.find("expected one of: full, decimated, none"), std::string::npos) << unknown.err;
+}
+
+// Every option of every subcommand given a wrong value (or none, or twice), every missing or
+// misspelt argument: one line of slamkit's own words naming what was expected, and the exit code of
+// the kind of mistake: 2 for usage (the command's words), 1 for bad data (a file missing or wrong).
+// The options are read from each subcommand's --help, so one added without a case here fails.
+TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
+  const std::string sim = (*work_ / "sim").string();
+  const std::string out = (*work_ / "sweep").string();
+  const std::string course = (fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course").string();
+  const std::string run_dir = (*work_ / "sweep-run").string();
+  ASSERT_EQ(slamkit("run --data sim:" + sim + " --out " + run_dir + " --quiet", *work_).exit_code, 0);
+  const std::string data = " --data sim:" + sim + " --out " + out;
+  const struct {
+    std::string command;
+    int code;
+    std::string message;
+  } cases[] = {
+      {"", 2, "expected a subcommand: simulate, make-world, run, replay, evaluate, plot-nees, plot-bench"},
+      {"rnu", 2, "unknown subcommand 'rnu' (did you mean 'run'?)"},
+      {"--bogus", 2, "unknown option '--bogus'; expected a subcommand first"},
+
+      {"simulate --scenario loop-closre --out " + out, 2,
+       "--scenario: unknown scenario 'loop-closre' (did you mean 'loop-closure'?); expected one of: default"},
+      {"simulate --world /nonexistent/w.txt --out " + out, 1,
+       "/nonexistent/w.txt: cannot open file for reading (No such file or directory)"},
+      {"simulate --config /nonexistent/s.json --out " + out, 1,
+       "/nonexistent/s.json: cannot open file for reading (No such file or directory)"},
+      {"simulate --seed -1 --out " + out, 2, "--seed: expected an integer >= 0, found -1"},
+      {"simulate --loops 0 --out " + out, 2, "--loops: expected an integer >= 1, found 0"},
+      {"simulate --clutter -1 --out " + out, 2, "--clutter: expected >= 0, found -1"},
+      {"simulate --clutter 2000 --out " + out, 2, "--clutter: 'clutter_rate_per_scan' must be >= 0 and <= 1000, found 2000"},
+      {"simulate --detection-prob 0 --out " + out, 2, "--detection-prob: expected in (0, 1], found 0"},
+      {"simulate --no-ids=maybe --out " + out, 2, "--no-ids is a flag: expected no value (or true or false), found 'maybe'"},
+      {"simulate", 2, "missing --out: Output folder for the log and ground truth"},
+      {"simulate --out", 2, "--out needs a value"},
+      {"simulate --sede 3 --out " + out, 2, "unknown option '--sede' (did you mean '--seed'?)"},
+      {"simulate --family sparse-clutered --out " + out, 2,
+       "--family: unknown world family 'sparse-clutered' (did you mean 'sparse-cluttered'?)"},
+      {"simulate --world-seed x --family sparse --out " + out, 2, "--world-seed: expected an integer >= 0, found x"},
+
+      {"make-world --landmarks 0 --out " + out, 2, "--landmarks: expected an integer >= 1, found 0"},
+      {"make-world --landmarks 20000000 --out " + out, 2, "world generation: landmarks must be from 0 to 1e7"},
+      {"make-world --width 0 --out " + out, 2, "--width: expected > 0, found 0"},
+      {"make-world --height 2e6 --out " + out, 2, "height must be a positive number of metres up to 1e6, found 2000000"},
+      {"make-world --band 2 --out " + out, 2, "band_outer must be a distance greater than band_inner"},
+      {"make-world --band nan --out " + out, 2, "--band: expected > 0, found nan"},
+      {"make-world --seed x --out " + out, 2, "--seed: expected an integer >= 0, found x"},
+      {"make-world", 2, "missing --out: World file to write"},
+      {"make-world --family denes --out " + out, 2, "--family: unknown world family 'denes' (did you mean 'dense'?)"},
+      {"make-world --world-seed -1 --family dense --out " + out, 2, "--world-seed: expected an integer >= 0, found -1"},
+
+      {"run --filter ekff" + data, 2, "--filter: unknown filter 'ekff' (did you mean 'ekf'?)"},
+      {"run --assoc jcb" + data, 2, "--assoc: unknown association 'jcb' (did you mean 'jcbb'?)"},
+      {"run --data tape:/x --out " + out, 2, "--data: unknown dataset kind 'tape'; expected one of: sim, victoria-park"},
+      {"run --data victoria_park --out " + out, 2, "is not a dataset spec; expected KIND:PATH"},
+      {"run --data mrclam:/x:robot9 --out " + out, 2, "--data: no MRCLAM robot 'robot9'; expected a robot from 1 to 5"},
+      {"run --data mrclam:/x:robot --out " + out, 2, "--data: no robot number in 'robot'; expected a robot from 1 to 5"},
+      {"run --data sim:/nonexistent/log --out " + out, 1, "/nonexistent/log"},
+      {"run --data course:" + course + " --data-config /nonexistent/c.json --out " + out, 1,
+       "/nonexistent/c.json: cannot open file for reading (No such file or directory)"},
+      {"run --seed -1" + data, 2, "--seed: expected an integer >= 0, found -1"},
+      {"run --particles 0" + data, 2, "--particles: expected an integer >= 1, found 0"},
+      {"run --particles 2000000" + data, 2, "particles must be an integer from 1 to 1000000, found 2000000"},
+      {"run --pose-sample-fraction 0" + data, 2, "pose_sample_fraction must lie in (0, 1], found 0"},
+      {"run --pose-sample-fraction 1e400" + data, 2, "--pose-sample-fraction: expected a finite number, found 1e400"},
+      {"run --resample systemtic" + data, 2, "--resample: unknown resampling method 'systemtic' (did you mean 'systematic'?)"},
+      {"run --resample-when alwyas" + data, 2, "--resample-when: unknown resampling policy 'alwyas' (did you mean 'always'?)"},
+      {"run --threads -1" + data, 2, "--threads: expected an integer >= 0, found -1"},
+      {"run --ekf-update iterate" + data, 2, "--ekf-update: unknown EKF update 'iterate' (did you mean 'iterated'?)"},
+      {"run --ekf-variant invarient" + data, 2, "--ekf-variant: unknown EKF variant 'invarient' (did you mean 'invariant'?)"},
+      {"run --ukf-noise additiv" + data, 2, "--ukf-noise: unknown UKF noise 'additiv' (did you mean 'additive'?)"},
+      {"run --assoc-config /nonexistent/a.json" + data, 1,
+       "/nonexistent/a.json: cannot open file for reading (No such file or directory)"},
+      {"run --accept-probability 1.5" + data, 2, "association setting accept_probability must be in (0, 1), found 1.5"},
+      {"run --new-landmark-probability 0.5" + data, 2, "new_landmark_probability must be in [accept_probability, 1)"},
+      {"run --min-pairing-probability 1" + data, 2, "min_pairing_probability must be in [0, 1), found 1"},
+      {"run --clutter-per-scan -1" + data, 2, "clutter_per_scan must be finite and >= 0, found -1"},
+      {"run --gate-known maybe" + data, 2, "--gate-known: unknown value 'maybe'; expected one of: on, off"},
+      {"run --confirm-after 0" + data, 2, "--confirm-after: expected an integer >= 1, found 0"},
+      {"run --provisional-max-misses 0" + data, 2, "--provisional-max-misses: expected an integer >= 1, found 0"},
+      {"run --confirmed-max-misses -1" + data, 2, "--confirmed-max-misses: expected an integer >= 0, found -1"},
+      {"run --view-margin-m -1" + data, 2, "view_margin_m must be finite and >= 0, found -1"},
+      {"run --view-margin-rad x" + data, 2, "--view-margin-rad: expected a finite number, found x"},
+      {"run --jcbb-max-nodes 0" + data, 2, "--jcbb-max-nodes: expected an integer >= 1, found 0"},
+      {"run --relocalise-min-pairs 1" + data, 2, "relocalise_min_pairs must be 0 (off) or >= 2, found 1"},
+      {"run --relocalise-window-s 0" + data, 2, "relocalise_window_s must be finite and > 0, found 0"},
+      {"run --data sim:" + sim, 2, "--out is required"},
+      {"run --config /nonexistent/run.json --out " + out, 1,
+       "/nonexistent/run.json: cannot open file for reading (No such file or directory)"},
+      {"run --config " + run_dir + "/run.json --particles 3 --out " + out, 2,
+       "cannot be given together: --config repeats a run with every setting its run.json records"},
+      {"run --print-config=maybe" + data, 2, "--print-config is a flag: expected no value (or true or false), found 'maybe'"},
+      {"run --replay --history decimated" + data, 2, "--replay records every scan; it needs --history full"},
+      {"run --history ful" + data, 2, "--history: unknown history 'ful' (did you mean 'full'?)"},
+      {"run --quiet --verbose" + data, 2, "cannot be given together"},
+      {"run -f ekf" + data, 2, "unknown option '-f' (did you mean '--filter'?)"},
+      {"run --partcles 5" + data, 2, "unknown option '--partcles' (did you mean '--particles'?)"},
+      {"run ekf" + data, 2, "unexpected argument 'ekf'; options are written --NAME VALUE"},
+      {"run" + data + " --particles", 2, "--particles needs a value"},
+      {"run --particles 3 --particles 4" + data, 2, "--particles may be given only once"},
+
+      {"replay", 2, "missing DIR: Run folder holding replay.json"},
+      {"replay /nonexistent/r", 1, "/nonexistent/r: no such folder; expected a run folder recorded with 'slamkit run --replay'"},
+      {"replay " + run_dir, 1, "replay.json: missing; record the run with 'slamkit run --replay'"},
+
+      {"evaluate", 2, "missing DIR: Run folder written by 'slamkit run'"},
+      {"evaluate /nonexistent/r", 1, "/nonexistent/r: no such folder; expected a run folder written by 'slamkit run'"},
+      {"evaluate " + sim, 1, "run.json: cannot open file for reading (is this a slamkit run folder?)"},
+      {"evaluate " + run_dir + " --match evoo", 2,
+       "--match: unknown time matching 'evoo' (did you mean 'evo'?); expected one of: interpolate, evo"},
+      {"evaluate " + run_dir + " --match evo --max-time-difference -1", 2, "--max-time-difference: expected >= 0, found -1"},
+      {"evaluate " + run_dir + " --max-time-difference 0.1", 2, "--max-time-difference applies to --match evo"},
+      {"evaluate " + run_dir + " " + run_dir, 2, "unexpected argument '" + run_dir + "'"},
+
+      {"plot-nees --out " + out, 2, "missing DIRS: Run folders written by 'slamkit run'"},
+      {"plot-nees /nonexistent/r --out " + out, 1, "/nonexistent/r: no such folder"},
+      {"plot-nees " + run_dir, 2, "missing --out: SVG file to write"},
+      {"plot-nees " + run_dir + " --out " + out + " --title", 2, "--title needs a value"},
+
+      {"plot-bench --out " + out, 2, "missing JSON: Files written by slamkit_bench"},
+      {"plot-bench /nonexistent/b.json --out " + out, 1, "/nonexistent/b.json"},
+      {"plot-bench " + sim + "/params.json", 2, "missing --out: Folder for the SVG plots"},
+  };
+  std::map<std::string, std::set<std::string>> exercised;
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.command);
+    const Result r = slamkit(c.command, *work_);
+    EXPECT_EQ(r.exit_code, c.code) << r.err;
+    EXPECT_EQ(count_lines(r.err), 1u) << r.err;
+    EXPECT_EQ(r.err.rfind("slamkit: error: ", 0), 0u) << r.err;
+    EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
+    if (c.code == 2) EXPECT_NE(r.err.find(" --help')"), std::string::npos) << r.err;
+    // CLI11's own phrasing, which says neither what was expected nor where to look.
+    for (const char* raw : {"The following argument", "Could not convert", "is required", "required TEXT", "required INT",
+                            " excludes ", " not in {", "does not exist", "At Most", "Should be true/false"})
+      if (c.message.find(raw) == std::string::npos) EXPECT_EQ(r.err.find(raw), std::string::npos) << raw << ": " << r.err;
+    std::istringstream words(c.command);
+    std::string command, word;
+    words >> command;
+    while (words >> word) exercised[command].insert(word.substr(0, word.find('=')));
+  }
+  for (const char* command : {"simulate", "make-world", "run", "replay", "evaluate", "plot-nees", "plot-bench"}) {
+    std::istringstream help(slamkit(std::string(command) + " --help", *work_).out);
+    for (std::string line; std::getline(help, line);) {
+      const auto start = line.find_first_not_of(' ');
+      if (start == std::string::npos || line.compare(start, 2, "--") != 0 || start == 0) continue;
+      const std::string option = line.substr(start, line.find_first_of(" ,", start) - start);
+      if (option != "--help" && option != "--help-all") EXPECT_TRUE(exercised[command].count(option)) << command << " " << option << " has no case";
+    }
+  }
+}
+
+// A dataset settings file's "recommended" settings lie beneath --assoc-config and the flags; the run
+// says what it applied, run.json records it, and --config repeats the run bit for bit without the
+// file. The course example stands for a dataset that needs settings (as Victoria Park does).
+TEST_F(Cli, DatasetRecommendedSettingsLieBeneathTheFlagsAndAreRecorded) {
+  const fs::path course = fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course";
+  nlohmann::json settings = read_json(fs::path(SLAMKIT_SOURCE_DIR) / "config" / "course.json");
+  settings["recommended"] = {{"ekf", {{"association", {{"method", "nn"}, {"confirm_after", 2}}}}},
+                             {"fastslam2", {{"pose_sample_fraction", 0.5}}}};
+  const fs::path file = *work_ / "recommending.json";
+  std::ofstream(file) << settings.dump(2);
+  const std::string data = " --data course:" + course.string() + " --data-config " + file.string();
+
+  const fs::path out = *work_ / "recommended";
+  const Result run = slamkit("run" + data + " --out " + out.string(), *work_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("course's recommended settings for ekf: association.confirm_after 2, association.method nn (from " +
+                         file.string() + "; a flag overrides each)"),
+            std::string::npos)
+      << run.err;
+  const nlohmann::json recorded = read_json(out / "run.json");
+  EXPECT_EQ(recorded.at("settings").at("association").at("method"), "nn");
+  EXPECT_EQ(recorded.at("settings").at("association").at("confirm_after"), 2);
+  EXPECT_EQ(recorded.at("recommended_settings").at("source"), file.string());
+  EXPECT_EQ(recorded.at("recommended_settings").at("applied"), settings["recommended"]["ekf"]);
+  EXPECT_EQ(read_json(out / "metrics.json").at("association"), "nn");
+
+  // A flag and the association file each override what they name; the rest of the recommendation stays.
+  const fs::path assoc = *work_ / "confirm5.json";
+  std::ofstream(assoc) << R"({"confirm_after": 5})";
+  const Result printed = slamkit("run" + data + " --assoc jcbb --assoc-config " + assoc.string() + " --print-config", *work_);
+  ASSERT_EQ(printed.exit_code, 0) << printed.err;
+  const nlohmann::json layered = nlohmann::json::parse(printed.out);
+  EXPECT_EQ(layered.at("settings").at("association").at("method"), "jcbb");
+  EXPECT_EQ(layered.at("settings").at("association").at("confirm_after"), 5);
+  EXPECT_FALSE(layered.contains("recommended_settings")) << layered.dump();
+  const Result fastslam = slamkit("run --filter fastslam2" + data + " --print-config", *work_);
+  ASSERT_EQ(fastslam.exit_code, 0) << fastslam.err;
+  EXPECT_EQ(nlohmann::json::parse(fastslam.out).at("settings").at("pose_sample_fraction"), 0.5);
+
+  // Repeated from run.json alone, with the settings file gone: the same estimate.
+  fs::remove(file);
+  const fs::path again = *work_ / "recommended-again";
+  const Result repeat = slamkit("run --config " + (out / "run.json").string() + " --out " + again.string(), *work_);
+  ASSERT_EQ(repeat.exit_code, 0) << repeat.err;
+  EXPECT_EQ(read_file(out / "trajectory.tum"), read_file(again / "trajectory.tum"));
+  EXPECT_EQ(read_json(again / "run.json").at("settings"), recorded.at("settings"));
+  EXPECT_EQ(read_json(again / "run.json").at("recommended_settings"), recorded.at("recommended_settings"));
+  EXPECT_EQ(slamkit("evaluate " + again.string(), *work_).exit_code, 0);
+
+  // A recommendation naming no filter is bad data naming the file, before any data is read.
+  settings["recommended"] = {{"fastslam3", nlohmann::json::object()}};
+  std::ofstream(file) << settings.dump();
+  const Result bad = slamkit("run" + data + " --out " + out.string(), *work_);
+  EXPECT_EQ(bad.exit_code, 1) << bad.err;
+  EXPECT_NE(bad.err.find(file.string() + ": in 'recommended': unknown filter 'fastslam3'"), std::string::npos) << bad.err;
+}
+
+// Victoria Park's built-in recommendation: each filter gets what the park needs, a flag overrides it.
+TEST_F(Cli, VictoriaParkRecommendsAnAssociationForEveryFilter) {
+  const std::string data = " --data victoria-park:/nowhere --print-config";
+  const auto settings = [&](const std::string& options) {
+    const Result r = slamkit("run " + options + data, *work_);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return nlohmann::json::parse(r.out).at("settings");
+  };
+  EXPECT_EQ(settings("--filter ekf").at("association").at("method"), "jcbb");
+  EXPECT_EQ(settings("--filter ukf").at("ukf_noise"), "additive");
+  EXPECT_EQ(settings("--filter fastslam1").at("association").at("method"), "nn");
+  EXPECT_EQ(settings("--filter fastslam2").at("pose_sample_fraction"), 0.01);
+  EXPECT_EQ(settings("--filter fastslam2 --pose-sample-fraction 1").at("pose_sample_fraction"), 1.0);
+  EXPECT_EQ(settings("--filter ukf --ukf-noise augmented").at("ukf_noise"), "augmented");
+}
+
+// A world of a family is named by the family and a world seed, apart from the noise's seed: the same
+// three give the same log, which records the family and world seed, and make-world writes that world.
+TEST_F(Cli, FamilyWorldsRepeatBitForBitAndAreRecorded) {
+  const fs::path a = *work_ / "family_a", b = *work_ / "family_b", world = *work_ / "family.world";
+  const std::string args = "simulate --family sparse-cluttered --world-seed 17 --seed 2 --loops 1 --out ";
+  ASSERT_EQ(slamkit(args + a.string(), *work_).exit_code, 0);
+  ASSERT_EQ(slamkit(args + b.string(), *work_).exit_code, 0);
+  for (const char* file : {"events.txt", "truth_poses.txt", "truth_observations.txt", "world.txt", "params.json"})
+    EXPECT_EQ(read_file(a / file), read_file(b / file)) << file;
+  const nlohmann::json params = read_json(a / "params.json");
+  EXPECT_EQ(params["world"]["family"], "sparse-cluttered");
+  EXPECT_EQ(params["world"]["world_seed"], 17);
+  EXPECT_EQ(params["simulator"]["seed"], 2);
+  EXPECT_EQ(params["simulator"]["clutter_rate_per_scan"], 1.0);
+  EXPECT_EQ(params["simulator"]["fov_deg"], 180.0);
+
+  const Result w = slamkit("make-world --family sparse-cluttered --world-seed 17 --out " + world.string(), *work_);
+  ASSERT_EQ(w.exit_code, 0) << w.err;
+  EXPECT_EQ(read_file(world), read_file(a / "world.txt"));
+  const Result other = slamkit("simulate --family sparse-cluttered --world-seed 18 --seed 2 --loops 1 --out " +
+                                   (*work_ / "family_c").string(),
+                               *work_);
+  ASSERT_EQ(other.exit_code, 0) << other.err;
+  EXPECT_NE(read_file(*work_ / "family_c" / "world.txt"), read_file(a / "world.txt"));
+
+  const Result help = slamkit("simulate --help", *work_);
+  EXPECT_NE(help.out.find("sparse, sparse-cluttered, dense, dense-cluttered"), std::string::npos) << help.out;
+}
+
+TEST_F(Cli, FamilyMistakesAreUsageErrors) {
+  const std::string out = " --out " + (*work_ / "family_never").string();
+  const Result slip = slamkit("simulate --family sparse-clutered" + out, *work_);
+  EXPECT_EQ(slip.exit_code, 2);
+  EXPECT_EQ(count_lines(slip.err), 1u) << slip.err;
+  EXPECT_NE(slip.err.find("did you mean 'sparse-cluttered'?"), std::string::npos) << slip.err;
+  EXPECT_EQ(slamkit("make-world --family denes" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit("simulate --world-seed 3" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit("simulate --family sparse --scenario sparse" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit("make-world --family sparse --landmarks 10" + out, *work_).exit_code, 2);
+  EXPECT_FALSE(fs::exists(*work_ / "family_never"));
 }
 
 // ---- Hostile inputs and sizes (issue 26, section 4) ------------------------------------------------

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "slamkit/core/angles.hpp"
 #include "slamkit/io/load_dataset.hpp"
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/pipeline/runner.hpp"
@@ -20,9 +21,13 @@ namespace {
 Landmark landmark(int id, double x, double y) { return Landmark{id, Vector2(x, y), Matrix2::Zero()}; }
 
 /// A filter that numbered its two landmarks 0 and 1 itself, started by observations of the true
-/// landmarks 7 and 3; the truth also has landmarks numbered 0 and 1, far away.
+/// landmarks 7 and 3; the truth also has landmarks numbered 0 and 1, far away. The estimated path is
+/// the true one, so the map is judged in the truth's frame.
 struct TwoLandmarkRun {
   TwoLandmarkRun() {
+    truth.poses = {{0.0, Pose2(0.0, 0.0, 0.0)}, {1.0, Pose2(1.0, 0.0, 0.0)}};
+    truth.poses_have_heading = false;  // positions only: no NEES, which would need covariances
+    run.filtered = run.trajectory = run.dead_reckoning = truth.poses;
     run.association = "nn";
     run.map = {landmark(0, 1.0, 1.0), landmark(1, 5.0, 5.0)};
     run.scans = 1;
@@ -119,4 +124,103 @@ TEST(EvaluateRun, CourseLogWithUnknownAssociationPairsEveryLandmarkByOrigin) {
     EXPECT_GE(m.landmarks, 7u) << run.association;
     EXPECT_LT(*m.map_rmse_m, 0.2) << run.association;
   }
+}
+
+// With no trajectory truth (MRCLAM Dataset1, a surveyed map) the run's frame is its start, which
+// nothing ties to the truth's: the map is aligned onto the true landmarks it pairs with, and says so.
+TEST(EvaluateRun, WithoutTrajectoryTruthTheMapIsAlignedOnItsLandmarks) {
+  RunResult run;
+  run.association = "known";
+  GroundTruth truth;
+  truth.landmarks = {landmark(1, 0.0, 0.0), landmark(2, 10.0, 0.0), landmark(3, 10.0, 5.0), landmark(4, 0.0, 5.0)};
+  // One landmark 0.4 m off along x, then the whole map turned by 30 degrees and moved by (7, -3).
+  std::vector<Vector2> moved, actual;
+  for (const Landmark& l : truth.landmarks) {
+    actual.push_back(l.position);
+    moved.push_back(l.position + (l.id == 3 ? Vector2(0.4, 0.0) : Vector2(0.0, 0.0)));
+  }
+  const eval::Se2Transform frame{deg2rad(30.0), Vector2(7.0, -3.0)};
+  // One scan started each landmark from an observation of it, as a log with identities would.
+  run.associations.emplace_back();
+  truth.observation_ids.emplace_back();
+  for (std::size_t i = 0; i < moved.size(); ++i) {
+    const Vector2 p = frame.apply(moved[i]);
+    const int id = truth.landmarks[i].id;
+    run.map.push_back(landmark(id, p.x(), p.y()));
+    run.associations.back().push_back({AssociationDecision::kNew, id});
+    truth.observation_ids.back().push_back(id);
+  }
+  const Metrics m = evaluate_run(run, truth);
+  ASSERT_TRUE(m.map_rmse_m);
+  EXPECT_EQ(m.map_alignment, "landmarks");
+  EXPECT_EQ(m.map_landmarks_paired, 4u);
+  // What no rigid motion removes of one landmark's 0.4 m, spread over four: the same least squares
+  // in the truth's own frame.
+  const eval::Se2Transform fit = eval::align_se2(moved, actual);
+  double sum = 0.0;
+  for (std::size_t i = 0; i < moved.size(); ++i) sum += (fit.apply(moved[i]) - actual[i]).squaredNorm();
+  EXPECT_NEAR(*m.map_rmse_m, std::sqrt(sum / 4.0), 1e-9);
+  EXPECT_LT(*m.map_rmse_m, 0.4);
+  EXPECT_NEAR(wrap_angle(m.alignment.theta + deg2rad(30.0)), 0.0, 0.05);
+  const nlohmann::json j = to_json(m);
+  EXPECT_EQ(j["map_alignment"], "landmarks");
+  EXPECT_NE(headline(m).find("aligned on its 4 paired landmarks: no trajectory truth"), std::string::npos)
+      << headline(m);
+
+  // Fewer than three pairs fit too well to score: no map RMSE rather than a flattering one.
+  run.map.resize(2);
+  const Metrics two = evaluate_run(run, truth);
+  EXPECT_FALSE(two.map_rmse_m);
+  EXPECT_EQ(two.map_landmarks_paired, 2u);
+  EXPECT_TRUE(to_json(two)["map_alignment"].is_null());
+}
+
+// With trajectory truth the map goes with the trajectory's alignment, and the time matching is
+// chosen: evo's pairs give the number evo_ape prints (the case of MatchNearest, by hand: 4.472 mm).
+TEST(EvaluateRun, TimeMatchingAndMapAlignmentAreNamed) {
+  RunResult run;
+  run.association = "known";
+  GroundTruth truth;
+  for (const double t : {0.0, 1.0, 2.0, 3.0, 4.0}) truth.poses.push_back({t, Pose2(t, 0.0, 0.0)});
+  truth.poses_have_heading = false;  // positions only, as a GPS truth
+  for (const double t : {0.004, 1.0, 1.5, 2.008, 3.02, 3.996}) run.filtered.push_back({t, Pose2(t, 0.0, 0.0)});
+  run.trajectory = run.filtered;
+  run.dead_reckoning = run.filtered;
+  truth.landmarks = {landmark(1, 2.0, 3.0)};
+  run.map = {landmark(1, 2.0, 3.5)};
+  run.associations = {{{AssociationDecision::kNew, 1}}};
+  truth.observation_ids = {{1}};
+  const Metrics interpolated = evaluate_run(run, truth);
+  ASSERT_TRUE(interpolated.ate_rmse_m);
+  EXPECT_NEAR(*interpolated.ate_rmse_m, 0.0, 1e-12);
+  EXPECT_EQ(interpolated.time_matching, "interpolate");
+  EXPECT_EQ(interpolated.map_alignment, "trajectory");
+  EXPECT_NEAR(*interpolated.map_rmse_m, 0.5, 1e-9);
+
+  EvaluationOptions evo;
+  evo.time_matching = TimeMatching::kEvo;
+  const Metrics m = evaluate_run(run, truth, evo);
+  ASSERT_TRUE(m.ate_rmse_m);
+  EXPECT_NEAR(*m.ate_rmse_m, std::sqrt(2e-5), 1e-12);
+  EXPECT_EQ(m.matched_poses, 4u);
+  const nlohmann::json j = to_json(m);
+  EXPECT_EQ(j["time_matching"], "evo");
+  EXPECT_EQ(j["time_matching_max_difference_s"], 0.01);
+  EXPECT_NE(headline(m).find("evo's time matching, within 0.01 s"), std::string::npos) << headline(m);
+  EXPECT_EQ(parse_time_matching("evo"), TimeMatching::kEvo);
+  EXPECT_THROW(parse_time_matching("evoo"), std::invalid_argument);
+}
+
+// A particle filter's pose covariance is its cloud's; the console line says what that NEES is.
+TEST(EvaluateRun, TheHeadlineSaysWhoseNeesAParticleFilterReports) {
+  Metrics m;
+  m.nees_pose = eval::summarize_nees({1.0, 50.0}, 3);
+  EXPECT_EQ(headline(m).find("particle cloud"), std::string::npos);
+  EXPECT_FALSE(to_json(m).contains("nees_pose_note"));
+  m.filter_statistics["particles"] = 100;
+  EXPECT_NE(headline(m).find("pose NEES in 95% bounds 50% of steps (of the particle cloud, which resampling "
+                             "collapses; judge accuracy by the ATE)"),
+            std::string::npos)
+      << headline(m);
+  EXPECT_TRUE(to_json(m).contains("nees_pose_note"));
 }

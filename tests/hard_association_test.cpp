@@ -103,7 +103,7 @@ Metrics run_fastslam2(const Dataset& d, std::uint64_t seed, std::optional<std::s
 // On the sparse world every particle's cloud has collapsed long before the return, and without
 // relocalisation FastSLAM 2.0 maps the first landmarks again. From the logs the CLI writes, seeds
 // 1-10 close in 1 of 10 without and 10 of 10 with it; simulated without identities (another draw
-// of the noise), 0 and 8 of 10 (README).
+// of the noise), 0 and 8 of 10 (docs/association.md).
 TEST(HardAssociation, FastSlamRelocalisationClosesTheSparseWorldsLoop) {
   for (const std::uint64_t seed : {1U, 4U, 6U}) {
     const test_data::ScratchDir dir;
@@ -123,7 +123,7 @@ TEST(HardAssociation, FastSlamRelocalisationClosesTheSparseWorldsLoop) {
 // With clutter (1 false detection per scan, detection probability 0.9) the landmarks a particle
 // starts at the return are mostly false detections, which fit old landmarks as readily as the
 // duplicates do: an alignment needs as many confirmed pairs as it needs pairs. Seeds 1-10 from
-// logs: 0 of 10 closed without, 8 of 10 with (README).
+// logs: 0 of 10 closed without, 8 of 10 with (docs/association.md).
 TEST(HardAssociation, FastSlamRelocalisationClosesTheClutteredSparseWorldsLoop) {
   for (const std::uint64_t seed : {3U, 4U}) {
     const test_data::ScratchDir dir;
@@ -181,7 +181,7 @@ TEST(HardAssociation, FastSlamRelocalisationSearchesAtTheReturnOnly) {
 // detection paired with an old landmark or a true one beyond the gates of the drifted pose, leaves
 // the first lap mapped again; with it the old landmarks are recognised only through confirmed
 // landmarks of the return that match them jointly, and the duplicates are fused. Seeds 1-10 from
-// logs: 6 of 10 closed without, 10 of 10 with, each with no spurious landmark (README).
+// logs: 6 of 10 closed without, 10 of 10 with, each with no spurious landmark (docs/association.md).
 TEST(HardAssociation, EkfRelocalisationClosesTheClutteredSparseWorldsLoopWithoutSpuriousLandmarks) {
   std::ifstream file(std::filesystem::path(SLAMKIT_SOURCE_DIR) / "config" / "association-cluttered.json");
   const AssociationConfig shipped = association_config_from_json(nlohmann::json::parse(file), "association-cluttered.json");

@@ -84,10 +84,11 @@ TEST(JsonOptions, WritesWhatItReads) {
 
 TEST(JsonOptions, EveryWrongValueNamesTheFileAndTheKey) {
   EXPECT_NE(error_reading(R"({"rnage_m": 1})")
-                .find("settings.json: unknown key 'rnage_m' in the test settings; expected one of: range_m, "
-                      "angle_deg, count, seed, enabled, inner"),
+                .find("settings.json: unknown key 'rnage_m' in the test settings (did you mean 'range_m'?); expected "
+                      "one of: range_m, angle_deg, count, seed, enabled, inner"),
             std::string::npos);
-  EXPECT_NE(error_reading(R"({"inner": {"gian": 1}})").find("unknown key 'gian' in 'inner'; expected one of: gain"),
+  EXPECT_NE(error_reading(R"({"inner": {"gian": 1}})")
+                .find("unknown key 'gian' in 'inner' (did you mean 'gain'?); expected one of: gain"),
             std::string::npos);
   EXPECT_NE(error_reading(R"({"inner": 3})").find("expected 'inner' as a JSON object, found number"),
             std::string::npos);

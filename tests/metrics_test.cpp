@@ -240,6 +240,65 @@ TEST(MatchByTime, HandlesEmptyAndRejectsBadInput) {
   EXPECT_THROW(match_by_time(sorted, sorted, std::nan("")), std::invalid_argument);
 }
 
+// evo's pairing, by hand. The vehicle drives along x at 1 m/s and every estimate sample lies exactly
+// on its path, at its own time; the truth is sampled once a second. evo walks the shorter trajectory
+// (the truth: 5 samples against 6) and pairs each sample with the nearest estimate within 0.01 s:
+//   t = 0 with 0.004 (x error +0.004), t = 1 with 1.0 (0), t = 2 with 2.008 (+0.008),
+//   t = 3: the nearest, 3.02, is 0.02 s away, so it is left out; t = 4 with 3.996 (-0.004).
+// The points are collinear along x with errors along x, so the alignment is a shift by their mean
+// error, 0.002 m, leaving residuals +0.002, -0.002, +0.006, -0.006: RMSE sqrt(80e-6 / 4) = sqrt(2e-5)
+// = 4.472 mm. Interpolated at the truth times (across gaps up to 2 s), the same estimate is exact
+// (0 m) over the three truth samples inside its span.
+TEST(MatchNearest, ReproducesEvosPairingAndNumberByHand) {
+  std::vector<StampedPose> truth, estimate;
+  for (const double t : {0.0, 1.0, 2.0, 3.0, 4.0}) truth.push_back({t, Pose2(t, 0.0, 0.0)});
+  for (const double t : {0.004, 1.0, 1.5, 2.008, 3.02, 3.996}) estimate.push_back({t, Pose2(t, 0.0, 0.0)});
+
+  const std::vector<PosePair> evo = match_nearest(estimate, truth, 0.01);
+  ASSERT_EQ(evo.size(), 4u);
+  const int expected_index[] = {0, 1, 3, 5};
+  const double expected_t[] = {0.0, 1.0, 2.0, 4.0};
+  for (std::size_t i = 0; i < evo.size(); ++i) {
+    EXPECT_EQ(evo[i].estimate_index, expected_index[i]) << i;
+    EXPECT_EQ(evo[i].t, expected_t[i]) << i;
+    EXPECT_EQ(evo[i].estimate, estimate[static_cast<std::size_t>(expected_index[i])].pose) << i;
+  }
+  const AteResult ate = absolute_trajectory_error(evo);
+  EXPECT_NEAR(ate.rmse, std::sqrt(2e-5), 1e-12);
+  EXPECT_NEAR(ate.align.theta, 0.0, 1e-12);
+  EXPECT_NEAR(ate.align.translation.x(), -0.002, 1e-12);
+
+  const std::vector<PosePair> interpolated = match_by_time(estimate, truth, 2.0);
+  ASSERT_EQ(interpolated.size(), 3u);
+  EXPECT_NEAR(absolute_trajectory_error(interpolated).rmse, 0.0, 1e-12);
+
+  // A wider window takes t = 3 too (with 3.02); none at all only exact times.
+  EXPECT_EQ(match_nearest(estimate, truth, 0.05).size(), 5u);
+  EXPECT_EQ(match_nearest(estimate, truth, 0.0).size(), 1u);
+}
+
+// When the estimate is the shorter (or as long), evo walks the estimate; a truth sample may then
+// serve two estimate samples, and of equally near ones the first is taken (numpy's argmin). The
+// times are binary fractions, so "equally near" is exact.
+TEST(MatchNearest, WalksTheShorterTrajectoryAndTakesTheFirstOfEquallyNear) {
+  const std::vector<StampedPose> truth{{0.0, Pose2(0, 0, 0)}, {0.25, Pose2(1, 0, 0)}, {0.25, Pose2(2, 0, 0)},
+                                       {0.5, Pose2(3, 0, 0)}};
+  const std::vector<StampedPose> estimate{{0.125, Pose2::Zero()}, {0.3125, Pose2::Zero()}, {0.375, Pose2::Zero()}};
+  const std::vector<PosePair> pairs = match_nearest(estimate, truth, 0.125);
+  ASSERT_EQ(pairs.size(), 3u);
+  EXPECT_EQ(pairs[0].truth, Pose2(0, 0, 0));  // halfway between 0 and 0.25: the earlier
+  EXPECT_EQ(pairs[1].truth, Pose2(1, 0, 0));  // nearest the two samples at 0.25: the first of them
+  EXPECT_EQ(pairs[2].truth, Pose2(1, 0, 0));  // halfway between 0.25 and 0.5: the first at 0.25
+  for (std::size_t i = 0; i < pairs.size(); ++i) EXPECT_EQ(pairs[i].estimate_index, static_cast<int>(i));
+
+  EXPECT_TRUE(match_nearest({}, truth, 0.01).empty());
+  EXPECT_TRUE(match_nearest(estimate, {}, 0.01).empty());
+  const std::vector<StampedPose> unsorted{{1.0, Pose2::Zero()}, {0.0, Pose2::Zero()}};
+  EXPECT_THROW(match_nearest(unsorted, truth, 0.01), std::invalid_argument);
+  EXPECT_THROW(match_nearest(estimate, truth, -0.01), std::invalid_argument);
+  EXPECT_THROW(match_nearest(estimate, truth, std::nan("")), std::invalid_argument);
+}
+
 TEST(AbsoluteTrajectoryError, RigidlyMovedCopyHasZeroError) {
   const std::vector<StampedPose> truth = curved_path(40);
   const Se2Transform moved{-2.2, Vector2(150.0, 75.0)};

@@ -1,5 +1,6 @@
 // Reading a run folder back: associations.txt lines that do not continue the current scan or start
-// the next are errors naming the line (they used to be filed silently under the last scan).
+// the next are errors naming the line (they used to be filed silently under the last scan); a run
+// being written is readable only once complete, and replaces the previous one as a whole.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -102,6 +103,31 @@ TEST_F(RunFolder, ACountThatIsNotANonNegativeIntegerIsAnError) {
   }
   std::ofstream(path) << original;
   EXPECT_NO_THROW(read_run(dir_.string()));
+}
+
+// While a run is written, the folder still holds the previous run and the staging folder is
+// refused by every reader (evaluate, plot-nees, Python through read_run).
+TEST_F(RunFolder, ARunBeingWrittenIsReadableOnlyOnceComplete) {
+  const RunResult run = read_run(dir_.string());
+  AtomicFolder next = stage_run_folder(dir_.string());
+  write_run_files(next.path(), run);
+  const std::string message = test_data::input_error_at([&] { read_run(next.path()); }, next.path(), 0);
+  EXPECT_NE(message.find("an incomplete folder"), std::string::npos) << message;
+  EXPECT_NO_THROW(read_run(dir_.string()));
+  next.commit();
+  EXPECT_EQ(read_run(dir_.string()).associations.size(), run.associations.size());
+}
+
+// A file only some runs have (FastSLAM's particles.txt) does not outlive its run.
+TEST_F(RunFolder, ARunReplacesThePreviousOneAsAWhole) {
+  const RunResult run = read_run(dir_.string());
+  RunResult with_particles = run;
+  with_particles.particles = {ParticleSample{0.0, WeightedPose{Pose2(1.0, 2.0, 0.5), 1.0}}};
+  write_run(dir_.string(), with_particles);
+  EXPECT_EQ(read_run(dir_.string()).particles.size(), 1u);
+  write_run(dir_.string(), run);
+  EXPECT_FALSE(fs::exists(dir_ / "particles.txt"));
+  EXPECT_TRUE(read_run(dir_.string()).particles.empty());
 }
 
 }  // namespace

@@ -4,7 +4,7 @@
 // (run_settings_from_json, then the dataset with the settings recorded). Each variant is either
 // accepted or refused by an InputError naming the file and the key; a 'dataset' or
 // 'dataset_settings' of another kind used to escape as nlohmann's type error and abort the CLI.
-#include "slamkit/pipeline/run_settings.hpp"
+#include "slamkit/pipeline/settings.hpp"
 
 #include <gtest/gtest.h>
 

@@ -306,6 +306,45 @@ TEST(SvgPlotSize, PathCoordinatesHaveAtMostOneDecimal) {
   EXPECT_GT(checked, 100u);
 }
 
+// ---- Stacked panels -----------------------------------------------------------------------------
+
+/// The attribute `name` of the first element at or after `from` that has it.
+double attribute_after(const std::string& svg, std::size_t from, const std::string& name) {
+  const std::size_t at = svg.find(" " + name + "=\"", from);
+  return at == std::string::npos ? kNaN : std::stod(svg.substr(at + name.size() + 3));
+}
+
+TEST(SvgPlotStacked, PanelsShareTheirPlotAreasLeftAndRightAndHaveIdsOfTheirOwn) {
+  // Tick labels of different widths and legends of different widths: alone, their plot areas differ.
+  Figure top(900, 400), bottom(900, 300);
+  const std::vector<Vector2> small = {{0, 0.001}, {10, 0.002}}, large = {{0, -123456}, {10, 987654}};
+  top.set_title("stacked");
+  top.add_line(small, {}, "a");
+  bottom.add_line(large, {}, "a much longer legend label");
+  bottom.set_colorbar("colour", 0, 1);
+  ASSERT_NE(top.frame().left, bottom.frame().left);
+  ASSERT_NE(top.frame().plot_width, bottom.frame().plot_width);
+
+  const std::string svg = stacked_svg({top, bottom});
+  EXPECT_EQ(xml_error(svg), "");
+  EXPECT_NEAR(attribute_after(svg, 0, "height"), top.frame().height + bottom.frame().height, 0.1)
+      << "one above the other";
+  const std::size_t first = svg.find("<clipPath id=\"slamkit-plot-area-1\">");
+  const std::size_t second = svg.find("<clipPath id=\"slamkit-plot-area-2\">");
+  ASSERT_NE(first, std::string::npos);
+  ASSERT_NE(second, std::string::npos);
+  EXPECT_EQ(count(svg, "url(#slamkit-plot-area-1)"), 1u);
+  EXPECT_EQ(count(svg, "url(#slamkit-plot-area-2)"), 1u);
+  EXPECT_EQ(count(svg, "id=\"slamkit-colorbar-2\""), 1u);
+  EXPECT_EQ(count(svg, "url(#slamkit-colorbar-2)"), 1u);
+  for (const char* edge : {"x", "width"})
+    EXPECT_EQ(attribute_after(svg, first, edge), attribute_after(svg, second, edge)) << edge;
+  const std::size_t shift = svg.rfind("<g transform=\"translate(0 ");
+  ASSERT_NE(shift, std::string::npos);
+  EXPECT_NEAR(std::stod(svg.substr(shift + 26)), top.frame().height, 0.1);
+  EXPECT_THROW(stacked_svg({}), std::invalid_argument);
+}
+
 // ---- Files ----------------------------------------------------------------------------------------
 
 TEST(SvgPlotFile, SaveWritesTheSvg) {

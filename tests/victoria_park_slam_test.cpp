@@ -66,7 +66,7 @@ TEST(VictoriaParkSlam, FastSlam2WithHundredParticlesOnTheFullRun) {
 // Issue 10's bound, against the EKF with JCBB (1.55 m: bound 2.33 m). Sampling the whole proposal
 // (pose_sample_fraction 1) misses it in all three seeds (ATE 4.10, 3.50, 2.63 m: each run's path is
 // one draw from a posterior metres wide); carrying 99% of it as a Gaussian per particle meets it
-// (1.77, 1.68, 1.70 m). Seeds from the tuning set, not the ones the README reports; one test each, so
+// (1.77, 1.68, 1.70 m). Seeds from the tuning set, not the ones docs/results.md reports; one test each, so
 // that a sanitized build runs them side by side within its time limit (a run takes minutes there).
 class VictoriaParkFastSlamSeed : public ::testing::TestWithParam<std::uint64_t> {};
 

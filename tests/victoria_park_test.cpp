@@ -3,6 +3,7 @@
 // correction, axes, initial heading); on small synthetic folders the merging of controls and scans
 // and every kind of bad input; and the options' JSON.
 #include "slamkit/io/victoria_park.hpp"
+#include "slamkit/io/load_dataset.hpp"
 
 #include <gtest/gtest.h>
 
@@ -619,11 +620,17 @@ TEST(VictoriaParkOptions, ReadsJsonInDegreesAndNamesUnknownKeys) {
             std::string::npos);
 }
 
+// The shipped file holds the reader's defaults and, for the filters, the built-in recommendation
+// that a run without --data-config gets.
 TEST(VictoriaParkOptions, ShippedConfigHoldsTheDefaults) {
   const fs::path path = fs::path(SLAMKIT_SOURCE_DIR) / "config" / "victoria-park.json";
   std::ifstream in(path);
   ASSERT_TRUE(in) << path;
-  const VictoriaParkOptions o = victoria_park_options_from_json(nlohmann::json::parse(in), path.string());
+  nlohmann::json shipped = nlohmann::json::parse(in);
+  EXPECT_EQ(recommended_settings("victoria-park:x", shipped, path.string()),
+            recommended_settings("victoria-park:x", nullptr, ""));
+  shipped.erase("recommended");
+  const VictoriaParkOptions o = victoria_park_options_from_json(shipped, path.string());
   const VictoriaParkOptions d;
   const auto near = [](double a, double b) { return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(b)); };
   for (const auto& [a, b] : {std::pair{o.max_range, d.max_range},

@@ -1,6 +1,6 @@
 // Soak test: one long run on a simulated log with the runner keeping no history, reporting the step
 // rate and the memory as it goes, so that a slowdown or a leak over 10^5..10^6 steps shows. `make
-// soak` runs it for the EKF and FastSLAM; see README.md.
+// soak` runs it for the EKF and FastSLAM; see docs/testing.md.
 //
 //   slamkit_soak --filter ekf --steps 1000000 [--particles 100] [--history none] [--reports 10]
 //

@@ -1,10 +1,16 @@
 """The Python module against the CLI: the same dataset and seed give the same numbers to the last
-digit; stepping a filter event by event ends where a whole run does; states, covariances and maps
-come out as arrays of the right shapes; bad settings raise; the plotting example runs."""
+digit; stepping a filter event by event ends where a whole run does, and shows the time, the scan and
+the association decisions the CLI's run folder records; a dataset's events read back as its log
+file holds them; a run saved from Python is a run folder the CLI evaluates and repeats; states,
+covariances and maps come out as arrays of the right shapes; bad settings raise, None raises
+TypeError, a missing NumPy fails at import; help() documents every function and property; the
+plotting example runs."""
 import json
 import os
+import pydoc
 import subprocess
 import sys
+import textwrap
 
 import numpy as np
 import pytest
@@ -26,11 +32,20 @@ def sim(tmp_path_factory):
     return work
 
 
-def cli_metrics(work, name, args):
-    subprocess.run([CLI, "run", "--data", f"sim:{work / 'sim'}", "--out", str(work / name), "--quiet", *args],
+def cli(*args):
+    return subprocess.run([CLI, *map(str, args)], capture_output=True, text=True, env=CLI_ENV)
+
+
+def cli_metrics(work, name, args, data="sim"):
+    subprocess.run([CLI, "run", "--data", f"sim:{work / data}", "--out", str(work / name), "--quiet", *args],
                    check=True, capture_output=True, env=CLI_ENV)
     with open(work / name / "metrics.json") as f:
         return json.load(f)
+
+
+def read_text(path):
+    with open(path) as f:
+        return f.read()
 
 
 # Run-specific (time, the dataset as spelt) or not metrics of the run at all.
@@ -58,7 +73,7 @@ def test_stepping_ends_where_a_whole_run_ends(sim):
     kinds = []
     while (kind := stepped.step()) is not None:
         kinds.append(kind)
-    assert len(kinds) == dataset.events == stepped.events_done
+    assert len(kinds) == len(dataset.events) == stepped.events_done
     assert set(kinds) == {"control", "scan"}
     run = slamkit.run(dataset, settings)
     np.testing.assert_array_equal(stepped.pose, run.filtered[-1, 1:])
@@ -102,3 +117,184 @@ def test_the_plotting_example_runs(sim, tmp_path):
     assert result.returncode == 0, result.stderr
     assert "ATE RMSE" in result.stdout
     assert out.stat().st_size > 10000
+
+
+def test_none_and_wrong_types_raise_type_error_not_crash(sim):
+    # In a child interpreter: the crash these replace (SIGSEGV) would take pytest down with it.
+    script = textwrap.dedent(f"""
+        import slamkit
+        ds = slamkit.load_dataset("sim:{sim / 'sim'}")
+        run = slamkit.run(ds, {{}})
+        calls = {{
+            "run(None, {{}})": lambda: slamkit.run(None, {{}}),
+            "run(None)": lambda: slamkit.run(None),
+            "run(str)": lambda: slamkit.run("sim:x", {{}}),
+            "run(ds, None)": lambda: slamkit.run(ds, None),
+            "Filter(None)": lambda: slamkit.Filter(None),
+            "Filter(None, {{}})": lambda: slamkit.Filter(None, {{}}),
+            "Filter(ds, None)": lambda: slamkit.Filter(ds, None),
+            "evaluate(None)": lambda: slamkit.evaluate(None),
+            "evaluate(None, ds)": lambda: slamkit.evaluate(None, ds),
+            "evaluate(run, 3)": lambda: slamkit.evaluate(run, 3),
+            "load_dataset(None)": lambda: slamkit.load_dataset(None),
+            "save(None)": lambda: run.save(None),
+        }}
+        for name, call in calls.items():
+            try:
+                call()
+                print(name, "returned")
+            except Exception as e:
+                print(name, type(e).__name__)
+        """)
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=os.environ)
+    assert result.returncode == 0, f"the interpreter died ({result.returncode}): {result.stderr}"
+    lines = result.stdout.splitlines()
+    assert len(lines) == 12, result.stdout
+    for line in lines:
+        assert line.endswith(" TypeError"), line
+
+
+def test_a_missing_numpy_fails_at_import_saying_what_to_install():
+    result = subprocess.run([sys.executable, "-c", "import sys; sys.modules['numpy'] = None; import slamkit"],
+                            capture_output=True, text=True, env=os.environ)
+    assert result.returncode != 0
+    assert "ImportError" in result.stderr
+    assert "slamkit needs NumPy" in result.stderr and "python3-numpy" in result.stderr, result.stderr
+
+
+def test_help_documents_every_function_and_property():
+    for name in ("load_dataset", "run", "evaluate"):
+        assert getattr(slamkit, name).__doc__.strip(), name
+    for cls in (slamkit.Dataset, slamkit.Events, slamkit.Event, slamkit.Filter, slamkit.Run):
+        assert cls.__doc__ and cls.__doc__.strip(), cls.__name__
+        for name, member in vars(cls).items():
+            if name.startswith("_"):
+                continue
+            doc = member.__doc__ or ""
+            # pybind11 writes a method's signature first; a property has only the text given.
+            text = doc.split("\n", 1)[-1] if doc.startswith(name + "(") else doc
+            assert text.strip(), f"{cls.__name__}.{name} has no docstring"
+    text = pydoc.render_doc(slamkit, renderer=pydoc.plaintext)
+    for phrase in ("[x y theta | m1x m1y | m2x m2y | ...]", "rows id, x [m], y [m]", "shape (n, 2, 2) [m^2]",
+                   "rows t [s], x [m], y [m], theta [rad]", "'update'", "range [m], bearing [rad]",
+                   "Units: metres, radians, seconds"):
+        assert phrase in text, phrase
+
+
+def sim_log_events(folder):
+    """events.txt read as the file says: ("control", t, dt, [speed, steer]) or ("scan", t, [(id, range,
+    bearing), ...])."""
+    events = []
+    for line in read_text(folder / "events.txt").splitlines():
+        fields = line.split()
+        if not fields or fields[0].startswith("#"):
+            continue
+        if fields[0] == "control":
+            events.append(("control", float(fields[1]), float(fields[2]), [float(v) for v in fields[3:]]))
+        elif events and events[-1][0] == "scan" and events[-1][1] == float(fields[1]):
+            events[-1][2].append((int(fields[2]), float(fields[3]), float(fields[4])))
+        else:
+            events.append(("scan", float(fields[1]), [(int(fields[2]), float(fields[3]), float(fields[4]))]))
+    return events
+
+
+def test_dataset_events_are_the_logs_events(sim):
+    dataset = slamkit.load_dataset(f"sim:{sim / 'sim'}")
+    expected = sim_log_events(sim / "sim")
+    events = dataset.events
+    assert len(events) == len(expected) > 1000
+    assert dataset.motion_model == "ackermann"
+    seen = 0
+    for i, (event, want) in enumerate(zip(events, expected)):
+        seen += 1
+        assert event.index == i and event.kind == want[0] and event.t == want[1]
+        if event.kind == "control":
+            assert event.dt == want[2]
+            np.testing.assert_array_equal(event.control, want[3])
+            assert event.observations.shape == (0, 2) and event.ids.shape == (0,)
+        else:
+            assert event.dt is None and event.control is None
+            np.testing.assert_array_equal(event.ids, [o[0] for o in want[2]])
+            np.testing.assert_array_equal(event.observations, [o[1:] for o in want[2]])
+            assert event.ids.dtype.kind == "i"
+    assert seen == len(expected)
+    assert events[-1].index == len(events) - 1
+    assert [e.index for e in events[3:10:2]] == [3, 5, 7, 9]
+    with pytest.raises(IndexError):
+        events[len(events)]
+    # An event keeps its dataset alive, whatever happens to the names that held it.
+    last = slamkit.load_dataset(f"sim:{sim / 'sim'}").events[-1]
+    assert last.t == expected[-1][1]
+    assert "scan" in repr(last) or "control" in repr(last)
+
+
+def test_stepping_shows_the_time_scan_and_the_decisions_the_run_folder_records(sim):
+    subprocess.run([CLI, "simulate", "--seed", "4", "--no-ids", "--out", str(sim / "sim-no-ids")], check=True,
+                   capture_output=True, env=CLI_ENV)
+    cli_metrics(sim, "nn", ["--assoc", "nn"], data="sim-no-ids")
+    recorded = {}
+    for line in read_text(sim / "nn" / "associations.txt").splitlines():
+        fields = line.split()
+        if fields[0].startswith("#") or fields[2] == "none":
+            continue
+        recorded.setdefault(int(fields[0]), []).append((fields[3], int(fields[4])))
+
+    dataset = slamkit.load_dataset(f"sim:{sim / 'sim-no-ids'}")
+    stepped = slamkit.Filter(dataset, {"association": {"method": "nn"}})
+    assert stepped.time is None and stepped.last_scan is None and stepped.associations == []
+    scans, started = [], set()
+    while (kind := stepped.step()) is not None:
+        event = dataset.events[stepped.events_done - 1]
+        assert stepped.time == event.t
+        if kind == "scan":
+            scan = stepped.last_scan
+            assert scan.index == event.index and len(stepped.associations) == len(scan.observations)
+            assert (scan.ids == -1).all()
+            scans.append(stepped.associations)
+            # A landmark is started once, under a new id, and updated only after that (a relocalised
+            # duplicate may leave the state in the same scan, so the state is no reference).
+            for decision, landmark in stepped.associations:
+                if decision == "new":
+                    assert landmark not in started
+                    started.add(landmark)
+                else:
+                    assert landmark in started if decision == "update" else landmark == -1
+        else:
+            assert stepped.last_scan is None if not scans else stepped.last_scan.index < event.index
+    assert {i: a for i, a in enumerate(scans) if a} == recorded
+    decisions = {d for scan in scans for d, _ in scan}
+    assert {"update", "new"} <= decisions
+
+
+def test_a_run_saved_from_python_is_a_run_folder_the_cli_evaluates_and_repeats(sim, tmp_path):
+    cli_metrics(sim, "ekf-cli", ["--filter", "ekf"])
+    dataset = slamkit.load_dataset(f"sim:{sim / 'sim'}")
+    run = slamkit.run(dataset, {"filter": "ekf"}, replay=True)
+    folder = tmp_path / "from-python"
+    metrics = run.save(str(folder))
+    assert metrics == slamkit.evaluate(run) == json.loads(read_text(folder / "metrics.json"))
+    # The same files as the CLI's folder of the same run; the pictures differ only in the wall time.
+    for name in ("trajectory.tum", "pose_covariance.txt", "dead_reckoning.tum", "map.txt", "landmark_std.txt",
+                 "associations.txt", "truth.tum"):
+        assert read_text(folder / name) == read_text(sim / "ekf-cli" / name), name
+    for name in ("map.svg", "landmark_std.svg", "pose_error.svg", "nees.svg", "replay.json", "replay.html"):
+        assert (folder / name).exists(), name
+    info = json.loads(read_text(folder / "run.json"))
+    assert info["front_end"] == "python" and info["python_version"] == sys.version
+    assert info["dataset"] == f"sim:{sim / 'sim'}" and info["settings"]["filter"] == "ekf"
+    assert info["simulator"] == json.loads(read_text(sim / "sim" / "params.json"))
+
+    evaluated = cli("evaluate", folder)
+    assert evaluated.returncode == 0, evaluated.stderr
+    assert json.loads(read_text(folder / "metrics.json"))["ate_rmse_m"] == metrics["ate_rmse_m"]
+    repeated = cli("run", "--config", folder / "run.json", "--out", tmp_path / "repeated", "--quiet")
+    assert repeated.returncode == 0, repeated.stderr
+    assert read_text(tmp_path / "repeated" / "trajectory.tum") == read_text(folder / "trajectory.tum")
+
+    page = tmp_path / "page.html"
+    run.write_replay(str(page))
+    assert read_text(page) == read_text(folder / "replay.html")
+    unrecorded = slamkit.run(dataset, {"filter": "ekf"})
+    assert not unrecorded.recorded and run.recorded
+    with pytest.raises(ValueError, match="replay=True"):
+        unrecorded.write_replay(str(tmp_path / "none.html"))

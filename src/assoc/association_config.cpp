@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "slamkit/core/json_options.hpp"
+#include "slamkit/core/names.hpp"
 
 namespace slamkit {
 
@@ -35,7 +36,7 @@ AssociationMethod parse_association_method(const std::string& name) {
   if (name == "known") return AssociationMethod::kKnown;
   if (name == "nn") return AssociationMethod::kNearestNeighbour;
   if (name == "jcbb") return AssociationMethod::kJcbb;
-  throw std::invalid_argument("unknown association '" + name + "'; expected one of: known, nn, jcbb");
+  throw std::invalid_argument(unknown_name_message("association", name, {"known", "nn", "jcbb"}));
 }
 
 std::string to_string(AssociationMethod method) {
@@ -81,8 +82,18 @@ nlohmann::json to_json(const AssociationConfig& config) {
 }
 
 AssociationConfig association_config_from_json(const nlohmann::json& json, const std::string& source) {
-  if (!json.is_object()) throw InputError(source, 0, "expected the association settings as a JSON object");
   AssociationConfig config;
+  read_association_settings(json, source, config);
+  try {
+    validate(config);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(source, 0, e.what());
+  }
+  return config;
+}
+
+void read_association_settings(const nlohmann::json& json, const std::string& source, AssociationConfig& config) {
+  if (!json.is_object()) throw InputError(source, 0, "expected the association settings as a JSON object");
   nlohmann::json numeric = json;
   if (json.contains("method")) {
     const nlohmann::json& method = json.at("method");
@@ -104,12 +115,6 @@ AssociationConfig association_config_from_json(const nlohmann::json& json, const
   }
   option_detail::read_keys(numeric, source, "the association settings",
                            std::span<const OptionKey<AssociationConfig>>(kNumericKeys), config);
-  try {
-    validate(config);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(source, 0, e.what());
-  }
-  return config;
 }
 
 }  // namespace slamkit

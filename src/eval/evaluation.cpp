@@ -11,6 +11,7 @@
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/version.hpp"
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/names.hpp"
 
 namespace slamkit {
 
@@ -112,7 +113,35 @@ std::optional<std::vector<Landmark>> map_with_true_ids(const RunResult& run, con
   return std::nullopt;
 }
 
+/// The map's error with no trajectory truth to align it by: aligned onto the true landmarks it is
+/// paired with, when there are enough of them.
+void score_map_alone(const std::vector<Landmark>& map, const std::vector<Landmark>& truth, Metrics& m) {
+  std::unordered_map<int, Vector2> true_position;
+  for (const Landmark& l : truth) true_position.emplace(l.id, l.position);
+  std::vector<Vector2> estimated, actual;
+  for (const Landmark& l : map)
+    if (const auto match = true_position.find(l.id); l.id != kUnknownId && match != true_position.end()) {
+      estimated.push_back(l.position);
+      actual.push_back(match->second);
+    }
+  m.map_landmarks_paired = estimated.size();
+  if (estimated.size() < kMinLandmarksToAlign) return;
+  m.alignment = eval::align_se2(estimated, actual);
+  m.map_rmse_m = eval::map_rmse(map, truth, m.alignment).rmse;
+  m.map_alignment = "landmarks";
+}
+
 }  // namespace
+
+TimeMatching parse_time_matching(const std::string& name) {
+  if (name == "interpolate") return TimeMatching::kInterpolate;
+  if (name == "evo") return TimeMatching::kEvo;
+  throw std::invalid_argument(unknown_name_message("time matching", name, {"interpolate", "evo"}));
+}
+
+std::string to_string(TimeMatching matching) {
+  return matching == TimeMatching::kEvo ? "evo" : "interpolate";
+}
 
 Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const EvaluationOptions& options) {
   Metrics m;
@@ -131,27 +160,31 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
   if (origins) m.association = origins->metrics;
   const std::optional<std::vector<Landmark>> map = map_with_true_ids(run, origins);
   m.history = run.history;
+  m.time_matching = to_string(options.time_matching);
+  if (options.time_matching == TimeMatching::kEvo) m.max_time_difference_s = options.max_time_difference_s;
   if (run.history == "none") return m;
   if (truth.poses.empty()) {
-    // A truth of landmarks only (a surveyed map): the map frame is the truth frame, no alignment.
-    if (!truth.landmarks.empty() && map) {
-      const eval::MapError map_error = eval::map_rmse(*map, truth.landmarks, {});
-      m.map_rmse_m = map_error.rmse;
-      m.map_landmarks_paired = map_error.paired;
-    }
+    // A truth of landmarks only (MRCLAM Dataset1, a surveyed map): the run's frame is its start,
+    // which nothing ties to the truth's.
+    if (!truth.landmarks.empty() && map) score_map_alone(*map, truth.landmarks, m);
     return m;
   }
 
+  const auto match = [&](const std::vector<StampedPose>& estimate) {
+    return options.time_matching == TimeMatching::kEvo
+               ? eval::match_nearest(estimate, truth.poses, options.max_time_difference_s)
+               : eval::match_by_time(estimate, truth.poses, options.max_interpolation_gap_s);
+  };
   // ate_rmse_m scores what every filter knew at each step (comparable across filters); a smoothed
   // trajectory (FastSLAM's best particle's path, revised by later scans) is scored on its own.
-  const auto filtered_pairs = eval::match_by_time(run.filtered, truth.poses, options.max_interpolation_gap_s);
+  const auto filtered_pairs = match(run.filtered);
   if (filtered_pairs.size() >= 2) {
     const eval::AteResult ate = eval::absolute_trajectory_error(filtered_pairs);
     m.ate_rmse_m = ate.rmse;
     m.final_position_error_m = ate.final_error;
   }
   // The map and the pictures go with the trajectory written as the estimate.
-  const auto pairs = eval::match_by_time(run.trajectory, truth.poses, options.max_interpolation_gap_s);
+  const auto pairs = match(run.trajectory);
   m.matched_poses = pairs.size();
   if (pairs.size() >= 2) {
     const eval::AteResult ate = eval::absolute_trajectory_error(pairs);
@@ -161,9 +194,10 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
       const eval::MapError map_error = eval::map_rmse(*map, truth.landmarks, ate.align);
       m.map_rmse_m = map_error.rmse;
       m.map_landmarks_paired = map_error.paired;
+      if (m.map_rmse_m) m.map_alignment = "trajectory";
     }
   }
-  const auto dr_pairs = eval::match_by_time(run.dead_reckoning, truth.poses, options.max_interpolation_gap_s);
+  const auto dr_pairs = match(run.dead_reckoning);
   if (dr_pairs.size() >= 2) {
     const eval::AteResult dr = eval::absolute_trajectory_error(dr_pairs);
     m.dead_reckoning_ate_rmse_m = dr.rmse;
@@ -172,11 +206,11 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
   }
   if (truth.poses_have_heading) {
     // Only where the estimate has a sample at the truth time: an interpolated covariance would be a
-    // guess, and NEES is about the filter's own claims.
+    // guess, and NEES is about the filter's own claims. So it does not depend on the time matching.
     std::vector<double> nees;
-    const auto filtered_pairs = eval::match_by_time(run.filtered, truth.poses, options.max_interpolation_gap_s);
-    nees.reserve(filtered_pairs.size());
-    for (const auto& pair : filtered_pairs) {
+    const auto exact_pairs = eval::match_by_time(run.filtered, truth.poses, options.max_interpolation_gap_s);
+    nees.reserve(exact_pairs.size());
+    for (const auto& pair : exact_pairs) {
       const auto i = static_cast<std::size_t>(pair.estimate_index);
       if (run.filtered[i].t != pair.t) continue;
       const double value = eval::pose_nees(run.filtered[i].pose, run.pose_covariances[i], pair.truth);
@@ -189,6 +223,8 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
   }
   return m;
 }
+
+bool pose_nees_of_particle_cloud(const std::string& filter) { return filter.starts_with("fastslam"); }
 
 nlohmann::json to_json(const Metrics& m) {
   nlohmann::json j = {
@@ -207,10 +243,13 @@ nlohmann::json to_json(const Metrics& m) {
       {"dead_reckoning_final_position_error_m", optional_json(m.dead_reckoning_final_position_error_m)},
       {"map_rmse_m", optional_json(m.map_rmse_m)},
       {"map_landmarks_paired", m.map_landmarks_paired},
+      {"map_alignment", m.map_alignment.empty() ? nlohmann::json(nullptr) : nlohmann::json(m.map_alignment)},
+      {"time_matching", m.time_matching},
       {"alignment", {{"theta_rad", m.alignment.theta},
                      {"tx_m", m.alignment.translation.x()},
                      {"ty_m", m.alignment.translation.y()}}},
   };
+  if (m.time_matching == "evo") j["time_matching_max_difference_s"] = m.max_time_difference_s;
   if (m.nees_pose) {
     j["nees_pose_mean"] = m.nees_pose->mean;
     j["nees_pose_in_95_fraction"] = m.nees_pose->in_interval_fraction;
@@ -220,13 +259,9 @@ nlohmann::json to_json(const Metrics& m) {
     j["nees_pose_mean"] = nullptr;
     j["nees_pose_in_95_fraction"] = nullptr;
   }
-  if (m.smoothed) {
-    j["smoothed_ate_rmse_m"] = optional_json(m.smoothed_ate_rmse_m);
-    j["nees_pose_note"] =
-        "the particle cloud's covariance: resampling depletes the cloud's history and collapses it (Bailey, "
-        "Nieto and Nebot, 'Consistency of the FastSLAM algorithm', the tutorial's reference [2]), so a NEES far "
-        "above 3 says the cloud is over-confident, not that the estimate diverged; judge accuracy by ate_rmse_m";
-  }
+  if (m.smoothed) j["smoothed_ate_rmse_m"] = optional_json(m.smoothed_ate_rmse_m);
+  // By the filter, not by the smoothed trajectory, which a run without full history does not keep.
+  if (pose_nees_of_particle_cloud(m.filter)) j["nees_pose_note"] = std::string(kParticleCloudNeesNote);
   j["history"] = m.history;
   if (m.history == "none")
     j["history_note"] =
@@ -252,12 +287,19 @@ nlohmann::json to_json(const Metrics& m) {
       {"ate_rmse_m",
        "position RMSE of the per-step (filtered) estimates over time-matched truth samples after SE(2) "
        "least-squares alignment"},
+      {"time_matching",
+       "interpolate: the estimate interpolated at every truth time inside its span; evo: as evo pairs them, each "
+       "sample of the shorter trajectory with the other's nearest sample at most time_matching_max_difference_s "
+       "away, nothing interpolated"},
       {"smoothed_ate_rmse_m", "the same for the smoothed trajectory (FastSLAM: the final best particle's path)"},
       {"history",
        "what the run kept (--history): full, decimated (trajectory metrics over at most 10,000 evenly spread "
        "samples) or none (no trajectory metrics)"},
       {"final_position_error_m", "position error at the last matched truth sample, same alignment"},
-      {"map_rmse_m", "landmark position RMSE over landmarks paired with the truth, same alignment"},
+      {"map_rmse_m", "landmark position RMSE over landmarks paired with the truth, after map_alignment"},
+      {"map_alignment",
+       "trajectory: the trajectory's alignment; landmarks: with no trajectory truth, the SE(2) least-squares "
+       "alignment of the paired landmarks onto the true ones (the map's shape only)"},
       {"nees_pose_in_95_fraction",
        "share of steps whose pose NEES (3 dof, unaligned) lies in the two-sided 95% chi-square interval"},
       {"association_correct", "pairings whose observation's true landmark started the landmark it updated"},
@@ -288,13 +330,23 @@ std::string headline(const Metrics& m) {
   if (m.ate_rmse_m) {
     std::string ate = fmt::format("ATE RMSE {:.3g} m", *m.ate_rmse_m);
     if (m.dead_reckoning_ate_rmse_m) ate += fmt::format(" (dead reckoning {:.3g} m)", *m.dead_reckoning_ate_rmse_m);
+    if (m.time_matching == "evo") ate += fmt::format(" [evo's time matching, within {:g} s]", m.max_time_difference_s);
     add(ate);
   }
-  if (m.map_rmse_m) add(fmt::format("map RMSE {:.3g} m", *m.map_rmse_m));
+  if (m.history == "none") add("no trajectory metrics (--history none kept only the start and the end)");
+  if (m.map_rmse_m && m.map_alignment == "landmarks")
+    add(fmt::format("map RMSE {:.3g} m (aligned on its {} paired landmarks: no trajectory truth)", *m.map_rmse_m,
+                    m.map_landmarks_paired));
+  else if (m.map_rmse_m)
+    add(fmt::format("map RMSE {:.3g} m", *m.map_rmse_m));
   if (m.association && m.association_method != "known")
     add(fmt::format("{} association: {} correct, {} wrong", m.association_method, m.association->correct,
                     m.association->wrong));
-  if (m.nees_pose)
+  if (m.nees_pose && pose_nees_of_particle_cloud(m.filter))
+    add(fmt::format("pose NEES in 95% bounds {:.0f}% of steps (of the particle cloud, which resampling "
+                    "collapses; judge accuracy by the ATE)",
+                    100.0 * m.nees_pose->in_interval_fraction));
+  else if (m.nees_pose)
     add(fmt::format("pose NEES in 95% bounds {:.0f}% of steps", 100.0 * m.nees_pose->in_interval_fraction));
   add(fmt::format("{} landmarks", m.landmarks));
   add(fmt::format("{:.3g} s", m.wall_time_s));

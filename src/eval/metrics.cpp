@@ -108,6 +108,35 @@ std::vector<PosePair> match_by_time(const std::vector<StampedPose>& estimate,
   return pairs;
 }
 
+std::vector<PosePair> match_nearest(const std::vector<StampedPose>& estimate, const std::vector<StampedPose>& truth,
+                                    double max_difference) {
+  if (!(max_difference >= 0.0))
+    throw std::invalid_argument("maximum time difference must be non-negative, got " + std::to_string(max_difference));
+  require_sorted(estimate, "estimated");
+  require_sorted(truth, "true");
+  const bool walk_truth = estimate.size() > truth.size();
+  const std::vector<StampedPose>& walked = walk_truth ? truth : estimate;
+  const std::vector<StampedPose>& searched = walk_truth ? estimate : truth;
+  std::vector<PosePair> pairs;
+  if (searched.empty()) return pairs;
+  std::size_t next = 0;  // the first searched sample at or after the walked one (times only grow)
+  for (std::size_t i = 0; i < walked.size(); ++i) {
+    const double t = walked[i].t;
+    while (next < searched.size() && searched[next].t < t) ++next;
+    std::size_t nearest = next;
+    if (next == searched.size() || (next > 0 && t - searched[next - 1].t <= searched[next].t - t)) {
+      // The earlier neighbour, at its first sample of that time: evo takes the first of equal distances.
+      nearest = next - 1;
+      while (nearest > 0 && searched[nearest - 1].t == searched[nearest].t) --nearest;
+    }
+    if (std::abs(searched[nearest].t - t) > max_difference) continue;
+    const std::size_t e = walk_truth ? nearest : i;
+    const std::size_t g = walk_truth ? i : nearest;
+    pairs.push_back({truth[g].t, estimate[e].pose, truth[g].pose, static_cast<int>(e)});
+  }
+  return pairs;
+}
+
 double ate_rmse(const std::vector<PosePair>& pairs, const Se2Transform& align) {
   if (pairs.empty()) throw std::invalid_argument("trajectory error needs at least one matched pose");
   double sum = 0.0;

@@ -8,6 +8,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include "slamkit/core/names.hpp"
+
 namespace slamkit {
 
 namespace {
@@ -110,8 +112,8 @@ ResampleMethod parse_resample_method(const std::string& name) {
   if (name == "stratified") return ResampleMethod::kStratified;
   if (name == "systematic") return ResampleMethod::kSystematic;
   if (name == "residual") return ResampleMethod::kResidual;
-  throw std::invalid_argument(fmt::format(
-      "unknown resampling method '{}'; expected one of: multinomial, stratified, systematic, residual", name));
+  throw std::invalid_argument(
+      unknown_name_message("resampling method", name, {"multinomial", "stratified", "systematic", "residual"}));
 }
 
 std::string to_string(ResampleMethod method) {
@@ -165,7 +167,8 @@ ResamplePolicy parse_resample_policy(const std::string& text) {
     }
     throw std::invalid_argument(fmt::format("bad resampling policy '{}': F must be a number in (0, 1]; {}", text, kForms));
   }
-  throw std::invalid_argument(fmt::format("unknown resampling policy '{}'; {}", text, kForms));
+  throw std::invalid_argument(
+      fmt::format("unknown resampling policy '{}'{}; {}", text, did_you_mean(kind, {"always", "every", "ess"}), kForms));
 }
 
 std::string to_string(const ResamplePolicy& policy) {

@@ -3,14 +3,18 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
+#include <charconv>
 #include <cstdlib>
 #include <filesystem>
-#include <nlohmann/json.hpp>
 #include <iterator>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string_view>
 
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
+#include "slamkit/core/names.hpp"
 #include "slamkit/io/course_log.hpp"
 #include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/sim_log.hpp"
@@ -19,8 +23,13 @@
 namespace slamkit {
 namespace {
 
-/// A reader; `settings` (nullptr for the shipped defaults) is the JSON of the dataset's settings,
-/// `source` names where it came from for error messages.
+namespace fs = std::filesystem;
+
+constexpr int kMrclamRobots = 5;
+constexpr const char* kRecommendedKey = "recommended";
+
+/// A reader; `settings` (nullptr for the shipped defaults) is the JSON of the dataset's settings
+/// without its recommendation, `source` names where it came from for error messages.
 using Reader = Dataset (*)(const std::string& path, const nlohmann::json* settings, const std::string& source);
 
 struct DatasetKind {
@@ -29,6 +38,9 @@ struct DatasetKind {
   /// Where the dataset lives inside a datasets folder ($SLAMKIT_DATA), for specs without a path;
   /// empty if the kind has no standard place.
   std::string_view default_folder;
+  /// The filter settings the dataset needs when it is read with its default settings (the shipped
+  /// config file holds the same under "recommended"); JSON text, empty for none.
+  std::string_view recommended;
 };
 
 Dataset read_sim(const std::string& path, const nlohmann::json* settings, const std::string& source) {
@@ -41,14 +53,36 @@ Dataset read_victoria_park_with(const std::string& path, const nlohmann::json* s
   return settings ? read_victoria_park(path, victoria_park_options_from_json(*settings, source)) : read_victoria_park(path);
 }
 
-/// "DIR:robotN" or "DIR/RobotN"; a bare DIR means robot 1.
+/// MRCLAM's robot selection in a spec's path: "DIR:robotN" or "DIR:N" ("robot" in any case),
+/// "DIR/RobotN", or a bare DIR for robot 1. Throws std::invalid_argument on any other robot.
+MrclamRobot select_mrclam_robot(const std::string& path) {
+  if (const auto colon = path.rfind(':'); colon != std::string::npos) {
+    const std::string given = path.substr(colon + 1);
+    std::string_view digits = given;
+    if (digits.size() >= 5 && std::equal(digits.begin(), digits.begin() + 5, "robot",
+                                         [](char a, char b) { return std::tolower(static_cast<unsigned char>(a)) == b; }))
+      digits.remove_prefix(5);
+    const std::string expected =
+        fmt::format("expected a robot from 1 to {} as DIR:robotN, DIR:N or DIR/RobotN", kMrclamRobots);
+    if (digits.empty()) throw std::invalid_argument(fmt::format("no robot number in '{}'; {}", given, expected));
+    int robot = 0;
+    const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), robot);
+    if (error != std::errc() || end != digits.data() + digits.size() || robot < 1 || robot > kMrclamRobots)
+      throw std::invalid_argument(fmt::format("no MRCLAM robot '{}'; {}", given, expected));
+    return {path.substr(0, colon), robot};
+  }
+  std::string trimmed = path;
+  while (trimmed.size() > 1 && trimmed.back() == '/') trimmed.pop_back();
+  if (!fs::path(trimmed).filename().string().starts_with("Robot")) return {path, 1};
+  try {
+    return parse_mrclam_robot_path(trimmed);
+  } catch (const InputError& e) {
+    throw std::invalid_argument(e.what());
+  }
+}
+
 Dataset read_mrclam_robot(const std::string& path, const nlohmann::json* settings, const std::string& source) {
-  std::string normalised = path;
-  if (const auto colon = path.rfind(":robot"); colon != std::string::npos)
-    normalised = path.substr(0, colon) + "/Robot" + path.substr(colon + 6);
-  else if (!std::filesystem::path(path).filename().string().starts_with("Robot"))
-    normalised = (std::filesystem::path(path) / "Robot1").string();
-  const MrclamRobot robot = parse_mrclam_robot_path(normalised);
+  const MrclamRobot robot = select_mrclam_robot(path);
   return read_mrclam(robot.dataset_dir, robot.robot,
                      settings ? mrclam_options_from_json(*settings, source) : MrclamOptions{});
 }
@@ -57,18 +91,72 @@ Dataset read_course(const std::string& path, const nlohmann::json* settings, con
   return read_course_log(path, settings ? course_options_from_json(*settings, source) : CourseOptions{});
 }
 
-// Every reader slamkit has, by the kind that selects it in a "kind:PATH" spec.
+// Every reader slamkit has, by the kind that selects it in a "kind:PATH" spec. Victoria Park has no
+// landmark identities, so every filter needs an association method there; the UKF's additive noise
+// and FastSLAM 2.0's pose sample fraction were chosen on it (docs/choosing.md has the numbers).
 constexpr DatasetKind kKinds[] = {
-    {"sim", &read_sim, ""},
-    {"victoria-park", &read_victoria_park_with, "victoria_park"},
-    {"mrclam", &read_mrclam_robot, "mrclam/MRCLAM_Dataset6"},
-    {"course", &read_course, ""},
+    {"sim", &read_sim, "", ""},
+    {"victoria-park", &read_victoria_park_with, "victoria_park",
+     R"({"ekf": {"association": {"method": "jcbb"}},
+         "ukf": {"association": {"method": "jcbb"}, "ukf_noise": "additive"},
+         "fastslam1": {"association": {"method": "nn"}},
+         "fastslam2": {"association": {"method": "nn"}, "pose_sample_fraction": 0.01}})"},
+    {"mrclam", &read_mrclam_robot, "mrclam/MRCLAM_Dataset6", ""},
+    {"course", &read_course, "", ""},
 };
 
-std::string kind_names() {
-  std::string names;
-  for (const DatasetKind& k : kKinds) names += fmt::format("{}{}", names.empty() ? "" : ", ", k.name);
+std::vector<std::string> kind_names() {
+  std::vector<std::string> names;
+  for (const DatasetKind& k : kKinds) names.emplace_back(k.name);
   return names;
+}
+
+struct ParsedSpec {
+  const DatasetKind* kind;
+  std::string path;  // empty: the kind's place in the datasets folder
+};
+
+/// The spec's form alone, without the file system; std::invalid_argument when it is wrong.
+ParsedSpec parse_spec(const std::string& spec) {
+  const std::size_t colon = spec.find(':');
+  const std::string kind = spec.substr(0, colon);
+  const auto match = std::find_if(std::begin(kKinds), std::end(kKinds),
+                                  [&](const DatasetKind& k) { return k.name == kind; });
+  if (match == std::end(kKinds)) {
+    if (colon == std::string::npos)
+      throw std::invalid_argument(fmt::format("'{}' is not a dataset spec; expected KIND:PATH with KIND one of: {}{}",
+                                              spec, fmt::join(kind_names(), ", "), did_you_mean(kind, kind_names())));
+    throw std::invalid_argument(unknown_name_message("dataset kind", kind, kind_names()));
+  }
+  const std::string path = colon == std::string::npos ? std::string() : spec.substr(colon + 1);
+  if (path.empty() && match->default_folder.empty())
+    throw std::invalid_argument(fmt::format("expected a path after '{}:'", kind));
+  if (match->read == &read_mrclam_robot && !path.empty()) select_mrclam_robot(path);
+  return {match, path};
+}
+
+/// parse_spec, its errors as bad input naming the spec (a spec read from a run.json is data).
+ParsedSpec parse_recorded_spec(const std::string& spec) {
+  try {
+    return parse_spec(spec);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(spec, 0, e.what());
+  }
+}
+
+/// The spec with its path filled in: a real dataset named without one is looked up in the datasets
+/// folder.
+ParsedSpec resolve(const std::string& spec) {
+  ParsedSpec resolved = parse_recorded_spec(spec);
+  if (resolved.path.empty()) {
+    resolved.path = (fs::path(datasets_folder()) / resolved.kind->default_folder).string();
+    if (!fs::exists(resolved.path))
+      throw InputError(spec, 0,
+                       fmt::format("no path given and {} does not exist; set SLAMKIT_DATA to the folder holding "
+                                   "{}/ or give {}:PATH",
+                                   resolved.path, resolved.kind->default_folder, resolved.kind->name));
+  }
+  return resolved;
 }
 
 }  // namespace
@@ -78,47 +166,32 @@ std::string datasets_folder() {
   return "../shared/datasets";
 }
 
-namespace {
-
-struct ResolvedSpec {
-  const DatasetKind* kind;
-  std::string path;
-};
-
-ResolvedSpec resolve(const std::string& spec) {
-  const std::size_t colon = spec.find(':');
-  const std::string_view kind = std::string_view(spec).substr(0, colon);
-  const auto match = std::find_if(std::begin(kKinds), std::end(kKinds),
-                                  [&](const DatasetKind& k) { return k.name == kind; });
-  if (match == std::end(kKinds)) {
-    if (colon == std::string::npos)
-      throw InputError(spec, 0, fmt::format("expected a dataset as KIND:PATH with KIND one of: {}", kind_names()));
-    throw InputError(spec, 0, fmt::format("unknown dataset kind '{}'; expected one of: {}", kind, kind_names()));
-  }
-  std::string path = colon == std::string::npos ? std::string() : spec.substr(colon + 1);
-  if (path.empty()) {
-    if (match->default_folder.empty()) throw InputError(spec, 0, fmt::format("expected a path after '{}:'", kind));
-    // A real dataset named without a path is looked up in the datasets folder.
-    path = (std::filesystem::path(datasets_folder()) / match->default_folder).string();
-    if (!std::filesystem::exists(path))
-      throw InputError(spec, 0,
-                       fmt::format("no path given and {} does not exist; set SLAMKIT_DATA to the folder holding "
-                                   "{}/ or give {}:PATH",
-                                   path, match->default_folder, kind));
-  }
-  return {match, path};
-}
-
-}  // namespace
+void check_dataset_spec(const std::string& spec) { parse_spec(spec); }
 
 std::string absolute_dataset_spec(const std::string& spec) {
-  const ResolvedSpec resolved = resolve(spec);
-  // MRCLAM's ":robotN" suffix selects a robot and is no part of the folder.
-  const std::size_t robot = resolved.path.rfind(":robot");
-  const std::string folder = robot == std::string::npos ? resolved.path : resolved.path.substr(0, robot);
-  const std::string suffix = robot == std::string::npos ? std::string() : resolved.path.substr(robot);
-  return fmt::format("{}:{}{}", resolved.kind->name, std::filesystem::absolute(folder).lexically_normal().string(),
-                     suffix);
+  const ParsedSpec resolved = resolve(spec);
+  // MRCLAM's robot is no part of the folder; it is written out, so run.json names it even when the
+  // spec left robot 1 implicit.
+  if (resolved.kind->read == &read_mrclam_robot) {
+    const MrclamRobot robot = select_mrclam_robot(resolved.path);
+    return fmt::format("{}:{}:robot{}", resolved.kind->name,
+                       fs::absolute(robot.dataset_dir).lexically_normal().string(), robot.robot);
+  }
+  return fmt::format("{}:{}", resolved.kind->name, fs::absolute(resolved.path).lexically_normal().string());
+}
+
+nlohmann::json recommended_settings(const std::string& spec, const nlohmann::json& settings, const std::string& source) {
+  if (settings.is_null()) {
+    const std::string_view builtin = parse_recorded_spec(spec).kind->recommended;
+    return builtin.empty() ? nlohmann::json::object() : nlohmann::json::parse(builtin);
+  }
+  if (!settings.is_object() || !settings.contains(kRecommendedKey)) return nlohmann::json::object();
+  const nlohmann::json& recommended = settings.at(kRecommendedKey);
+  if (!recommended.is_object())
+    throw InputError(source, 0,
+                     fmt::format("'{}' must be an object of filter settings by filter name, found {}", kRecommendedKey,
+                                 recommended.dump()));
+  return recommended;
 }
 
 Dataset load_dataset(const std::string& spec, const std::string& settings_path) {
@@ -126,8 +199,16 @@ Dataset load_dataset(const std::string& spec, const std::string& settings_path) 
 }
 
 Dataset load_dataset(const std::string& spec, const nlohmann::json& settings, const std::string& source) {
-  const ResolvedSpec resolved = resolve(spec);
-  Dataset dataset = resolved.kind->read(resolved.path, settings.is_null() ? nullptr : &settings, source);
+  const ParsedSpec resolved = resolve(spec);
+  const nlohmann::json* reader_settings = settings.is_null() ? nullptr : &settings;
+  // The recommendation is for the filters (recommended_settings); the reader sees the rest.
+  nlohmann::json without_recommendation;
+  if (settings.is_object() && settings.contains(kRecommendedKey)) {
+    without_recommendation = settings;
+    without_recommendation.erase(kRecommendedKey);
+    reader_settings = &without_recommendation;
+  }
+  Dataset dataset = resolved.kind->read(resolved.path, reader_settings, source);
   dataset.spec = spec;
   return dataset;
 }

@@ -47,15 +47,6 @@ std::vector<LandmarkStdSample> read_landmark_std(const std::string& path) {
   return samples;
 }
 
-const char* decision_name(AssociationDecision d) {
-  switch (d) {
-    case AssociationDecision::kUpdate: return "update";
-    case AssociationDecision::kNew: return "new";
-    case AssociationDecision::kDiscard: return "discard";
-  }
-  return "discard";
-}
-
 void write_associations(const std::string& path, const std::vector<double>& times,
                         const std::vector<std::vector<AssociationRecord>>& associations) {
   LineWriter out(path);
@@ -70,7 +61,7 @@ void write_associations(const std::string& path, const std::vector<double>& time
     }
     for (std::size_t i = 0; i < associations[k].size(); ++i) {
       out.integer(scan).text(" ").fixed(times[k], 6).text(" ").integer(static_cast<long long>(i)).text(" ");
-      out.text(decision_name(associations[k][i].decision)).text(" ").integer(associations[k][i].landmark_id);
+      out.text(to_string(associations[k][i].decision)).text(" ").integer(associations[k][i].landmark_id);
       out.end_line();
     }
   }
@@ -152,22 +143,16 @@ std::vector<ParticleSample> read_particles(const std::string& path) {
 
 }  // namespace
 
-void write_run(const std::string& dir, const RunResult& run) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw InputError(dir, 0, "cannot create output directory: " + ec.message());
+AtomicFolder stage_run_folder(const std::string& dir) { return AtomicFolder(dir, "run.json"); }
 
+void write_run_files(const std::string& dir, const RunResult& run) {
   write_tum(path_in(dir, "trajectory.tum"), run.trajectory);
   // The per-step estimates get their own file only where they differ from the trajectory.
   const bool separate_filtered = !std::equal(run.filtered.begin(), run.filtered.end(), run.trajectory.begin(),
                                              run.trajectory.end(), [](const StampedPose& a, const StampedPose& b) {
                                                return a.t == b.t && a.pose == b.pose;
                                              });
-  const std::string filtered_path = path_in(dir, "filtered.tum");
-  if (separate_filtered)
-    write_tum(filtered_path, run.filtered);
-  else
-    fs::remove(filtered_path);
+  if (separate_filtered) write_tum(path_in(dir, "filtered.tum"), run.filtered);
   std::vector<double> times(run.filtered.size());
   for (std::size_t i = 0; i < times.size(); ++i) times[i] = run.filtered[i].t;
   write_pose_covariances(path_in(dir, "pose_covariance.txt"), times, run.pose_covariances);
@@ -175,11 +160,7 @@ void write_run(const std::string& dir, const RunResult& run) {
   write_map(path_in(dir, "map.txt"), run.map);
   write_landmark_std(path_in(dir, "landmark_std.txt"), run.landmark_std);
   write_associations(path_in(dir, "associations.txt"), run.scan_times, run.associations);
-  const std::string particles_path = path_in(dir, "particles.txt");
-  if (!run.particles.empty())
-    write_particles(particles_path, run.particles);
-  else
-    fs::remove(particles_path);
+  if (!run.particles.empty()) write_particles(path_in(dir, "particles.txt"), run.particles);
 
   nlohmann::json info = run.provenance;
   info.update({{"filter", run.filter},
@@ -197,10 +178,25 @@ void write_run(const std::string& dir, const RunResult& run) {
   write_file_atomically(path_in(dir, "run.json"), info.dump(2) + "\n");
 }
 
+void write_run(const std::string& dir, const RunResult& run) {
+  AtomicFolder folder = stage_run_folder(dir);
+  write_run_files(folder.path(), run);
+  folder.commit();
+}
+
+void require_run_folder(const std::string& dir) {
+  if (!std::filesystem::is_directory(dir))
+    throw InputError(dir, 0, std::filesystem::exists(dir) ? "not a folder; expected a run folder written by 'slamkit run'"
+                                                          : "no such folder; expected a run folder written by 'slamkit run'");
+  require_complete_folder(dir);
+}
+
 RunResult read_run(const std::string& dir) {
+  require_run_folder(dir);
   RunResult run;
   const std::string info_path = path_in(dir, "run.json");
-  if (!fs::exists(info_path)) throw InputError(info_path, 0, "missing file (is this a slamkit run folder?)");
+  if (!fs::exists(info_path))
+    throw InputError(info_path, 0, "cannot open file for reading (is this a slamkit run folder?)");
   const nlohmann::json info = read_json_file(info_path);
   try {
     run.filter = info.at("filter").get<std::string>();

@@ -57,12 +57,13 @@ void remove_stale(const fs::path& path) {
     throw InputError(path.string(), 0, "cannot remove: " + error.message());
 }
 
-void write_params(const fs::path& path, const Dataset& dataset, const SimulatorConfig& config) {
+void write_params(const fs::path& path, const Dataset& dataset, const SimulatorConfig& config, const World& world) {
   const Pose2& p = dataset.initial_pose;
-  const nlohmann::json params = {{"format", kFormat},
-                                 {"version", kVersion},
-                                 {"simulator", to_json(config)},
-                                 {"initial_pose", {p.x(), p.y(), p.z()}}};
+  nlohmann::json params = {{"format", kFormat},
+                           {"version", kVersion},
+                           {"simulator", to_json(config)},
+                           {"initial_pose", {p.x(), p.y(), p.z()}}};
+  if (world.origin) params["world"] = {{"family", world.origin->family}, {"world_seed", world.origin->seed}};
   Buffer out;
   append(out, "{}\n", params.dump(2));
   write_file(path, out);
@@ -150,10 +151,20 @@ Params read_params(const fs::path& file) {
   if (!j.is_object())
     throw InputError(path, 0, fmt::format("expected a JSON object, found {}", j.type_name()));
   for (const auto& [key, value] : j.items())
-    if (key != "format" && key != "version" && key != "simulator" && key != "initial_pose")
+    if (key != "format" && key != "version" && key != "simulator" && key != "initial_pose" && key != "world")
       throw InputError(
           path, 0,
-          fmt::format("unknown key '{}'; expected format, version, simulator and initial_pose", key));
+          fmt::format("unknown key '{}'; expected format, version, simulator, initial_pose and world", key));
+  // The world's origin is a record for people and scripts; reading a log needs only its shape right.
+  if (const auto world = j.find("world"); world != j.end()) {
+    const bool recorded = world->is_object() && world->size() == 2 && world->contains("family") &&
+                          world->at("family").is_string() && world->contains("world_seed") &&
+                          world->at("world_seed").is_number_unsigned();
+    if (!recorded)
+      throw InputError(path, 0,
+                       fmt::format("expected \"world\" as {{\"family\": NAME, \"world_seed\": N}}, found {}",
+                                   world->dump()));
+  }
 
   const nlohmann::json& format = member(j, "format", path);
   if (!format.is_string() || format.get<std::string>() != kFormat)
@@ -324,7 +335,7 @@ void write_sim_log(const std::string& dir, const Dataset& dataset, const Simulat
   std::error_code error;
   fs::create_directories(root, error);
   if (error) throw InputError(dir, 0, "cannot create directory: " + error.message());
-  write_params(root / kParamsFile, dataset, config);
+  write_params(root / kParamsFile, dataset, config, world);
   write_events(root, dataset);
   if (!dataset.truth.empty()) {
     write_truth(root, dataset.truth);

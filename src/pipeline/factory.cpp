@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/names.hpp"
 #include "slamkit/filters/fastslam.hpp"
 
 namespace slamkit {
@@ -37,9 +38,9 @@ template <typename Enum, std::size_t N>
 Enum parse_name(const std::pair<Enum, const char*> (&names)[N], const std::string& name, const char* what) {
   const auto match = std::find_if(std::begin(names), std::end(names), [&](const auto& n) { return name == n.second; });
   if (match != std::end(names)) return match->first;
-  std::string accepted;
-  for (const auto& n : names) accepted += fmt::format("{}{}", accepted.empty() ? "" : ", ", n.second);
-  throw std::invalid_argument(fmt::format("unknown {} '{}'; expected one of: {}", what, name, accepted));
+  std::vector<std::string> accepted;
+  for (const auto& n : names) accepted.emplace_back(n.second);
+  throw std::invalid_argument(unknown_name_message(what, name, accepted));
 }
 
 template <typename Enum, std::size_t N>
@@ -139,8 +140,18 @@ nlohmann::json to_json(const FilterConfig& config) {
 }
 
 FilterConfig filter_config_from_json(const nlohmann::json& json, const std::string& source) {
-  if (!json.is_object()) throw InputError(source, 0, "expected the filter settings as a JSON object");
   FilterConfig config;
+  read_filter_settings(json, source, config);
+  try {
+    validate(config);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(source, 0, e.what());
+  }
+  return config;
+}
+
+void read_filter_settings(const nlohmann::json& json, const std::string& source, FilterConfig& config) {
+  if (!json.is_object()) throw InputError(source, 0, "expected the filter settings as a JSON object");
   // Named variables, not a structured binding: clang 14 cannot capture a binding in the lambdas below.
   for (const auto& item : json.items()) {
     const std::string& key = item.key();
@@ -163,7 +174,7 @@ FilterConfig filter_config_from_json(const nlohmann::json& json, const std::stri
       else if (key == "seed")
         integer(config.seed);
       else if (key == "association")
-        config.association = association_config_from_json(value, source);
+        read_association_settings(value, source, config.association);
       else if (key == "ekf_update")
         config.ekf_update = parse_ekf_update(name());
       else if (key == "ekf_variant")
@@ -182,21 +193,18 @@ FilterConfig filter_config_from_json(const nlohmann::json& json, const std::stri
         config.resample_when = parse_resample_policy(name());
       else if (key == "threads")
         integer(config.threads);
-      else
+      else {
+        const std::vector<std::string> keys = {"filter",    "seed",      "association",          "ekf_update",
+                                               "ekf_variant", "ukf_noise", "particles", "pose_sample_fraction",
+                                               "resample",  "resample_when", "threads"};
         throw InputError(source, 0,
-                         fmt::format("unknown key '{}' in the filter settings; expected one of: {}", key,
-                                     "filter, seed, association, ekf_update, ekf_variant, ukf_noise, particles, "
-                                     "pose_sample_fraction, resample, resample_when, threads"));
+                         fmt::format("unknown key '{}' in the filter settings{}; expected one of: {}", key,
+                                     did_you_mean(key, keys), fmt::join(keys, ", ")));
+      }
     } catch (const std::invalid_argument& e) {
       throw InputError(source, 0, e.what());
     }
   }
-  try {
-    validate(config);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(source, 0, e.what());
-  }
-  return config;
 }
 
 }  // namespace slamkit

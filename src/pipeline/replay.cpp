@@ -91,9 +91,11 @@ void ReplayRecorder::on_scan(const SlamFilter& filter, const ScanEvent& scan, st
   frame_poses_.push_back({scan.t, pose});
 }
 
-nlohmann::json ReplayRecorder::to_json(const std::string& filter_name, const Pose2& truth_from_estimate) const {
-  const Eigen::Rotation2Dd rotation(truth_from_estimate.z());
-  const Vector2 translation = truth_from_estimate.head<2>();
+nlohmann::json ReplayRecorder::to_json(const std::string& filter_name,
+                                       const std::optional<Pose2>& truth_from_estimate) const {
+  const Pose2 alignment = truth_from_estimate.value_or(Pose2::Zero());
+  const Eigen::Rotation2Dd rotation(alignment.z());
+  const Vector2 translation = alignment.head<2>();
   const auto to_estimate_frame = [&](const Vector2& p) -> Vector2 { return rotation.inverse() * (p - translation); };
 
   nlohmann::json truth = nlohmann::json::array();
@@ -117,7 +119,7 @@ nlohmann::json ReplayRecorder::to_json(const std::string& filter_name, const Pos
     const Vector2 position_error = frame_poses_[f].pose.head<2>() - to_estimate_frame(true_pose->head<2>());
     const double heading_error =
         dataset_.truth.poses_have_heading
-            ? wrap_angle(frame_poses_[f].pose.z() + truth_from_estimate.z() - true_pose->z())
+            ? wrap_angle(frame_poses_[f].pose.z() + alignment.z() - true_pose->z())
             : 0.0;
     frames[f]["error"] = {rounded(position_error.x()), rounded(position_error.y()), rounded(heading_error)};
   }
@@ -131,6 +133,7 @@ nlohmann::json ReplayRecorder::to_json(const std::string& filter_name, const Pos
             {"stride", stride_},
             {"decimation", decimation},
             {"truth_has_headings", dataset_.truth.poses_have_heading},
+            {"error_aligned", truth_from_estimate.has_value()},
             {"wrong_known", !dataset_.truth.observation_ids.empty()}}},
           {"truth", std::move(truth)},
           {"true_landmarks", std::move(true_landmarks)},

@@ -8,6 +8,7 @@
 
 #include "slamkit/core/coordinates.hpp"
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/names.hpp"
 #include "slamkit/models/motion_model.hpp"
 
 namespace slamkit {
@@ -108,7 +109,7 @@ History parse_history(const std::string& name) {
   if (name == "full") return History::kFull;
   if (name == "decimated") return History::kDecimated;
   if (name == "none") return History::kNone;
-  throw std::invalid_argument("unknown history '" + name + "'; expected one of: full, decimated, none");
+  throw std::invalid_argument(unknown_name_message("history", name, {"full", "decimated", "none"}));
 }
 
 std::string to_string(History history) {

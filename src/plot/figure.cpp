@@ -80,6 +80,18 @@ std::vector<Vector2> ellipse_points(const Vector2& c, const Vector2& major, cons
   return pts;
 }
 
+/// The XML header and the root element, with a white background, of a picture of this size.
+std::string svg_open(double width, double height, std::string_view title) {
+  std::string out = fmt::format(
+      "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
+      "viewBox=\"0 0 {0} {1}\" font-family=\"{2}\">\n",
+      px(width), px(height), kFontFamily);
+  if (!title.empty()) out += "<title>" + escape(title) + "</title>\n";
+  out += "<rect width=\"100%\" height=\"100%\" fill=\"#ffffff\"/>\n";
+  return out;
+}
+
 }  // namespace
 
 Figure::Figure(double width, double height) : width_(width), height_(height) {
@@ -212,7 +224,7 @@ Frame Figure::frame() const {
   const double bottom =
       kTickLength + kTickGap + 1.2 * kTickSize + (x_label_.empty() ? 0 : 6 + 1.3 * kLabelSize) + kPad;
   const double legend_w = legend_width();
-  const double right = kPad + (legend_w > 0 ? legend_w + kLegendGap : 8);
+  const double right = std::max(min_right_, kPad + (legend_w > 0 ? legend_w + kLegendGap : 8));
 
   Frame f;
   f.width = width_;
@@ -254,18 +266,18 @@ Frame Figure::frame() const {
     double widest = 0;
     const auto ticks = compute_ticks(f);
     for (const std::string& label : ticks.y_labels) widest = std::max(widest, text_width(label, kTickSize));
-    const double needed =
-        kPad + (y_label_.empty() ? 0 : 1.3 * kLabelSize + 6) + widest + kTickLength + kTickGap;
+    const double needed = std::max(
+        min_left_, kPad + (y_label_.empty() ? 0 : 1.3 * kLabelSize + 6) + widest + kTickLength + kTickGap);
     if (std::abs(needed - left) < 1) break;
     left = needed;
   }
   return f;
 }
 
-void Figure::write_data(std::string& out, const Frame& f) const {
+void Figure::write_data(std::string& out, const Frame& f, std::string_view clip_id) const {
   // Clipped to the plot area. Consecutive items with the same style share one group so that a
   // hundred ellipses do not repeat a hundred sets of style attributes.
-  fmt::format_to(std::back_inserter(out), "<g clip-path=\"url(#{})\">\n", kClipId);
+  fmt::format_to(std::back_inserter(out), "<g clip-path=\"url(#{})\">\n", clip_id);
   std::string group_attributes;
   bool group_open = false;
   const auto emit = [&](const std::string& attributes, const std::string& element) {
@@ -347,7 +359,7 @@ void Figure::write_labels(std::string& out, const Frame& f) const {
   }
 }
 
-void Figure::write_legend(std::string& out, const Frame& f) const {
+void Figure::write_legend(std::string& out, const Frame& f, std::string_view gradient_id) const {
   // In a column right of the plot area, so that it never hides data.
   auto o = std::back_inserter(out);
   const double x = f.left + f.plot_width + kLegendGap;
@@ -389,7 +401,7 @@ void Figure::write_legend(std::string& out, const Frame& f) const {
     fmt::format_to(o,
                    "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"url(#{})\" stroke=\"{}\" "
                    "stroke-width=\"0.8\"/>\n",
-                   px(x), px(bar_y), px(kColorbarWidth), px(bar_height), kGradientId, kTickColor);
+                   px(x), px(bar_y), px(kColorbarWidth), px(bar_height), gradient_id, kTickColor);
     const double span = colorbar_->hi - colorbar_->lo;
     const std::vector<double> values = linear_ticks(colorbar_->lo, colorbar_->hi, 4);
     const std::vector<std::string> labels = linear_labels(values);
@@ -405,23 +417,17 @@ void Figure::write_legend(std::string& out, const Frame& f) const {
   }
 }
 
-std::string Figure::to_svg() const {
-  const Frame f = frame();
+void Figure::write_body(std::string& out, const Frame& f, std::string_view id_suffix) const {
+  // Ids are unique within a document, so every figure of a stacked picture has its own.
+  const std::string clip_id = fmt::format("{}{}", kClipId, id_suffix);
+  const std::string gradient_id = fmt::format("{}{}", kGradientId, id_suffix);
   const Ticks ticks = compute_ticks(f);
-  std::string out;
   auto o = std::back_inserter(out);
-  fmt::format_to(o,
-                 "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-                 "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
-                 "viewBox=\"0 0 {0} {1}\" font-family=\"{2}\">\n",
-                 px(f.width), px(f.height), kFontFamily);
-  if (!title_.empty()) out += "<title>" + escape(title_) + "</title>\n";
-  out += "<rect width=\"100%\" height=\"100%\" fill=\"#ffffff\"/>\n";
   fmt::format_to(
       o, "<defs>\n<clipPath id=\"{}\"><rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\"/></clipPath>\n",
-      kClipId, px(f.left), px(f.top), px(f.plot_width), px(f.plot_height));
+      clip_id, px(f.left), px(f.top), px(f.plot_width), px(f.plot_height));
   if (colorbar_) {
-    fmt::format_to(o, "<linearGradient id=\"{}\">", kGradientId);
+    fmt::format_to(o, "<linearGradient id=\"{}\">", gradient_id);
     for (int i = 0; i <= 8; ++i)
       fmt::format_to(o, "<stop offset=\"{:g}\" stop-color=\"{}\"/>", i / 8.0,
                      sequential_color(i / 8.0).hex());
@@ -429,10 +435,45 @@ std::string Figure::to_svg() const {
   }
   out += "</defs>\n";
   write_grid(out, f, ticks);
-  write_data(out, f);
+  write_data(out, f, clip_id);
   write_axes(out, f, ticks);
   write_labels(out, f);
-  write_legend(out, f);
+  write_legend(out, f, gradient_id);
+}
+
+std::string Figure::to_svg() const {
+  const Frame f = frame();
+  std::string out = svg_open(f.width, f.height, title_);
+  write_body(out, f, "");
+  out += "</svg>\n";
+  return out;
+}
+
+std::string stacked_svg(std::vector<Figure> panels) {
+  if (panels.empty()) throw std::invalid_argument("stacked figure: no panels");
+  // The same margins for every panel, so that their plot areas line up.
+  double left = 0, right = 0, width = 0;
+  for (const Figure& panel : panels) {
+    const Frame f = panel.frame();
+    left = std::max(left, f.left);
+    right = std::max(right, f.width - f.left - f.plot_width);
+    width = std::max(width, f.width);
+  }
+  std::vector<Frame> frames;
+  double height = 0;
+  for (Figure& panel : panels) {
+    panel.set_min_margins(std::floor(left), right);
+    frames.push_back(panel.frame());
+    height += frames.back().height;
+  }
+  std::string out = svg_open(width, height, panels.front().title_);
+  double y = 0;
+  for (std::size_t i = 0; i < panels.size(); ++i) {
+    fmt::format_to(std::back_inserter(out), "<g transform=\"translate(0 {})\">\n", px(y));
+    panels[i].write_body(out, frames[i], fmt::format("-{}", i + 1));
+    out += "</g>\n";
+    y += frames[i].height;
+  }
   out += "</svg>\n";
   return out;
 }

@@ -6,10 +6,14 @@
 #include <filesystem>
 #include <map>
 #include <new>
+#include <numbers>
 #include <stdexcept>
+#include <string_view>
 
 #include <fmt/format.h>
 
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/chi_square.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/plot/svg_plot.hpp"
@@ -52,9 +56,28 @@ std::string wrap_headline(const std::string& headline) {
   return out + line;
 }
 
-/// pose_error.svg: the per-step estimate's x and y error against the truth over time, each with the
-/// filter's own +-2 sigma bounds; a consistent filter keeps its error inside them about 95% of the
-/// time. Unaligned, like pose NEES, so only for a truth in the map's frame (one with headings).
+/// `text` broken at spaces into lines of at most `width` characters (a longer word alone on its line).
+std::string wrap_words(std::string_view text, std::size_t width) {
+  std::string out, line;
+  std::size_t start = 0;
+  while (start < text.size()) {
+    const std::size_t space = std::min(text.find(' ', start), text.size());
+    const std::string_view word = text.substr(start, space - start);
+    if (!line.empty() && line.size() + 1 + word.size() > width) {
+      out += line + "\n";
+      line.clear();
+    }
+    if (!line.empty()) line += ' ';
+    line += word;
+    start = space + 1;
+  }
+  return out + line;
+}
+
+/// pose_error.svg: the per-step estimate's error against the truth over time, x and y in one panel
+/// and the heading (wrapped, in degrees) in another under it, each with the filter's own +-2 sigma
+/// bounds; a consistent filter keeps its error inside them about 95% of the time. Unaligned, like
+/// pose NEES, so only for a truth in the map's frame (one with headings).
 void write_pose_error_plot(const std::string& path, const RunResult& run, const GroundTruth& truth,
                            const std::string& title) {
   const std::vector<eval::PosePair> pairs = eval::match_by_time(run.filtered, truth.poses, 1.0);
@@ -62,31 +85,43 @@ void write_pose_error_plot(const std::string& path, const RunResult& run, const 
   if (pairs.empty() || run.pose_covariances.size() != run.filtered.size()) return;
   // A few thousand points draw the same curve as a hundred thousand.
   const std::size_t step = std::max<std::size_t>(1, pairs.size() / 3000);
-  std::vector<Vector2> error_x, error_y, upper_x, lower_x, upper_y, lower_y;
+  constexpr double kDegrees = 180.0 / std::numbers::pi;
+  std::vector<Vector2> error_x, error_y, error_heading, upper_x, lower_x, upper_y, lower_y, upper_heading,
+      lower_heading;
   for (std::size_t i = 0; i < pairs.size(); i += step) {
     const eval::PosePair& p = pairs[i];
     const Matrix3& cov = run.pose_covariances[static_cast<std::size_t>(p.estimate_index)];
-    const double sx = 2.0 * std::sqrt(std::max(0.0, cov(0, 0))), sy = 2.0 * std::sqrt(std::max(0.0, cov(1, 1)));
+    const auto two_sigma = [&](int k) { return 2.0 * std::sqrt(std::max(0.0, cov(k, k))); };
     error_x.emplace_back(p.t, p.estimate.x() - p.truth.x());
     error_y.emplace_back(p.t, p.estimate.y() - p.truth.y());
-    upper_x.emplace_back(p.t, sx);
-    lower_x.emplace_back(p.t, -sx);
-    upper_y.emplace_back(p.t, sy);
-    lower_y.emplace_back(p.t, -sy);
+    error_heading.emplace_back(p.t, kDegrees * wrap_angle(p.estimate.z() - p.truth.z()));
+    upper_x.emplace_back(p.t, two_sigma(0));
+    lower_x.emplace_back(p.t, -two_sigma(0));
+    upper_y.emplace_back(p.t, two_sigma(1));
+    lower_y.emplace_back(p.t, -two_sigma(1));
+    upper_heading.emplace_back(p.t, kDegrees * two_sigma(2));
+    lower_heading.emplace_back(p.t, -kDegrees * two_sigma(2));
   }
-  plot::Figure figure(900, 520);
-  figure.set_title("Pose error over time: " + title);
-  figure.set_subtitle("estimate minus truth, with the filter's own 2-sigma bounds (unaligned, like pose NEES)");
-  figure.set_x_label("time [s]");
-  figure.set_y_label("position error [m]");
-  const plot::LineStyle x_bound{plot::palette::kBlue, 1.0, plot::Dash::kDashed}, y_bound{plot::palette::kGreen, 1.0, plot::Dash::kDashed};
-  figure.add_line(upper_x, x_bound, "x: +-2 sigma");
-  figure.add_line(lower_x, x_bound);
-  figure.add_line(upper_y, y_bound, "y: +-2 sigma");
-  figure.add_line(lower_y, y_bound);
-  figure.add_line(error_x, {plot::palette::kBlue, 1.2}, "x error");
-  figure.add_line(error_y, {plot::palette::kGreen, 1.2}, "y error");
-  figure.save(path);
+  plot::Figure position(900, 460), heading(900, 300);
+  position.set_title("Pose error over time: " + title);
+  position.set_subtitle("estimate minus truth, with the filter's own 2-sigma bounds (unaligned, like pose NEES)");
+  position.set_y_label("position error [m]");
+  heading.set_x_label("time [s]");
+  heading.set_y_label("heading error [deg]");
+  // One time axis for both panels, even where a series has no finite point.
+  if (pairs.back().t > pairs.front().t)
+    for (plot::Figure* panel : {&position, &heading}) panel->set_x_limits(pairs.front().t, pairs.back().t);
+  const auto add = [](plot::Figure& panel, const std::vector<Vector2>& error, const std::vector<Vector2>& upper,
+                      const std::vector<Vector2>& lower, plot::Color color, const std::string& name) {
+    const plot::LineStyle bound{color, 1.0, plot::Dash::kDashed};
+    panel.add_line(upper, bound, name + ": +-2 sigma");
+    panel.add_line(lower, bound);
+    panel.add_line(error, {color, 1.2}, name + " error");
+  };
+  add(position, error_x, upper_x, lower_x, plot::palette::kBlue, "x");
+  add(position, error_y, upper_y, lower_y, plot::palette::kGreen, "y");
+  add(heading, error_heading, upper_heading, lower_heading, plot::palette::kVermillion, "heading");
+  write_file_atomically(path, plot::stacked_svg({position, heading}));
 }
 
 /// Runs `draw`, which writes the figure `path`: a failure names the figure, so that an error after a
@@ -169,8 +204,10 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
   if (metrics.nees_pose && !metrics.nees_pose_series.empty()) {
     plot::NeesPlotData nees;
     nees.title = "Pose NEES over time: " + title;
-    nees.subtitle = fmt::format("mean {:.2f}, {:.0f}% of steps inside the 95% interval", metrics.nees_pose->mean,
+    nees.subtitle = fmt::format("mean {:.3g}, {:.0f}% of steps inside the 95% interval", metrics.nees_pose->mean,
                                 100.0 * metrics.nees_pose->in_interval_fraction);
+    if (pose_nees_of_particle_cloud(run.filter))
+      nees.subtitle += "\n" + wrap_words(fmt::format("For {} this is {}.", filter_title(run.filter), kParticleCloudNeesNote), 120);
     nees.nees = metrics.nees_pose_series;
     nees.band_lo = metrics.nees_pose->interval.lo;
     nees.band_hi = metrics.nees_pose->interval.hi;

@@ -9,10 +9,13 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <stdexcept>
+#include <string_view>
 
 #include "slamkit/core/checked_integer.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
+#include "slamkit/core/names.hpp"
 #include "slamkit/core/memory_budget.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
@@ -82,10 +85,6 @@ void check_periods(const SimulatorConfig& c, const std::string& source) {
                     c.control_period, c.observation_period));
 }
 
-void validate(const SimulatorConfig& c, const std::string& source) {
-  validate_options<SimulatorConfig>(c, source, kConfigKeys);
-  check_periods(c, source);
-}
 
 // ---- Randomness -------------------------------------------------------------------------------------
 
@@ -234,6 +233,11 @@ void set_platform(Dataset& dataset, const SimulatorConfig& config) {
 
 nlohmann::json to_json(const SimulatorConfig& config) {
   return options_to_json<SimulatorConfig>(config, kConfigKeys);
+}
+
+void validate(const SimulatorConfig& c, const std::string& source) {
+  validate_options<SimulatorConfig>(c, source, kConfigKeys);
+  check_periods(c, source);
 }
 
 SimulatorConfig simulator_config_from_json(const nlohmann::json& json, const std::string& source_name) {
@@ -389,29 +393,73 @@ const ScenarioEntry kScenarios[] = {
     {"sparse-cluttered", &sparse_world, false, true, true},
 };
 
+// The reference simulator's example looks ahead of the vehicle only.
+void use_forward_sensor(SimulatorConfig& c) { c.fov = deg2rad(180.0); }
+
+// The detection of the data-association experiments.
+void use_cluttered_detection(SimulatorConfig& c) {
+  c.clutter_rate = 1.0;
+  c.detection_probability = 0.9;
+  c.provide_ids = false;
+}
+
+struct FamilyEntry {
+  const char* name;
+  double landmarks_per_km;
+  bool cluttered;
+};
+
+// The sparse world's density (35 landmarks on 640 m), and three times that.
+constexpr double kSparsePerKm = 55.0, kDensePerKm = 165.0;
+const FamilyEntry kFamilies[] = {
+    {"sparse", kSparsePerKm, false},
+    {"sparse-cluttered", kSparsePerKm, true},
+    {"dense", kDensePerKm, false},
+    {"dense-cluttered", kDensePerKm, true},
+};
+
+template <typename Entry, std::size_t N>
+std::vector<std::string> names_of(const Entry (&table)[N]) {
+  std::vector<std::string> names;
+  for (const Entry& e : table) names.emplace_back(e.name);
+  return names;
+}
+
 }  // namespace
 
 Scenario scenario(const std::string& name) {
   const auto entry = std::find_if(std::begin(kScenarios), std::end(kScenarios),
                                   [&](const ScenarioEntry& e) { return name == e.name; });
   if (entry == std::end(kScenarios))
-    throw InputError(
-        fmt::format("unknown scenario '{}'; expected one of: {}", name, fmt::join(scenario_names(), ", ")));
+    throw InputError(unknown_name_message("scenario", name, scenario_names()));
   Scenario s{entry->name, entry->world(), SimulatorConfig{}};
   if (entry->loop) s.config.loops = 1;
-  if (entry->forward_sensor) s.config.fov = deg2rad(180.0);
-  if (entry->cluttered) {
-    s.config.clutter_rate = 1.0;
-    s.config.detection_probability = 0.9;
-    s.config.provide_ids = false;
-  }
+  if (entry->forward_sensor) use_forward_sensor(s.config);
+  if (entry->cluttered) use_cluttered_detection(s.config);
   return s;
 }
 
-std::vector<std::string> scenario_names() {
-  std::vector<std::string> names;
-  for (const ScenarioEntry& e : kScenarios) names.emplace_back(e.name);
-  return names;
+std::vector<std::string> scenario_names() { return names_of(kScenarios); }
+
+Scenario WorldFamily::member(std::uint64_t world_seed) const {
+  Scenario s{fmt::format("{} world {}", name, world_seed), random_world(world, world_seed), config};
+  s.world.origin = WorldOrigin{name, world_seed};
+  return s;
 }
+
+WorldFamily world_family(const std::string& name) {
+  const auto entry = std::find_if(std::begin(kFamilies), std::end(kFamilies),
+                                  [&](const FamilyEntry& e) { return name == e.name; });
+  if (entry == std::end(kFamilies)) {
+    throw std::invalid_argument(unknown_name_message("world family", name, world_family_names()));
+  }
+  WorldFamily family{entry->name, RandomWorldOptions{}, SimulatorConfig{}};
+  family.world.landmarks_per_km = entry->landmarks_per_km;
+  use_forward_sensor(family.config);
+  if (entry->cluttered) use_cluttered_detection(family.config);
+  return family;
+}
+
+std::vector<std::string> world_family_names() { return names_of(kFamilies); }
 
 }  // namespace slamkit

@@ -4,12 +4,14 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <climits>
 #include <cmath>
 #include <fstream>
 #include <iterator>
 #include <limits>
 #include <random>
+#include <stdexcept>
 #include <unordered_map>
 #include <utility>
 
@@ -112,6 +114,148 @@ void validate(const WorldGenOptions& o) {
   // With a centimetre at least, the spacing grid's cells number below 2^31 across a valid world.
   require(o.min_spacing >= 0.01 && o.min_spacing <= kMaxExtent, "min_spacing", "a distance from 0.01 to 1e6 m",
           o.min_spacing);
+}
+
+// Distance from p to the segment from a to b.
+double distance_to_segment(const Vector2& p, const Vector2& a, const Vector2& b) {
+  const Vector2 ab = b - a;
+  const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+  return (a + t * ab - p).norm();
+}
+
+// The closed route through `corners` (from the last back to the first).
+double distance_to_closed_route(const std::vector<Vector2>& corners, const Vector2& p) {
+  double d = std::numeric_limits<double>::infinity();
+  const std::size_t n = corners.size();
+  for (std::size_t i = 0; i < n; ++i) d = std::min(d, distance_to_segment(p, corners[i], corners[(i + 1) % n]));
+  return d;
+}
+
+double closed_route_length(const std::vector<Vector2>& corners) {
+  double length = 0.0;
+  for (std::size_t i = 0; i < corners.size(); ++i) length += (corners[(i + 1) % corners.size()] - corners[i]).norm();
+  return length;
+}
+
+// Where landmarks may lie beside a route: from `inner` to `outer` metres off it, `spacing` apart.
+struct Band {
+  double inner, outer, spacing;
+};
+
+// Landmarks at uniformly random places along the closed route through `corners`, on a random side,
+// a uniformly random distance off their leg, kept if no other leg is nearer than band.inner and no
+// landmark nearer than band.spacing: stretches of 50 m and more without a landmark occur, as in the
+// reference simulator's sparse example map.
+std::vector<Landmark> scatter_beside_route(const std::vector<Vector2>& corners, int count, const Band& band,
+                                           std::mt19937_64& rng) {
+  std::vector<double> cumulative{0.0};
+  const std::size_t n = corners.size();
+  for (std::size_t i = 0; i < n; ++i) cumulative.push_back(cumulative.back() + (corners[(i + 1) % n] - corners[i]).norm());
+  // Far beyond what a band with room left rejects in a row: at most 20 over 5,000 dense worlds.
+  constexpr int kMaxRejectedInARow = 10'000;
+  int rejected_in_a_row = 0;
+  std::vector<Landmark> landmarks;
+  while (static_cast<int>(landmarks.size()) < count) {
+    if (rejected_in_a_row == kMaxRejectedInARow)
+      throw InputError(fmt::format(
+          "world generation: the band from {} to {} m beside a {:.0f} m route holds only {} of {} landmarks "
+          "{} m apart; lower the density or the spacing",
+          band.inner, band.outer, cumulative.back(), landmarks.size(), count, band.spacing));
+    const double s = uniform01(rng) * cumulative.back();
+    const std::size_t i = static_cast<std::size_t>(
+        std::upper_bound(cumulative.begin(), cumulative.end(), s) - cumulative.begin() - 1);
+    const Vector2 a = corners[i], dir = (corners[(i + 1) % n] - a).normalized();
+    const double side = uniform01(rng) < 0.5 ? 1.0 : -1.0;
+    const double offset = band.inner + (band.outer - band.inner) * uniform01(rng);
+    const Vector2 p = a + (s - cumulative[i]) * dir + side * offset * Vector2(-dir.y(), dir.x());
+    const bool rejected = distance_to_closed_route(corners, p) < band.inner ||
+                          std::any_of(landmarks.begin(), landmarks.end(), [&](const Landmark& l) {
+                            return (l.position - p).norm() < band.spacing;
+                          });
+    if (rejected) {
+      ++rejected_in_a_row;
+      continue;
+    }
+    rejected_in_a_row = 0;
+    landmarks.push_back(Landmark{static_cast<int>(landmarks.size()), p, Matrix2::Zero()});
+  }
+  return landmarks;
+}
+
+void validate(const RandomWorldOptions& o) {
+  require(o.min_lap_m > 0.0 && o.min_lap_m <= kMaxExtent, "min_lap_m", "a positive length up to 1e6 m", o.min_lap_m);
+  require(o.max_lap_m >= o.min_lap_m && o.max_lap_m <= kMaxExtent, "max_lap_m", "from min_lap_m to 1e6 m",
+          o.max_lap_m);
+  // With fewer than four corners the jittered corner angles below could leave a gap of more than a
+  // half turn, and the polygon would no longer wind once round its centre.
+  require(o.min_corners >= 4, "min_corners", "at least 4", o.min_corners);
+  require(o.max_corners >= o.min_corners && o.max_corners <= 64, "max_corners", "from min_corners to 64",
+          o.max_corners);
+  require(o.min_leg_m > 0.0 && o.min_leg_m <= o.max_lap_m / o.max_corners, "min_leg_m",
+          "positive, and at most max_lap_m / max_corners", o.min_leg_m);
+  require(o.max_turn > 0.0 && o.max_turn < kPi, "max_turn", "an angle in (0, pi) rad", o.max_turn);
+  require(o.min_leg_gap_m >= 0.0 && o.min_leg_gap_m <= o.min_leg_m, "min_leg_gap_m", "from 0 to min_leg_m",
+          o.min_leg_gap_m);
+  require(o.landmarks_per_km >= 0.0 && o.landmarks_per_km * o.max_lap_m / 1000.0 <= kMaxLandmarks,
+          "landmarks_per_km", "at least 0, and at most 1e7 landmarks on the longest lap", o.landmarks_per_km);
+  require(o.band_inner >= 0.0 && o.band_inner <= kMaxExtent, "band_inner", "a distance from 0 to 1e6", o.band_inner);
+  require(o.band_outer > o.band_inner && o.band_outer <= kMaxExtent, "band_outer",
+          "a distance greater than band_inner, up to 1e6", o.band_outer);
+  require(o.min_spacing > 0.0 && o.min_spacing <= kMaxExtent, "min_spacing", "a positive distance up to 1e6",
+          o.min_spacing);
+}
+
+// Whether a closed polygon keeps the rules of RandomWorldOptions: legs long enough, turns within
+// max_turn, and legs that share no corner apart. Its legs do not cross (see random_route), so the
+// distance between two of them is that of an end of one to the other.
+bool drivable(const std::vector<Vector2>& p, const RandomWorldOptions& o) {
+  const std::size_t n = p.size();
+  const auto leg = [&](std::size_t i) { return p[(i + 1) % n] - p[i]; };
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vector2 in = leg((i + n - 1) % n), out = leg(i);
+    if (out.norm() < o.min_leg_m) return false;
+    if (std::abs(wrap_angle(std::atan2(out.y(), out.x()) - std::atan2(in.y(), in.x()))) > o.max_turn) return false;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 2; j < n; ++j) {
+      if (i == 0 && j == n - 1) continue;  // the last leg ends where the first begins
+      const Vector2 a0 = p[i], a1 = p[(i + 1) % n], b0 = p[j], b1 = p[(j + 1) % n];
+      const double gap = std::min({distance_to_segment(a0, b0, b1), distance_to_segment(a1, b0, b1),
+                                   distance_to_segment(b0, a0, a1), distance_to_segment(b1, a0, a1)});
+      if (gap < o.min_leg_gap_m) return false;
+    }
+  }
+  return true;
+}
+
+// A random polygon that winds once round the origin: corners at jittered, increasing angles (each
+// within 0.3 of a step of its place, so consecutive ones stay less than a half turn apart and the
+// legs cannot cross) and random radii from 0.35 of the largest to the largest, scaled to a random lap
+// length. Drawn again until it keeps the rules; the draws of a seed are fixed, so is its route.
+std::vector<Vector2> random_route(const RandomWorldOptions& o, std::mt19937_64& rng) {
+  // The families' options take at most 5 draws over 5,000 seeds; this many means the rules cannot be met.
+  constexpr int kMaxDraws = 10'000;
+  for (int draw = 0; draw < kMaxDraws; ++draw) {
+    const double lap = o.min_lap_m + (o.max_lap_m - o.min_lap_m) * uniform01(rng);
+    const int n = o.min_corners + static_cast<int>(uniform01(rng) * (o.max_corners - o.min_corners + 1));
+    const bool clockwise = uniform01(rng) < 0.5;
+    const double step = 2.0 * kPi / n;
+    std::vector<Vector2> p;
+    for (int k = 0; k < n; ++k) {
+      const double angle = step * (k + 0.6 * (uniform01(rng) - 0.5));
+      const double radius = 0.35 + 0.65 * uniform01(rng);
+      p.emplace_back(radius * std::cos(angle), radius * std::sin(angle));
+    }
+    if (clockwise) std::reverse(p.begin(), p.end());
+    const double scale = lap / closed_route_length(p);
+    for (Vector2& corner : p) corner *= scale;
+    if (drivable(p, o)) return p;
+  }
+  throw InputError(fmt::format(
+      "world generation: no route of {} to {} corners and {} to {} m met the rules (legs >= {} m, turns <= {:.0f} "
+      "deg, legs {} m apart) in {} draws; relax them",
+      o.min_corners, o.max_corners, o.min_lap_m, o.max_lap_m, o.min_leg_m, rad2deg(o.max_turn), o.min_leg_gap_m,
+      kMaxDraws));
 }
 
 // Buckets of already placed landmarks, so that the spacing test looks at a handful of neighbours
@@ -222,39 +366,31 @@ World sparse_world() {
   world.waypoints = {{10.0, 0.0},    {120.0, 0.0},   {160.0, 40.0}, {160.0, 120.0}, {100.0, 150.0},
                      {40.0, 110.0},  {-20.0, 140.0}, {-60.0, 90.0}, {-40.0, 30.0}};
   world.start = Pose2::Zero();
-  std::vector<double> cumulative{0.0};
-  const std::size_t n = world.waypoints.size();
-  for (std::size_t i = 0; i < n; ++i)
-    cumulative.push_back(cumulative.back() + (world.waypoints[(i + 1) % n] - world.waypoints[i]).norm());
-  auto distance_to_route = [&](const Vector2& p) {
-    double d = std::numeric_limits<double>::infinity();
-    for (std::size_t i = 0; i < n; ++i) {
-      const Vector2 a = world.waypoints[i], ab = world.waypoints[(i + 1) % n] - a;
-      const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-      d = std::min(d, (a + t * ab - p).norm());
-    }
-    return d;
-  };
-  // Landmarks at uniformly random places along the route, on a random side, 4 to 25 m off it: gaps
-  // of 50 m and more without a landmark occur, as in the reference simulator's sparse example map.
-  constexpr int kLandmarks = 35;
-  constexpr double kMinOffset = 4.0, kMaxOffset = 25.0, kMinSpacing = 8.0;
   std::mt19937_64 rng(20241123);
-  while (static_cast<int>(world.landmarks.size()) < kLandmarks) {
-    const double s = uniform01(rng) * cumulative.back();
-    const std::size_t i = static_cast<std::size_t>(
-        std::upper_bound(cumulative.begin(), cumulative.end(), s) - cumulative.begin() - 1);
-    const Vector2 a = world.waypoints[i], dir = (world.waypoints[(i + 1) % n] - a).normalized();
-    const double side = uniform01(rng) < 0.5 ? 1.0 : -1.0;
-    const double offset = kMinOffset + (kMaxOffset - kMinOffset) * uniform01(rng);
-    const Vector2 p = a + (s - cumulative[i]) * dir + side * offset * Vector2(-dir.y(), dir.x());
-    if (distance_to_route(p) < kMinOffset) continue;  // too close to another leg of the route
-    const bool crowded = std::any_of(world.landmarks.begin(), world.landmarks.end(), [&](const Landmark& l) {
-      return (l.position - p).norm() < kMinSpacing;
-    });
-    if (crowded) continue;
-    world.landmarks.push_back(Landmark{static_cast<int>(world.landmarks.size()), p, Matrix2::Zero()});
+  world.landmarks = scatter_beside_route(world.waypoints, 35, Band{4.0, 25.0, 8.0}, rng);
+  return world;
+}
+
+World random_world(const RandomWorldOptions& o, std::uint64_t seed) {
+  validate(o);
+  // Two streams, so that the landmark options leave a seed's route unchanged.
+  std::mt19937_64 route_rng(seed);
+  std::mt19937_64 landmark_rng(seed ^ 0x9e3779b97f4a7c15ULL);
+  const std::vector<Vector2> corners = random_route(o, route_rng);
+
+  // In the frame of the start, the middle of the first leg facing along it; the lap then runs from
+  // the end of that leg round to its beginning.
+  const Vector2 start = 0.5 * (corners[0] + corners[1]);
+  const Vector2 along = (corners[1] - corners[0]).normalized();
+  World world;
+  world.start = Pose2::Zero();
+  for (std::size_t k = 1; k <= corners.size(); ++k) {
+    const Vector2 d = corners[k % corners.size()] - start;
+    world.waypoints.emplace_back(along.dot(d), along.x() * d.y() - along.y() * d.x());
   }
+  const double count = std::round(o.landmarks_per_km * closed_route_length(world.waypoints) / 1000.0);
+  world.landmarks = scatter_beside_route(world.waypoints, static_cast<int>(count),
+                                         Band{o.band_inner, o.band_outer, o.min_spacing}, landmark_rng);
   return world;
 }
 
@@ -333,7 +469,7 @@ World read_world(const std::string& path) {
   TextReader in(path);
   World world;
   std::unordered_map<long, std::size_t> line_of_id;
-  std::size_t route_line = 0, start_line = 0;
+  std::size_t route_line = 0, start_line = 0, family_line = 0;
   while (in.next()) {
     const std::string_view keyword = in.field(0);
     if (keyword == "landmark") {
@@ -367,8 +503,20 @@ World read_world(const std::string& path) {
       start_line = in.line_number();
       world.start = Pose2(in.coordinate(1, "start x"), in.coordinate(2, "start y"),
                           wrap_angle(deg2rad(in.number(3, "start heading in degrees"))));
+    } else if (keyword == "family") {
+      in.expect_fields(3, "family <name> <world seed>");
+      if (family_line != 0)
+        in.fail(fmt::format("duplicate family line (first on line {}); expected at most one", family_line));
+      family_line = in.line_number();
+      const std::string_view seed = in.field(2);
+      std::uint64_t value = 0;
+      if (const auto [end, error] = std::from_chars(seed.data(), seed.data() + seed.size(), value);
+          error != std::errc() || end != seed.data() + seed.size())
+        in.fail(fmt::format("expected the world seed as an integer from 0 to 2^64 - 1, found '{}'", seed));
+      world.origin = WorldOrigin{std::string(in.field(1)), value};
     } else {
-      in.fail(fmt::format("unknown keyword '{}'; expected 'landmark', 'waypoint', 'route' or 'start'", keyword));
+      in.fail(fmt::format("unknown keyword '{}'; expected 'landmark', 'waypoint', 'route', 'start' or 'family'",
+                          keyword));
     }
   }
   if (world.waypoints.size() < 2)
@@ -377,6 +525,11 @@ World read_world(const std::string& path) {
 }
 
 void write_world(const std::string& path, const World& world) {
+  // read_world takes the family's name as one field.
+  if (world.origin && (world.origin->family.empty() ||
+                       world.origin->family.find_first_of(" \t\r\n#") != std::string::npos))
+    throw std::invalid_argument(
+        fmt::format("write_world: the family name must be one word, found '{}'", world.origin->family));
   fmt::memory_buffer out;
   auto it = std::back_inserter(out);
   fmt::format_to(it,
@@ -385,10 +538,12 @@ void write_world(const std::string& path, const World& world) {
                  "# waypoint <x> <y>        route point, metres, in driving order\n"
                  "# route open|closed       closed: back to the first waypoint at the end\n"
                  "# start <x> <y> <deg>     start pose (else at the first waypoint, facing the second)\n"
+                 "# family <name> <seed>    the family and world seed it was drawn from, if any\n"
                  "route {}\n",
                  world.closed ? "closed" : "open");
   if (world.start)
     fmt::format_to(it, "start {} {} {}\n", world.start->x(), world.start->y(), rad2deg((*world.start)[2]));
+  if (world.origin) fmt::format_to(it, "family {} {}\n", world.origin->family, world.origin->seed);
   for (const Landmark& l : world.landmarks)
     fmt::format_to(it, "landmark {} {} {}\n", l.id, l.position.x(), l.position.y());
   for (const Vector2& w : world.waypoints) fmt::format_to(it, "waypoint {} {}\n", w.x(), w.y());

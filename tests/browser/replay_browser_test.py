@@ -7,7 +7,10 @@ that the page is self-contained (no element loads anything, the browser fetched 
 its script ran and knows every recorded frame, that seeking by the API and by the slider draws the
 frame asked for with exactly the recorded number of landmarks, particles and rays of each decision,
 that the drawn pixels are there (ray and ellipse colours on the map, a curve in each time panel),
-that Play advances the frames and Pause stops them, and that zoom changes the view.
+that Play advances the frames and Pause stops them, and that zoom changes the view. The map fills
+the window beside the side panel, at the screen's pixel ratio, and follows a new window size and
+pixel ratio; its grid and scale bar are in round metres and follow zoom; the page says whether the
+pose error is aligned (a recording marked aligned, rewritten by `slamkit replay`, says so too).
 
     replay_browser_test.py SLAMKIT WORKDIR                      the test (ctest runs this)
     replay_browser_test.py --screenshot OUT.png PAGE.html FRACTION
@@ -15,6 +18,7 @@ that Play advances the frames and Pause stops them, and that zoom changes the vi
 """
 import base64
 import json
+import math
 import os
 import shutil
 import socket
@@ -85,6 +89,10 @@ class Browser:
         element_id = next(iter(element.values()))
         self.command("POST", f"/element/{element_id}/click", {})
 
+    def cdp(self, command, params):
+        """A Chrome DevTools Protocol command, through chromedriver."""
+        return self.command("POST", "/goog/cdp/execute", {"cmd": command, "params": params})
+
     def screenshot(self, path):
         with open(path, "wb") as out:
             out.write(base64.b64decode(self.command("GET", "/screenshot")))
@@ -128,6 +136,48 @@ def expected_counts(frame):
 def check(condition, message):
     if not condition:
         raise AssertionError(message)
+
+
+def is_round(metres):
+    """1, 2 or 5 times a power of ten."""
+    mantissa = metres / 10 ** math.floor(math.log10(metres) + 1e-9)
+    return any(abs(mantissa - m) < 1e-6 for m in (1, 2, 5))
+
+
+def check_grid_and_scale(browser, page):
+    """The grid's lines and the scale bar are round metres at the current zoom, inside the view."""
+    drawn, view = browser.js("return window.replay.drawn"), browser.js("return window.replay.view")
+    grid, bar, scale = drawn["grid"], drawn["scaleBar"], view["scale"]
+    check(is_round(grid["step"]) and grid["step"] * scale >= 90 - 1e-6,
+          f"{page}: grid step {grid['step']} m at {scale} px/m")
+    left, right = view["cx"] - view["width"] / 2 / scale, view["cx"] + view["width"] / 2 / scale
+    bottom, top = view["cy"] - view["height"] / 2 / scale, view["cy"] + view["height"] / 2 / scale
+    for values, lo, hi in ((grid["x"], left, right), (grid["y"], bottom, top)):
+        check(len(values) >= 2, f"{page}: fewer than two grid lines across the map")
+        check(all(lo - 1e-9 <= v <= hi + 1e-9 for v in values), f"{page}: grid lines outside the view")
+        steps = [b - a for a, b in zip(values, values[1:])]
+        check(all(abs(d - grid["step"]) < 1e-6 * grid["step"] for d in steps), f"{page}: uneven grid {values}")
+    check(is_round(bar["metres"]) and abs(bar["pixels"] - bar["metres"] * scale) < 1e-6 * bar["pixels"]
+          and 80 - 1e-6 <= bar["pixels"] < 200, f"{page}: scale bar {bar} at {scale} px/m")
+    check(browser.js(COUNT_NEAR, "map", 17, 24, 39) > 0, f"{page}: no scale bar pixels on the map")
+    check(browser.js(COUNT_NEAR, "map", 75, 85, 99) > 0, f"{page}: no axis label pixels on the map")
+    return grid, bar
+
+
+def check_layout(browser, page):
+    """The map takes the window's width beside the side panel and its height below the controls, with
+    one canvas pixel per screen pixel."""
+    size = browser.js("return window.replay.drawn.size")
+    box = browser.js("const r = document.getElementById('map').getBoundingClientRect();"
+                     "return [r.right, r.bottom, document.querySelector('aside').getBoundingClientRect().left,"
+                     "window.innerHeight, window.devicePixelRatio]")
+    right, bottom, aside_left, window_height, ratio = box
+    check(0 <= aside_left - right <= 14 and 0 <= window_height - bottom <= 14,
+          f"{page}: the map does not fill the window (right {right}, side panel at {aside_left}; bottom {bottom} "
+          f"of {window_height})")
+    check(size["ratio"] == ratio and size["pixelWidth"] == round(size["w"] * ratio)
+          and size["pixelHeight"] == round(size["h"] * ratio), f"{page}: canvas pixels {size} at ratio {ratio}")
+    return size
 
 
 def check_page(browser, page, recording, particles_expected):
@@ -180,9 +230,57 @@ def check_page(browser, page, recording, particles_expected):
     time.sleep(0.3)
     check(browser.js("return window.replay.frame") == stopped, f"{page}: frames moved after Pause")
 
+    # The pose error says how it is taken: the truth of a simulated run shares the map's frame.
+    note = browser.js("return document.getElementById('error-note').textContent")
+    check(not browser.js("return window.replay.errorAligned") and "unaligned" in note,
+          f"{page}: the page does not say that the pose error is unaligned: {note!r}")
+
+    check_layout(browser, page)
+    grid, bar = check_grid_and_scale(browser, page)
     scale = browser.js("return window.replay.scale")
     browser.js("window.replay.zoom(2)")
     check(abs(browser.js("return window.replay.scale") - 2 * scale) < 1e-9 * scale, f"{page}: zoom did not apply")
+    browser.js("window.replay.zoom(4)")
+    zoomed_grid, zoomed_bar = check_grid_and_scale(browser, page)
+    check(zoomed_grid["step"] < grid["step"] and zoomed_bar["metres"] < bar["metres"],
+          f"{page}: grid and scale bar did not follow the zoom ({grid['step']} -> {zoomed_grid['step']} m, "
+          f"{bar['metres']} -> {zoomed_bar['metres']} m)")
+
+
+def check_resizing(browser, page):
+    """A smaller window on a screen of twice the pixel density: the map follows, sharp."""
+    browser.open(page)
+    before = check_layout(browser, page)
+    scale = browser.js("return window.replay.scale")
+    browser.cdp("Emulation.setDeviceMetricsOverride", {"width": 1000, "height": 700, "deviceScaleFactor": 2,
+                                                       "mobile": False})
+    try:
+        Browser._wait_until(lambda: browser.js("return window.replay.drawn.size")["ratio"] == 2
+                            and browser.js("return window.replay.drawn.size")["w"] < before["w"],
+                            f"{page}: the map to follow the new window")
+        after = check_layout(browser, page)
+        check(after["pixelWidth"] == 2 * after["w"], f"{page}: {after} is not drawn at twice the density")
+        check(browser.js("return window.replay.scale") < scale, f"{page}: the fitted view was not fitted again")
+        check(browser.js(COUNT_INK, "map") > 1000, f"{page}: nothing drawn after the resize")
+        check_grid_and_scale(browser, page)
+    finally:
+        browser.cdp("Emulation.clearDeviceMetricsOverride", {})
+
+
+def check_aligned_note(browser, cli, work):
+    """A recording whose error was taken after alignment (a GPS truth) says so."""
+    folder = os.path.join(work, "aligned")
+    shutil.copytree(os.path.join(work, "ekf"), folder)
+    with open(os.path.join(folder, "replay.json")) as f:
+        recording = json.load(f)
+    recording["meta"]["error_aligned"] = True
+    with open(os.path.join(folder, "replay.json"), "w") as f:
+        json.dump(recording, f)
+    run(cli, work, "replay", folder)
+    browser.open(os.path.join(folder, "replay.html"))
+    note = browser.js("return document.getElementById('error-note').textContent")
+    check(browser.js("return window.replay.errorAligned") and "SE(2) alignment" in note and "unaligned" not in note,
+          f"aligned recording: the page does not say the error is aligned: {note!r}")
 
 
 def run(cli, work, *args):
@@ -219,6 +317,9 @@ def main(argv):
                 recording = json.load(f)
             check_page(browser, os.path.join(work, folder, "replay.html"), recording, particles)
             print(f"{folder}: {len(recording['frames'])} frames checked")
+        check_resizing(browser, os.path.join(work, "ekf", "replay.html"))
+        check_aligned_note(browser, cli, work)
+        print("resizing, pixel ratio and the aligned note checked")
     finally:
         browser.close()
     return 0

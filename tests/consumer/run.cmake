@@ -15,3 +15,10 @@ step(${CMAKE_COMMAND} -S ${CMAKE_CURRENT_LIST_DIR} -B ${WORK}/build -DCMAKE_BUIL
 step(${CMAKE_COMMAND} --build ${WORK}/build)
 step(${WORK}/build/consumer)
 step(${WORK}/prefix/bin/slamkit --version)
+# What `slamkit run --help` and the documentation point to.
+foreach(file share/slamkit/config/victoria-park.json share/slamkit/config/association-cluttered.json
+             share/doc/slamkit/README.md share/doc/slamkit/choosing.md share/doc/slamkit/architecture.md)
+  if(NOT EXISTS ${WORK}/prefix/${file})
+    message(FATAL_ERROR "not installed: ${file}")
+  endif()
+endforeach()

@@ -99,5 +99,8 @@ nlohmann::json to_json(const AssociationConfig& config);
 /// Reads the keys to_json writes over the defaults (missing keys keep them), then validates. An
 /// unknown key or a value of the wrong kind or range is an InputError naming `source`.
 AssociationConfig association_config_from_json(const nlohmann::json& json, const std::string& source);
+/// The same over `config`, which keeps what `json` does not name, without validating: for settings
+/// given in layers (pipeline/settings.hpp), which are validated once whole.
+void read_association_settings(const nlohmann::json& json, const std::string& source, AssociationConfig& config);
 
 }  // namespace slamkit

@@ -10,6 +10,16 @@ namespace slamkit {
 /// discarded it (ambiguous, or outside every gate).
 enum class AssociationDecision { kUpdate, kNew, kDiscard };
 
+/// The decision's name, as associations.txt and the Python module spell it.
+inline const char* to_string(AssociationDecision decision) {
+  switch (decision) {
+    case AssociationDecision::kUpdate: return "update";
+    case AssociationDecision::kNew: return "new";
+    case AssociationDecision::kDiscard: return "discard";
+  }
+  return "discard";
+}
+
 struct AssociationRecord {
   AssociationDecision decision = AssociationDecision::kDiscard;
   /// The landmark updated or created (its map id); kUnknownId when discarded.

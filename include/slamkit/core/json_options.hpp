@@ -21,9 +21,11 @@
 #include <string>
 #include <utility>
 #include <variant>
+#include <vector>
 
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/names.hpp"
 
 namespace slamkit {
 
@@ -130,9 +132,9 @@ bool integer_in(const nlohmann::json& value, Int min, Int max, Int& out) {
 }
 
 template <typename Options>
-std::string key_names(std::span<const OptionKey<Options>> keys) {
-  std::string names;
-  for (const auto& k : keys) names += fmt::format("{}{}", names.empty() ? "" : ", ", k.key);
+std::vector<std::string> key_names(std::span<const OptionKey<Options>> keys) {
+  std::vector<std::string> names;
+  for (const auto& k : keys) names.emplace_back(k.key);
   return names;
 }
 
@@ -147,9 +149,12 @@ void read_keys(const nlohmann::json& json, const std::string& source, const std:
     const std::string& key = item.key();
     const nlohmann::json& value = item.value();
     const auto k = std::find_if(keys.begin(), keys.end(), [&](const OptionKey<Options>& o) { return key == o.key; });
-    if (k == keys.end())
+    if (k == keys.end()) {
+      const std::vector<std::string> names = key_names(keys);
       throw InputError(source, 0,
-                       fmt::format("unknown key '{}' in {}; expected one of: {}", key, what, key_names(keys)));
+                       fmt::format("unknown key '{}' in {}{}; expected one of: {}", key, what, did_you_mean(key, names),
+                                   fmt::join(names, ", ")));
+    }
     const auto fail = [&](const std::string& expected) {
       throw InputError(source, 0, fmt::format("'{}' must be {}, found {}", key, expected, value.dump()));
     };

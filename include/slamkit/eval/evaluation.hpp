@@ -3,10 +3,15 @@
 // figure names its metric:
 //   ate_rmse_m              RMSE of position over the time-matched truth samples, after the SE(2)
 //                           least-squares alignment of the per-step (filtered) estimates onto the
-//                           truth; smoothed_ate_rmse_m the same for a smoothed trajectory
+//                           truth; smoothed_ate_rmse_m the same for a smoothed trajectory. Matched
+//                           by interpolating the estimate at each truth time, or as evo matches
+//                           (TimeMatching)
 //   final_position_error_m  position error of the last matched sample, same alignment
 //   map_rmse_m              RMSE of landmark position over landmarks paired with the truth, after
-//                           the trajectory's alignment. Each landmark is paired by its origin (below)
+//                           the trajectory's alignment (map_alignment "trajectory"); with no
+//                           trajectory truth, after the SE(2) least-squares alignment of the paired
+//                           landmarks onto their true positions ("landmarks", at least 3 pairs), which
+//                           scores the map's shape only. Each landmark is paired by its origin (below)
 //                           where the truth names the landmark of every observation, else by its id
 //                           with known association; without either there is no pairing and no
 //                           map_rmse_m. Of several landmarks with one origin only the first counts.
@@ -28,6 +33,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "slamkit/eval/metrics.hpp"
@@ -76,13 +82,41 @@ struct Metrics {
   double revisit_gap_s = 0.0;  // the EvaluationOptions' return gap the association metrics used
   std::map<std::string, double> filter_statistics;
 
+  /// How the map was brought into the truth's frame for map_rmse_m: "trajectory" (the trajectory's
+  /// alignment), "landmarks" (its own, onto the paired true landmarks; no trajectory truth), or empty
+  /// when there is no map_rmse_m.
+  std::string map_alignment;
+  /// "interpolate" or "evo" (EvaluationOptions::time_matching), and evo's largest time difference.
+  std::string time_matching = "interpolate";
+  double max_time_difference_s = 0.0;
+
   eval::Se2Transform alignment;                // estimate -> truth, used for the map and the pictures
   eval::Se2Transform dead_reckoning_alignment; // dead reckoning -> truth
 };
 
+/// How estimate and truth samples are paired for the trajectory metrics.
+enum class TimeMatching {
+  /// The estimate interpolated at each truth time (eval::match_by_time): every truth sample inside
+  /// the estimate's span scores, at its own time.
+  kInterpolate,
+  /// As evo pairs them (eval::match_nearest): nearest samples at most max_time_difference_s apart,
+  /// nothing interpolated; reproduces evo_ape's numbers on slamkit's files.
+  kEvo,
+};
+/// "interpolate" or "evo"; throws std::invalid_argument naming the accepted values.
+TimeMatching parse_time_matching(const std::string& name);
+std::string to_string(TimeMatching matching);
+
+/// The least number of landmarks a map must pair with the truth to be aligned on them: two fit
+/// rotation and translation to within the error of the distance between them, one exactly.
+inline constexpr std::size_t kMinLandmarksToAlign = 3;
+
 struct EvaluationOptions {
-  /// Estimate samples further apart than this [s] are not interpolated between.
+  TimeMatching time_matching = TimeMatching::kInterpolate;
+  /// Estimate samples further apart than this [s] are not interpolated between (kInterpolate).
   double max_interpolation_gap_s = 1.0;
+  /// Samples further apart in time are not paired (kEvo); evo's default.
+  double max_time_difference_s = 0.01;
   /// A true landmark observed again after this long without an observation [s] is a return: longer
   /// than any one pass by a landmark in the simulator's worlds, shorter than a lap.
   double revisit_gap_s = 60.0;
@@ -90,11 +124,23 @@ struct EvaluationOptions {
 
 Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const EvaluationOptions& options = {});
 
+/// Whether the pose NEES of `filter`'s runs is a particle cloud's (FastSLAM's): the NEES of the
+/// Gaussian with the particles' weighted mean and covariance, which resampling collapses, so it is
+/// no consistency test. metrics.json says so in nees_pose_note, nees.svg under its title.
+bool pose_nees_of_particle_cloud(const std::string& filter);
+/// What that NEES is and why it is no consistency test: metrics.json's nees_pose_note.
+inline constexpr std::string_view kParticleCloudNeesNote =
+    "the NEES of the particle cloud's Gaussian (the particles' weighted mean and covariance), not of a posterior "
+    "the filter keeps, and no consistency test: resampling depletes the cloud's history and collapses it (Bailey, "
+    "Nieto and Nebot, 'Consistency of the FastSLAM algorithm', the tutorial's reference [2]), so a NEES far above 3 "
+    "says the cloud is over-confident, not that the estimate diverged; judge accuracy by ate_rmse_m";
+
 nlohmann::json to_json(const Metrics& metrics);
 /// Writes metrics.json into `dir`.
 void write_metrics(const std::string& dir, const Metrics& metrics);
 
-/// One line with the headline numbers, for titles and the console.
+/// One line with the headline numbers, for titles and the console; a number that needs a caveat
+/// carries it (a map aligned on its own landmarks, FastSLAM's collapsed-cloud NEES, evo's matching).
 std::string headline(const Metrics& metrics);
 
 }  // namespace slamkit

@@ -50,6 +50,16 @@ struct PosePair {
 std::vector<PosePair> match_by_time(const std::vector<StampedPose>& estimate,
                                     const std::vector<StampedPose>& truth, double max_gap);
 
+/// Pairs samples of the two trajectories as evo does (evo.core.sync.associate_trajectories, which
+/// evo_ape and evo_rpe use): the shorter trajectory (the estimate when both are as long) is walked,
+/// and each of its samples is paired with the other's sample nearest in time, the first of equally
+/// near ones, if that is at most max_difference seconds away. Nothing is interpolated, samples
+/// without a partner that near are left out, and a sample of the longer trajectory may be paired
+/// more than once. evo's default max_difference is 0.01 s. Both inputs must be sorted by time;
+/// throws std::invalid_argument if one is not or max_difference is negative or NaN.
+std::vector<PosePair> match_nearest(const std::vector<StampedPose>& estimate, const std::vector<StampedPose>& truth,
+                                    double max_difference);
+
 /// Position RMSE, sqrt(mean |align(estimate_i) - truth_i|^2), over the pairs; headings are ignored.
 /// Throws std::invalid_argument if there are no pairs.
 double ate_rmse(const std::vector<PosePair>& pairs, const Se2Transform& align);

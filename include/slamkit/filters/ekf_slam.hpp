@@ -100,6 +100,8 @@ class EkfSlam final : public SlamFilter {
   /// The joint Gaussian, indexed by map index (landmarks in the order they were added, less the
   /// removed ones).
   const EkfEstimator& estimator() const { return *estimator_; }
+  /// The id of each landmark of the joint Gaussian, by map index (provisional ones included).
+  const std::vector<int>& landmark_ids() const { return ids_; }
   /// Map index of the landmark with this id, or -1.
   long find_landmark(int id) const;
   /// The association step of update() alone (NN or JCBB, as configured): pairs the scan's

@@ -111,7 +111,7 @@ struct FastSlamConfig {
   /// FastSLAM 2.0: the share of a scan's proposal covariance a particle draws its pose from, in
   /// (0, 1]; it keeps the rest as a Gaussian about the drawn pose (see above). 1, the textbook
   /// filter, is the default because relocalisation's loop closing on the sparse worlds was built
-  /// and measured with it; 0.01 is Victoria Park's setting (README).
+  /// and measured with it; 0.01 is Victoria Park's setting (docs/results.md).
   double pose_sample_fraction = 1.0;
   ResampleMethod resample = ResampleMethod::kSystematic;
   ResamplePolicy policy;  // default: when the ESS drops below half the particles

@@ -11,6 +11,7 @@ namespace slamkit {
 /// Opens a dataset from a "kind:PATH" spec ("sim:DIR", "victoria-park:DIR", "mrclam:DIR:robotN",
 /// "course:DIR"). `settings_path` names a JSON file of the dataset's settings (noise, sensor limits,
 /// ...; the shipped ones are config/*.json); empty for the defaults, which equal the shipped files.
+/// The settings' "recommended" object is for the filters (recommended_settings), not the reader.
 /// Throws InputError on a bad spec, file or setting.
 Dataset load_dataset(const std::string& spec, const std::string& settings_path = "");
 
@@ -18,8 +19,25 @@ Dataset load_dataset(const std::string& spec, const std::string& settings_path =
 /// run.json keeps the settings' contents, so a run can be repeated when the file has moved.
 Dataset load_dataset(const std::string& spec, const nlohmann::json& settings, const std::string& source);
 
-/// `spec` with its folder made absolute (and a missing one looked up as load_dataset does), so a run
-/// folder names its data in a way that works from any working directory.
+/// Checks the form of a spec without touching the file system: a known kind, a path where the kind
+/// has no standard place, and for MRCLAM the robot: "DIR:robotN", "DIR:N" or "DIR/RobotN" with N
+/// from 1 to 5 (a bare DIR is robot 1). Throws std::invalid_argument, one line naming what was
+/// expected (and the nearest kind to a misspelt one): a usage error, which load_dataset reports as
+/// InputError.
+void check_dataset_spec(const std::string& spec);
+
+/// The filter settings a dataset needs, by filter name: {"fastslam2": {"pose_sample_fraction": 0.01},
+/// ...}, each a partial object of run.json's `settings` keys. They are the "recommended" object of
+/// the dataset's settings, or with null settings the kind's built-in recommendation, which the
+/// shipped config file repeats (Victoria Park's: an association method for every filter, as the park
+/// has no landmark identities; the UKF's additive noise; FastSLAM 2.0's pose sample fraction). An
+/// empty object when there are none. Throws InputError naming `source` if "recommended" is not an
+/// object; pipeline/settings.hpp checks its contents.
+nlohmann::json recommended_settings(const std::string& spec, const nlohmann::json& settings, const std::string& source);
+
+/// `spec` with its folder made absolute (a missing one looked up as load_dataset does) and MRCLAM's
+/// robot written out as ":robotN", so a run folder names its data in a way that works from any
+/// working directory.
 std::string absolute_dataset_spec(const std::string& spec);
 
 /// Where datasets named without a path are looked up: $SLAMKIT_DATA if set, else ../shared/datasets

@@ -10,16 +10,34 @@
 //   metrics.json         the evaluation (written by the evaluation, see eval/evaluation.hpp)
 // Beside them the command line writes truth.tum (the ground truth, same time base), the plots, and
 // with --replay replay.json and replay.html (pipeline/replay.hpp, plot/replay_html.hpp).
+//
+// A run folder is replaced as a whole (core/atomic_folder.hpp): a new run is written into a staging
+// folder beside it, which takes its place when complete, so a run that fails or is killed half-way
+// leaves the previous run as it was, never new files beside old ones.
 #include <string>
 
+#include "slamkit/core/atomic_folder.hpp"
 #include "slamkit/core/run_result.hpp"
 
 namespace slamkit {
 
-/// Writes every file of a run except metrics.json; creates `dir`. Throws InputError if it cannot.
+/// The replacement of run folder `dir` (which may not exist yet): write the run's files into
+/// path(), then commit(). Refuses, with an InputError, a folder another process is writing and an
+/// existing folder that is not empty and holds no run.json.
+AtomicFolder stage_run_folder(const std::string& dir);
+
+/// Writes every file of a run except metrics.json into `dir`, a new folder such as
+/// stage_run_folder(...).path(). Throws InputError if it cannot.
+void write_run_files(const std::string& dir, const RunResult& run);
+
+/// Replaces the run folder `dir` by one holding `run` (stage_run_folder, write_run_files, commit).
 void write_run(const std::string& dir, const RunResult& run);
 
-/// Reads a run folder back. Throws InputError naming the file and line of any problem.
+/// Throws InputError naming `dir` unless it is a folder and not one being written (see AtomicFolder).
+void require_run_folder(const std::string& dir);
+
+/// Reads a run folder back. Throws InputError naming the file and line of any problem, or naming
+/// the folder if it is the incomplete staging folder of a run being written or killed.
 RunResult read_run(const std::string& dir);
 
 }  // namespace slamkit

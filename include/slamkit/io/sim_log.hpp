@@ -2,7 +2,8 @@
 // A simulator run on disk: a directory of plain-text files that load_dataset("sim:DIR") reads back.
 //
 //   params.json              {"format": "slamkit-sim", "version": 1,
-//                             "simulator": <to_json(SimulatorConfig)>, "initial_pose": [x, y, theta]}
+//                             "simulator": <to_json(SimulatorConfig)>, "initial_pose": [x, y, theta],
+//                             "world": {"family": NAME, "world_seed": N}}   (world: drawn from a family only)
 //   events.txt               the event stream, one event per line, time never decreasing:
 //                              control <t> <dt> <speed> <steer>   control applied over (t - dt, t]
 //                              obs <t> <id> <range> <bearing>     one observation; id -1 = unknown

@@ -75,6 +75,9 @@ nlohmann::json to_json(const FilterConfig& config);
 /// Reads the keys to_json writes (missing keys keep their defaults) and validates the result. An
 /// unknown key, a misspelt name or a value out of range is an InputError naming `source`.
 FilterConfig filter_config_from_json(const nlohmann::json& json, const std::string& source);
+/// The same over `config`, which keeps what `json` does not name (in settings.association too),
+/// without validating: for settings given in layers (pipeline/settings.hpp).
+void read_filter_settings(const nlohmann::json& json, const std::string& source, FilterConfig& config);
 
 /// Calls validate(config) and builds the filter for the dataset's models, sensor limits and start.
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset);

@@ -6,6 +6,7 @@
 // plot/replay_html.hpp turns into a self-contained page that plays it back.
 #include <cstddef>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -30,15 +31,18 @@ class ReplayRecorder : public RunObserver {
   void on_scan(const SlamFilter& filter, const ScanEvent& scan, std::size_t events_done,
                std::size_t events_total) override;
 
-  /// The recording. `truth_from_estimate` (x, y, theta: rotate by theta, then translate) maps the
-  /// estimate's frame onto the truth's, as the evaluation's alignment does; the truth is drawn in
-  /// the estimate's frame through its inverse and the pose error is taken after it, so a truth in
-  /// a frame of its own (Victoria Park's GPS) lines up. Identity where the frames agree.
+  /// The recording. With `truth_from_estimate` (x, y, theta: rotate by theta, then translate), the
+  /// evaluation's alignment of the estimate onto the truth, the truth is drawn in the estimate's
+  /// frame through its inverse and the pose error is taken after it, so a truth in a frame of its
+  /// own (Victoria Park's GPS) lines up. Without it the frames are taken to agree (a truth with
+  /// headings starts at the map's origin) and the error is unaligned, as for pose NEES; the page
+  /// says which ("error_aligned" in "meta").
   /// {"meta": {...}, "truth": [[t, x, y], ...], "true_landmarks": [[x, y], ...],
   /// "frames": [{"t", "pose": [x, y, theta], "cov": [xx, xy, yy, tt], "landmarks": [id, x, y, cxx,
   /// cxy, cyy, ...], "rays": [x, y, decision, ...], "particles": [x, y, ...], "error": [ex, ey,
   /// etheta] (only with a truth)}]}. Decisions: 0 update, 1 new, 2 discard, 3 wrong update.
-  nlohmann::json to_json(const std::string& filter_name, const Pose2& truth_from_estimate = Pose2::Zero()) const;
+  nlohmann::json to_json(const std::string& filter_name,
+                         const std::optional<Pose2>& truth_from_estimate = std::nullopt) const;
 
  private:
   const Dataset& dataset_;

@@ -12,6 +12,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -146,6 +147,13 @@ class Figure {
   /// A colour bar under the legend for data coloured with sequential_color((v - lo) / (hi - lo)).
   void set_colorbar(std::string label, double lo, double hi);
 
+  /// Margins left and right of the plot area of at least these sizes [px], so that figures drawn one
+  /// above the other line up (stacked_svg sets them).
+  void set_min_margins(double left, double right) {
+    min_left_ = left;
+    min_right_ = right;
+  }
+
   /// Layout after automatic ranging and equal-aspect adjustment, as to_svg() draws it. Throws
   /// std::invalid_argument if titles, labels and legend leave no room for the plot area.
   Frame frame() const;
@@ -193,19 +201,28 @@ class Figure {
   /// The column right of the plot area that holds the legend box and the colour bar.
   double legend_width() const;
   double legend_height() const;
-  void write_data(std::string& out, const Frame& f) const;
+  void write_data(std::string& out, const Frame& f, std::string_view clip_id) const;
   void write_labels(std::string& out, const Frame& f) const;
-  void write_legend(std::string& out, const Frame& f) const;
+  void write_legend(std::string& out, const Frame& f, std::string_view gradient_id) const;
+  /// Everything inside the root element but the background; `id_suffix` makes its ids unique.
+  void write_body(std::string& out, const Frame& f, std::string_view id_suffix) const;
+  friend std::string stacked_svg(std::vector<Figure> panels);
 
   double width_, height_;
   std::string title_, subtitle_, x_label_, y_label_;
   bool equal_aspect_ = false;
   bool log_y_ = false;
+  double min_left_ = 0, min_right_ = 0;
   Limits x_limits_, y_limits_;
   std::vector<Item> items_;
   std::vector<LegendEntry> legend_;
   std::optional<Colorbar> colorbar_;
 };
+
+/// The panels one above the other in one SVG, their plot areas lined up (e.g. curves over one time
+/// axis in different units); each keeps its own title, labels and legend, and the document takes the
+/// first one's title. Throws std::invalid_argument without panels.
+std::string stacked_svg(std::vector<Figure> panels);
 
 // ---- SLAM pictures --------------------------------------------------------------------------------
 

@@ -50,6 +50,9 @@ nlohmann::json to_json(const SimulatorConfig& config);
 /// Reads what to_json writes. Missing keys keep their defaults; an unknown key, a value of the wrong
 /// type or out of range is an InputError naming `source_name` and the key.
 SimulatorConfig simulator_config_from_json(const nlohmann::json& json, const std::string& source_name);
+/// Throws an InputError naming `source` and the first setting out of its range, or periods that do
+/// not divide (simulate() checks its config so); the CLI checks each of its options with it.
+void validate(const SimulatorConfig& config, const std::string& source);
 
 /// Gives `dataset` the motion and observation models and the sensor limits that describe data from
 /// a simulator with this config: what a filter should assume when it processes that data.
@@ -102,5 +105,35 @@ Scenario scenario(const std::string& name);
 
 /// The names scenario() knows, in the order above.
 std::vector<std::string> scenario_names();
+
+/// A family of random worlds (random_world) with one simulator config, so that settings can be
+/// chosen on some of its worlds and reported on others (docs/world-families.md). Every family has
+/// the geometry of the sparse scenario, the reference simulator's (its vehicle, a 30 m range, a 180
+/// degree field of view, 0.1 m and 1 degree noise), and drives its route twice: the second lap
+/// re-observes every landmark of the first after a lap of drift. The families:
+///   sparse            55 landmarks per km of route, the sparse world's density: about 1.4 in view
+///                     per sweep, none in a fifth of the sweeps
+///   sparse-cluttered  sparse with the detection of the cluttered scenario (a false detection per
+///                     scan on average, 90% detection, no ids)
+///   dense             165 per km, about 4 in view
+///   dense-cluttered   dense with the detection of cluttered
+/// The families with and without clutter share their worlds: a seed gives the same route and
+/// landmarks in sparse and sparse-cluttered, and the same route in all four.
+struct WorldFamily {
+  std::string name;
+  RandomWorldOptions world;
+  SimulatorConfig config;
+
+  /// The world of `world_seed` (its origin recorded) with the family's config; config.seed, the
+  /// noise's, stays 1 for the caller to set.
+  Scenario member(std::uint64_t world_seed) const;
+};
+
+/// The family called `name`. Throws std::invalid_argument for an unknown name, suggesting the
+/// closest known one and listing them all.
+WorldFamily world_family(const std::string& name);
+
+/// The names world_family() knows, in the order above.
+std::vector<std::string> world_family_names();
 
 }  // namespace slamkit

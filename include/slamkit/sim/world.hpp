@@ -8,6 +8,8 @@
 //   route open|closed         optional, at most once; closed when absent
 //   start <x> <y> <heading>   optional, at most once: the vehicle's start pose (heading in degrees);
 //                             without it the vehicle starts at the first waypoint facing the second
+//   family <name> <seed>      optional, at most once: the family and world seed the world was drawn
+//                             from (random_world); a record only, the simulator does not read it
 //
 // Lines may be interleaved; only the order of the waypoint lines matters. A closed route ends where
 // it began: after the last waypoint the vehicle heads back to the first. An open route ends at its
@@ -18,15 +20,24 @@
 #include <string>
 #include <vector>
 
+#include "slamkit/core/angles.hpp"
 #include "slamkit/core/types.hpp"
 
 namespace slamkit {
+
+/// Where a world drawn from a family came from, so that a log or a world file says how to make it
+/// again (simulate --family NAME --world-seed SEED).
+struct WorldOrigin {
+  std::string family;
+  std::uint64_t seed = 0;
+};
 
 struct World {
   std::vector<Landmark> landmarks;  // covariance zero: this is the truth
   std::vector<Vector2> waypoints;   // driving order; the vehicle starts at the first, facing the second
   bool closed = true;               // false: the route ends at the last waypoint (see simulate())
   std::optional<Pose2> start;       // where the vehicle starts, if not at the first waypoint
+  std::optional<WorldOrigin> origin;  // set by the world families (simulator.hpp), else empty
 };
 
 /// Parameters of a generated world: a rounded rectangle of width x height metres (corner radius a
@@ -75,12 +86,42 @@ struct WorldGenReport {
 /// Throws InputError when an option is out of range (non-positive size, empty band, ...).
 World generate_world(const WorldGenOptions& options, WorldGenReport* report = nullptr);
 
+/// A random world after the sparse world's pattern, for families of worlds (simulator.hpp). The
+/// route is a closed polygon of min_corners to max_corners straight legs round a centre, driven
+/// counter-clockwise or clockwise, min_lap_m to max_lap_m long; concave corners make shapes other
+/// than convex rings. Every leg is at least min_leg_m long, every corner turns by at most max_turn,
+/// and legs that share no corner are at least min_leg_gap_m apart, so the route never crosses itself
+/// and the reference vehicle (turning radius 8 m) reaches every corner. The vehicle starts at the
+/// origin facing +x, in the middle of the leg from the last waypoint to the first, so each lap ends
+/// by driving back through the start area. Landmarks: landmarks_per_km per kilometre of route, at
+/// uniformly random places along it on a random side, band_inner to band_outer metres from every
+/// leg and at least min_spacing apart.
+struct RandomWorldOptions {
+  double min_lap_m = 400.0;
+  double max_lap_m = 1000.0;
+  int min_corners = 5;
+  int max_corners = 8;
+  double min_leg_m = 40.0;
+  double max_turn = 2.0 * kPi / 3.0;  // rad
+  double min_leg_gap_m = 40.0;
+  double landmarks_per_km = 55.0;  // the sparse world's 35 on 640 m
+  double band_inner = 4.0;         // m
+  double band_outer = 25.0;        // m
+  double min_spacing = 8.0;        // m
+};
+
+/// The world of `seed`: the route from one random stream and the landmarks from another, so options
+/// that differ only in their landmarks give the same route for a seed. Throws InputError when an
+/// option is out of range or the band cannot hold the landmarks at their spacing.
+World random_world(const RandomWorldOptions& options, std::uint64_t seed);
+
 /// Reads a world file (format above). Throws InputError naming the file, the line and what was
 /// expected.
 World read_world(const std::string& path);
 
 /// Writes `world` in the format above, numbers in their shortest exact form so that read_world
-/// gives back the same values. Throws InputError if the file cannot be written.
+/// gives back the same values. Throws InputError if the file cannot be written, and
+/// std::invalid_argument for an origin whose family name is not one word.
 void write_world(const std::string& path, const World& world);
 
 }  // namespace slamkit

@@ -2,8 +2,10 @@
 // pipeline/replay.hpp) sits in the page as JSON; this script draws one frame at a time: the true
 // and estimated paths, the map with 2-sigma covariance ellipses, the scan's observations as rays
 // coloured by what the filter did with each, particles, and in sync the pose error with its 2-sigma
-// band and the landmark standard deviations over time (the tutorial's Figure 3).
-// window.replay exposes the state and what the last frame drew, for the browser test.
+// band and the landmark standard deviations over time (the tutorial's Figure 3). The map has a grid
+// in metres and a scale bar that follow zoom, and fills what the window leaves it; every canvas is
+// drawn at the screen's pixel ratio. window.replay exposes the state and what the last frame drew,
+// for the browser test.
 (function () {
   'use strict';
 
@@ -24,6 +26,18 @@
 
   const state = { frame: 0, playing: false, drawn: null };
 
+  // A canvas's pixels follow its box on screen and the screen's pixel ratio, so that lines stay
+  // sharp on high-DPI screens; drawing is in CSS pixels.
+  function prepare(canvas) {
+    const ratio = window.devicePixelRatio || 1;
+    const w = Math.max(1, canvas.clientWidth), h = Math.max(1, canvas.clientHeight);
+    const pw = Math.round(w * ratio), ph = Math.round(h * ratio);
+    if (canvas.width !== pw || canvas.height !== ph) { canvas.width = pw; canvas.height = ph; }
+    const ctx = canvas.getContext('2d');
+    ctx.setTransform(ratio, 0, 0, ratio, 0, 0);
+    return { ctx, w, h, ratio };
+  }
+
   // ---- world to screen: fitted to everything the run visits, then zoomed and panned by the user.
   function worldBounds() {
     const b = { minX: Infinity, maxX: -Infinity, minY: Infinity, maxY: -Infinity };
@@ -40,17 +54,74 @@
     return b;
   }
 
-  const view = { scale: 1, cx: 0, cy: 0 };
+  // scale: CSS pixels per metre. A fitted view is fitted again when the map's box changes; once the
+  // user zooms or pans, resizing keeps the centre and the scale.
+  const view = { scale: 1, cx: 0, cy: 0, fitted: true };
+  const mapSize = { w: 1, h: 1 };
   function fitView() {
     const b = worldBounds();
     const margin = 1.1;
     view.cx = (b.minX + b.maxX) / 2;
     view.cy = (b.minY + b.maxY) / 2;
-    view.scale = Math.min(mapCanvas.width / ((b.maxX - b.minX) * margin || 1),
-                          mapCanvas.height / ((b.maxY - b.minY) * margin || 1));
+    view.scale = Math.min(mapSize.w / ((b.maxX - b.minX) * margin || 1),
+                          mapSize.h / ((b.maxY - b.minY) * margin || 1));
+    view.fitted = true;
   }
-  const toScreen = (x, y) => [mapCanvas.width / 2 + (x - view.cx) * view.scale,
-                              mapCanvas.height / 2 - (y - view.cy) * view.scale];
+  const toScreen = (x, y) => [mapSize.w / 2 + (x - view.cx) * view.scale,
+                              mapSize.h / 2 - (y - view.cy) * view.scale];
+  const toWorld = (sx, sy) => [view.cx + (sx - mapSize.w / 2) / view.scale, view.cy - (sy - mapSize.h / 2) / view.scale];
+
+  // ---- grid and scale bar: round steps of 1, 2 or 5 x 10^k metres, chosen for the current zoom.
+  function roundStep(atLeast) {
+    const power = 10 ** Math.floor(Math.log10(atLeast));
+    return [1, 2, 5, 10].map((m) => m * power).find((v) => v >= atLeast * (1 - 1e-9));
+  }
+  const metres = (v, step) => `${v.toFixed(Math.max(0, -Math.floor(Math.log10(step) + 1e-9)))} m`;
+
+  function gridLines(w, h) {
+    const step = roundStep(90 / view.scale); // a line about every 90 px or more
+    const [x0, y1] = toWorld(0, 0), [x1, y0] = toWorld(w, h);
+    const ticks = (lo, hi) => {
+      const out = [];
+      for (let k = Math.ceil(lo / step); k * step <= hi; ++k) out.push(k * step);
+      return out;
+    };
+    return { step, x: ticks(x0, x1), y: ticks(y0, y1) };
+  }
+
+  function drawGrid(ctx, grid, w, h) {
+    ctx.strokeStyle = '#eceef1'; ctx.lineWidth = 1;
+    ctx.beginPath();
+    grid.x.forEach((x) => { const sx = Math.round(toScreen(x, 0)[0]) + 0.5; ctx.moveTo(sx, 0); ctx.lineTo(sx, h); });
+    grid.y.forEach((y) => { const sy = Math.round(toScreen(0, y)[1]) + 0.5; ctx.moveTo(0, sy); ctx.lineTo(w, sy); });
+    ctx.stroke();
+  }
+
+  // Labels on top of the data, along the bottom (x) and left (y) edges, each on a white patch.
+  function drawAxisLabels(ctx, grid, w, h) {
+    ctx.font = '11px sans-serif'; ctx.textBaseline = 'middle';
+    const labelAt = (text, x, y, align) => {
+      const width = ctx.measureText(text).width;
+      const left = align === 'center' ? x - width / 2 : x;
+      ctx.fillStyle = 'rgba(255, 255, 255, 0.85)'; ctx.fillRect(left - 2, y - 7, width + 4, 14);
+      ctx.fillStyle = '#4b5563'; ctx.textAlign = align; ctx.fillText(text, x, y);
+    };
+    grid.x.forEach((x) => labelAt(metres(x, grid.step), toScreen(x, 0)[0], h - 10, 'center'));
+    grid.y.forEach((y) => { const sy = toScreen(0, y)[1]; if (sy < h - 24) labelAt(metres(y, grid.step), 4, sy, 'left'); });
+    ctx.textAlign = 'left';
+  }
+
+  function drawScaleBar(ctx, w, h) {
+    const length = roundStep(80 / view.scale), pixels = length * view.scale;
+    const x1 = w - 14, x0 = x1 - pixels, y = h - 28;
+    ctx.fillStyle = 'rgba(255, 255, 255, 0.85)'; ctx.fillRect(x0 - 6, y - 18, pixels + 12, 26);
+    ctx.strokeStyle = '#111827'; ctx.lineWidth = 2;
+    ctx.beginPath(); ctx.moveTo(x0, y - 4); ctx.lineTo(x0, y); ctx.lineTo(x1, y); ctx.lineTo(x1, y - 4); ctx.stroke();
+    ctx.fillStyle = '#111827'; ctx.font = '11px sans-serif'; ctx.textAlign = 'center'; ctx.textBaseline = 'alphabetic';
+    ctx.fillText(metres(length, length), (x0 + x1) / 2, y - 7);
+    ctx.textAlign = 'left';
+    return { metres: length, pixels };
+  }
 
   // ---- the map
   function line(ctx, points, colour, width) {
@@ -75,10 +146,16 @@
   }
 
   function drawMap(f) {
-    const ctx = mapCanvas.getContext('2d');
-    const drawn = { frame: state.frame, landmarks: 0, particles: 0, rays: { update: 0, new: 0, discard: 0, wrong: 0 } };
+    const { ctx, w, h, ratio } = prepare(mapCanvas);
+    const resized = w !== mapSize.w || h !== mapSize.h;
+    mapSize.w = w; mapSize.h = h;
+    if (resized && view.fitted) fitView();
+    const drawn = { frame: state.frame, landmarks: 0, particles: 0, rays: { update: 0, new: 0, discard: 0, wrong: 0 },
+                    size: { w, h, ratio, pixelWidth: mapCanvas.width, pixelHeight: mapCanvas.height } };
     ctx.fillStyle = '#ffffff';
-    ctx.fillRect(0, 0, mapCanvas.width, mapCanvas.height);
+    ctx.fillRect(0, 0, w, h);
+    const grid = gridLines(w, h);
+    drawGrid(ctx, grid, w, h);
 
     ctx.fillStyle = '#6b7280';
     data.true_landmarks.forEach(([x, y]) => { const [sx, sy] = toScreen(x, y); ctx.fillRect(sx - 2, sy - 2, 4, 4); });
@@ -117,13 +194,16 @@
       drawn.particles += 1;
     }
 
+    drawAxisLabels(ctx, grid, w, h);
+    drawn.grid = grid;
+    drawn.scaleBar = drawScaleBar(ctx, w, h);
     return drawn;
   }
 
   // ---- the time panels, each with a cursor at the current frame
   function panel(canvas, series, title, current) {
-    const ctx = canvas.getContext('2d');
-    const w = canvas.width, h = canvas.height, left = 48, bottom = 18, top = 16;
+    const { ctx, w, h } = prepare(canvas);
+    const left = 48, bottom = 18, top = 16;
     ctx.fillStyle = '#ffffff'; ctx.fillRect(0, 0, w, h);
     ctx.fillStyle = '#111827'; ctx.font = '12px sans-serif'; ctx.fillText(title, left, 12);
     if (!frames.length) return;
@@ -155,6 +235,9 @@
   }
 
   // Pose error per axis with the filter's own 2-sigma band: a consistent filter keeps the error inside.
+  // Unaligned where the truth shares the map's frame (recordings before "error_aligned" aligned
+  // exactly the truths without headings).
+  const errorAligned = data.meta.error_aligned ?? !data.meta.truth_has_headings;
   const errorSeries = [];
   if (frames.some((f) => f.error)) {
     const withError = frames.filter((f) => f.error);
@@ -183,8 +266,9 @@
     if (!frames.length) { label.textContent = 'no scans recorded'; return; }
     const f = frames[state.frame];
     state.drawn = drawMap(f);
-    panel(errorCanvas, errorSeries, errorSeries.length ? 'pose error x (blue), y (green) [m] with 2-sigma bands'
-                                                       : 'pose error: no ground truth for this dataset', f.t);
+    panel(errorCanvas, errorSeries,
+          errorSeries.length ? `pose error [m], ${errorAligned ? 'aligned' : 'unaligned'}: x (blue), y (green)`
+                             : 'pose error: no ground truth for this dataset', f.t);
     panel(stdCanvas, stdSeries, 'landmark std x [m] (first six landmarks)', f.t);
     slider.value = String(state.frame);
     label.textContent = `t = ${f.t.toFixed(1)} s, frame ${state.frame + 1}/${frames.length}, ` +
@@ -232,12 +316,11 @@
   // ---- zoom about the cursor with the wheel, pan by dragging, double-click to fit
   mapCanvas.addEventListener('wheel', (e) => {
     e.preventDefault();
-    const rect = mapCanvas.getBoundingClientRect();
-    const mx = (e.clientX - rect.left) * mapCanvas.width / rect.width, my = (e.clientY - rect.top) * mapCanvas.height / rect.height;
-    const wx = view.cx + (mx - mapCanvas.width / 2) / view.scale, wy = view.cy - (my - mapCanvas.height / 2) / view.scale;
+    const [wx, wy] = toWorld(e.offsetX, e.offsetY);
     view.scale *= Math.exp(-e.deltaY * 0.001);
-    view.cx = wx - (mx - mapCanvas.width / 2) / view.scale;
-    view.cy = wy + (my - mapCanvas.height / 2) / view.scale;
+    view.cx = wx - (e.offsetX - mapSize.w / 2) / view.scale;
+    view.cy = wy + (e.offsetY - mapSize.h / 2) / view.scale;
+    view.fitted = false;
     draw();
   }, { passive: false });
   let dragFrom = null;
@@ -245,20 +328,35 @@
   window.addEventListener('mouseup', () => { dragFrom = null; });
   window.addEventListener('mousemove', (e) => {
     if (!dragFrom) return;
-    const rect = mapCanvas.getBoundingClientRect(), k = mapCanvas.width / rect.width;
-    view.cx -= (e.clientX - dragFrom[0]) * k / view.scale;
-    view.cy += (e.clientY - dragFrom[1]) * k / view.scale;
+    view.cx -= (e.clientX - dragFrom[0]) / view.scale;
+    view.cy += (e.clientY - dragFrom[1]) / view.scale;
+    view.fitted = false;
     dragFrom = [e.clientX, e.clientY];
     draw();
   });
   mapCanvas.addEventListener('dblclick', () => { fitView(); draw(); });
+  // A new window size or pixel ratio is drawn once, at the next frame.
+  let redrawQueued = false;
+  const redrawSoon = () => {
+    if (redrawQueued) return;
+    redrawQueued = true;
+    requestAnimationFrame(() => { redrawQueued = false; draw(); });
+  };
+  window.addEventListener('resize', redrawSoon);
+  new ResizeObserver(redrawSoon).observe(mapCanvas);
 
   document.getElementById('meta').textContent =
     `${data.meta.filter} on ${data.meta.dataset}: ${frames.length} frames, ${data.meta.decimation}`;
   document.getElementById('wrong-note').textContent = data.meta.wrong_known
     ? 'wrong: updated a landmark started by another true landmark'
     : 'wrong: not known (the truth does not name each observation\'s landmark)';
+  document.getElementById('error-note').textContent = !errorSeries.length ? '' : errorAligned
+    ? 'Pose error after the evaluation\'s SE(2) alignment of the whole run onto the truth, whose frame is its own ' +
+      '(GPS); the bands are the filter\'s own 2-sigma.'
+    : 'Pose error unaligned: estimate minus truth in the map frame, which is the truth\'s start pose (as for pose ' +
+      'NEES), so it includes the drift that the ATE\'s SE(2) alignment removes; the bands are the filter\'s own 2-sigma.';
   slider.max = String(Math.max(0, frames.length - 1));
+  mapSize.w = Math.max(1, mapCanvas.clientWidth); mapSize.h = Math.max(1, mapCanvas.clientHeight);
   fitView();
   seek(0);
 
@@ -267,7 +365,9 @@
     get frame() { return state.frame; },
     get playing() { return state.playing; },
     get drawn() { return state.drawn; },
-    zoom(factor) { view.scale *= factor; draw(); },
+    zoom(factor) { view.scale *= factor; view.fitted = false; draw(); },
     get scale() { return view.scale; },
+    get view() { return { ...view, width: mapSize.w, height: mapSize.h }; },
+    errorAligned,
   };
 })();

@@ -1,0 +1,41 @@
+#pragma once
+// A run folder as `slamkit run` leaves it, written from a run and the dataset it ran on: the run's
+// own files (io/run_io.hpp), truth.tum, metrics.json and the pictures (plot/report.hpp), and, for a
+// run recorded with a ReplayRecorder, replay.json and replay.html. Every front end (the command
+// line, the Python module) writes its folders through these, so `slamkit evaluate` and `slamkit
+// run --config` read them all the same way.
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "slamkit/core/dataset.hpp"
+#include "slamkit/core/run_result.hpp"
+#include "slamkit/eval/evaluation.hpp"
+#include "slamkit/pipeline/replay.hpp"
+
+namespace slamkit {
+
+/// What run.json records of the dataset beyond its spec, added to `provenance`: a simulator log's
+/// params.json (under "simulator"), and the source's time of t = 0 as exact decimal text (under
+/// "time_origin_s": trajectory.tum and truth.tum times plus it are the source's times).
+/// `absolute_spec` is absolute_dataset_spec() of the spec the dataset was loaded from.
+void add_dataset_provenance(nlohmann::json& provenance, const std::string& absolute_spec, const Dataset& dataset);
+
+/// Evaluates `run` against `dataset`'s truth and writes truth.tum (removed where there is no truth
+/// trajectory), metrics.json and the pictures into `dir`: what `slamkit evaluate` rewrites.
+Metrics write_evaluation(const std::string& dir, const RunResult& run, const Dataset& dataset,
+                         const EvaluationOptions& options = {});
+
+/// The replay recording of `run`, with the pose error taken as the page says: in the map's frame
+/// where the truth has headings (it shares the start pose, as pose NEES assumes), after the
+/// evaluation's SE(2) alignment where it has positions only (GPS, in a frame of its own).
+nlohmann::json replay_recording(const ReplayRecorder& recorder, const RunResult& run, const Dataset& dataset,
+                                const Metrics& metrics);
+
+/// Writes every file of the folder into `dir`, a staged folder (stage_run_folder) that the caller
+/// commits: write_run_files(), write_evaluation() and, with a `replay` that recorded the run,
+/// replay.json and replay.html. Returns the evaluation. Throws InputError if a file cannot be
+/// written.
+Metrics write_run_folder(const std::string& dir, const RunResult& run, const Dataset& dataset,
+                         const ReplayRecorder* replay = nullptr);
+
+}  // namespace slamkit

@@ -1,0 +1,86 @@
+// Dataset specs: their form is checked before any file is read (a usage error naming what was
+// expected), MRCLAM's robot is taken as DIR:robotN, DIR:N or DIR/RobotN, and recorded specs name
+// the robot.
+#include "slamkit/io/load_dataset.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+
+#include "slamkit/core/error.hpp"
+#include "slamkit/io/mrclam.hpp"
+#include "test_data.hpp"
+
+namespace slamkit {
+namespace {
+
+std::string spec_error(const std::string& spec) {
+  try {
+    check_dataset_spec(spec);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(DatasetSpec, KnownFormsPassWithoutTouchingTheFileSystem) {
+  for (const char* spec : {"sim:/nowhere", "victoria-park:/nowhere", "victoria-park", "course:/nowhere",
+                           "mrclam:/nowhere", "mrclam:/nowhere:robot3", "mrclam:/nowhere:Robot3", "mrclam:/nowhere:3",
+                           "mrclam:/nowhere/Robot5", "mrclam"})
+    EXPECT_EQ(spec_error(spec), "no error") << spec;
+}
+
+TEST(DatasetSpec, AMisspeltKindIsAnsweredWithTheNearest) {
+  EXPECT_EQ(spec_error("victoria_park:/x"),
+            "unknown dataset kind 'victoria_park' (did you mean 'victoria-park'?); expected one of: sim, "
+            "victoria-park, mrclam, course");
+  EXPECT_EQ(spec_error("tape:/x"), "unknown dataset kind 'tape'; expected one of: sim, victoria-park, mrclam, course");
+  EXPECT_EQ(spec_error("/data/log"),
+            "'/data/log' is not a dataset spec; expected KIND:PATH with KIND one of: sim, victoria-park, mrclam, course");
+  EXPECT_EQ(spec_error("mrclm"),
+            "'mrclm' is not a dataset spec; expected KIND:PATH with KIND one of: sim, victoria-park, mrclam, course "
+            "(did you mean 'mrclam'?)");
+  EXPECT_EQ(spec_error("sim:"), "expected a path after 'sim:'");
+}
+
+TEST(DatasetSpec, AnMrclamRobotOutsideOneToFiveOrWithoutANumberNamesTheValidOnes) {
+  for (const char* spec : {"mrclam:/d:robot", "mrclam:/d:", "mrclam:/d:robot6", "mrclam:/d:0", "mrclam:/d:7",
+                           "mrclam:/d:robotx", "mrclam:/d:rbot3", "mrclam:/d/Robot6", "mrclam:/d/Robot"}) {
+    const std::string message = spec_error(spec);
+    EXPECT_NE(message.find("1 to 5"), std::string::npos) << spec << ": " << message;
+  }
+  EXPECT_EQ(spec_error("mrclam:/d:robot"),
+            "no robot number in 'robot'; expected a robot from 1 to 5 as DIR:robotN, DIR:N or DIR/RobotN");
+  // load_dataset reports the same as bad input naming the spec (a spec in a run.json is data).
+  try {
+    load_dataset("mrclam:/d:9");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "mrclam:/d:9: no MRCLAM robot '9'; expected a robot from 1 to 5 as DIR:robotN, DIR:N or DIR/RobotN");
+  }
+}
+
+TEST(DatasetSpec, RecordedMrclamSpecsNameTheRobot) {
+  const std::string dir = std::filesystem::absolute("/data/MRCLAM_Dataset6").string();
+  for (const char* spec : {"mrclam:/data/MRCLAM_Dataset6:3", "mrclam:/data/MRCLAM_Dataset6:robot3",
+                           "mrclam:/data/MRCLAM_Dataset6:ROBOT3", "mrclam:/data/MRCLAM_Dataset6/Robot3"})
+    EXPECT_EQ(absolute_dataset_spec(spec), "mrclam:" + dir + ":robot3") << spec;
+  EXPECT_EQ(absolute_dataset_spec("mrclam:/data/MRCLAM_Dataset6"), "mrclam:" + dir + ":robot1");
+}
+
+TEST(DatasetSpec, EveryFormOfAnMrclamRobotReadsThatRobot) {
+  const auto dir = test_data::shared_dataset("mrclam/MRCLAM_Dataset6");
+  SLAMKIT_REQUIRE_DATASET(dir);
+  const Dataset reference = read_mrclam(dir.string(), 3);
+  for (const std::string suffix : {":3", ":robot3", "/Robot3"}) {
+    const Dataset d = load_dataset("mrclam:" + dir.string() + suffix);
+    EXPECT_EQ(d.name, reference.name) << suffix;
+    EXPECT_EQ(d.events.size(), reference.events.size()) << suffix;
+  }
+}
+
+}  // namespace
+}  // namespace slamkit
