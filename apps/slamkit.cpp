@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 #include <fstream>
 #include <iostream>
+#include <new>
 #include <optional>
 #include <stdexcept>
 
@@ -33,6 +34,7 @@
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/pipeline/replay.hpp"
 #include "slamkit/pipeline/run_folder.hpp"
+#include "slamkit/pipeline/run_memory.hpp"
 #include "slamkit/pipeline/runner.hpp"
 #include "slamkit/pipeline/stop_signals.hpp"
 #include "slamkit/pipeline/settings.hpp"
@@ -297,9 +299,14 @@ std::string settings_in_words(const nlohmann::json& settings, const std::string&
   return words;
 }
 
-}  // namespace
+/// std::bad_alloc's own text says nothing a user can act on.
+int out_of_memory() {
+  std::cerr << "slamkit: error: out of memory: the command needs more than this process may use (for a run: fewer "
+               "--particles, --history decimated or none, or a shorter dataset)\n";
+  return kExitBadInput;
+}
 
-int main(int argc, char** argv) {
+int run_command(int argc, char** argv) {
   CLI::App app{"slamkit: landmark-based SLAM (EKF-SLAM, UKF, FastSLAM) with a simulator, evaluation and plots"};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Show help for every command");
@@ -341,7 +348,8 @@ int main(int argc, char** argv) {
   auto* world_cmd = app.add_subcommand("make-world", "Generate a world file (a loop route with landmarks)");
   WorldGenOptions gen;
   std::string world_out;
-  world_cmd->add_option("--landmarks", gen.landmarks, "Number of landmarks")
+  world_cmd->add_option("--landmarks", gen.landmarks,
+                        "Number of landmarks, up to 1e7 (in a band that cannot hold them 3 m apart, closer)")
       ->capture_default_str()
       ->check(integer_at_least(1));
   const CLI::Validator positive = number_where("> 0", [](double v) { return v > 0.0; });
@@ -377,7 +385,8 @@ int main(int argc, char** argv) {
       run_cmd
           ->add_option("--data", data_spec,
                        "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN (N 1-5; also DIR:N "
-                       "and DIR/RobotN; a bare DIR is robot 1), course:DIR")
+                       "and DIR/RobotN; a bare DIR is robot 1), course:DIR. Its files must be regular files, with "
+                       "lines up to 1 MiB, positions within +-2e6 m and at least one observation")
           ->check(parsed_by(check_dataset_spec));
   auto* data_config_opt = run_cmd->add_option(
       "--data-config", data_config,
@@ -386,7 +395,9 @@ int main(int argc, char** argv) {
   add_setting<std::uint64_t>(run_cmd, "--seed", flag_settings, "/seed", "Random seed for stochastic filters",
                              std::to_string(defaults.seed))
       ->check(integer_at_least(0));
-  add_setting<int>(run_cmd, "--particles", flag_settings, "/particles", "FastSLAM: number of particles",
+  add_setting<int>(run_cmd, "--particles", flag_settings, "/particles",
+                   "FastSLAM: number of particles; a run whose estimated memory (particles x landmarks, and the "
+                   "history kept) exceeds what this process may use is refused before it starts",
                    std::to_string(defaults.particles))
       ->check(integer_at_least(1));
   add_setting<double>(run_cmd, "--pose-sample-fraction", flag_settings, "/pose_sample_fraction",
@@ -583,17 +594,17 @@ int main(int argc, char** argv) {
   FilterConfig filter;
   nlohmann::json settings_contents, recommendation;
   std::string recommendation_source;
+  std::string settings_source;  // names the settings' contents in errors where they are not data_config's
   if (*run_cmd) {
     try {
       if (!repeat_path.empty()) {
-        const nlohmann::json previous = read_json_file(repeat_path);
-        if (!previous.contains("settings") || !previous.contains("dataset"))
-          throw InputError(repeat_path, 0, "expected the run.json of a run folder (with 'settings' and 'dataset')");
-        filter = filter_config_from_json(previous.at("settings"), repeat_path);
-        data_spec = previous.at("dataset").get<std::string>();
-        data_config = previous.value("dataset_settings", "");
-        settings_contents = previous.value("dataset_settings_contents", nlohmann::json());
-        recommendation = previous.value("recommended_settings", nlohmann::json());
+        RunSettings previous = run_settings_from_json(read_json_file(repeat_path), repeat_path);
+        filter = previous.filter;
+        data_spec = previous.dataset;
+        data_config = previous.dataset_settings;
+        settings_contents = std::move(previous.dataset_settings_contents);
+        settings_source = previous.dataset_settings_source;
+        recommendation = std::move(previous.recommended_settings);
       } else {
         if (data_spec.empty()) return usage_error("--data is required (or --config with an earlier run.json)");
         settings_contents = dataset_settings_json(data_config);
@@ -656,13 +667,18 @@ int main(int argc, char** argv) {
       for (const std::string& file : plot::write_benchmark_plots(bench_json, bench_out)) fmt::print("wrote {}\n", file);
     } else if (*world_cmd) {
       World world;
+      WorldGenReport report;
       try {  // every input is an option, so an error is a usage error
-        world = family_name.empty() ? generate_world(gen) : world_family(family_name).member(world_seed).world;
+        world = family_name.empty() ? generate_world(gen, &report) : world_family(family_name).member(world_seed).world;
       } catch (const InputError& e) {
         return usage_error(e.what());
       }
       write_world(world_out, world);
-      fmt::print("wrote {} ({} landmarks)\n", world_out, world.landmarks.size());
+      const bool closer = family_name.empty() && report.spacing < gen.min_spacing;
+      fmt::print("wrote {} ({} landmarks{})\n", world_out, world.landmarks.size(),
+                 closer ? fmt::format(", {:.3g} m apart at least: the band cannot hold them {} m apart", report.spacing,
+                                      gen.min_spacing)
+                        : "");
     } else if (*run_cmd) {
       const auto warn = [&](const std::string& message) { std::cerr << "slamkit: warning: " << message << "\n"; };
       const bool particle_filter = filter.filter == FilterKind::kFastSlam1 || filter.filter == FilterKind::kFastSlam2;
@@ -713,19 +729,21 @@ int main(int argc, char** argv) {
       // Taken before the data is read, so that a second run into the folder fails at once; the
       // folder keeps its previous run until out.commit().
       AtomicFolder out = stage_run_folder(run_out);
-      const Dataset dataset = load_dataset(dataset_spec, settings_contents, settings_path);
+      const Dataset dataset =
+          load_dataset(dataset_spec, settings_contents, settings_source.empty() ? settings_path : settings_source);
       stage("dataset read");
       if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
         throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
       add_dataset_provenance(provenance, dataset_spec, dataset);
 
-      auto slam = make_filter(filter, dataset);
       RunOptions options;
+      options.history = history;
+      require_run_memory(filter, dataset, options);
+      auto slam = make_filter(filter, dataset);
       ProgressLine progress;
       if (verbosity != Verbosity::kQuiet && isatty(STDERR_FILENO)) options.observers.push_back(&progress);
       std::optional<ReplayRecorder> recorder;
       if (replay) options.observers.push_back(&recorder.emplace(dataset));
-      options.history = history;
       RunResult run;
       int stop_signal = 0;
       {  // only while the filter runs: a stop signal before or after it ends the process at once
@@ -787,8 +805,25 @@ int main(int argc, char** argv) {
               : load_dataset(run.dataset, run.dataset_settings);
       print_outputs(eval_dir, write_evaluation(eval_dir, run, dataset, eval_options), Verbosity::kNormal);
     }
+  } catch (const std::bad_alloc&) {
+    return out_of_memory();
   } catch (const std::exception& e) {  // InputError above all: a missing or malformed file
     return bad_input(e);
   }
   return 0;
+}
+
+}  // namespace
+
+// What escapes a command's own handlers (reading the settings, say) still ends in one line and a
+// non-zero exit, never in std::terminate.
+int main(int argc, char** argv) {
+  try {
+    return run_command(argc, argv);
+  } catch (const std::bad_alloc&) {
+    return out_of_memory();
+  } catch (const std::exception& e) {
+    std::cerr << "slamkit: error: " << e.what() << "\n";
+    return kExitBadInput;
+  }
 }

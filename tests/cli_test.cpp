@@ -1,6 +1,7 @@
 // The slamkit command line, end to end: the demo pipeline, its outputs, and how it fails on bad input
 // (one line on stderr naming the file, the line and what was expected; a non-zero exit code).
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <array>
 #include <cstdio>
@@ -11,6 +12,8 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace fs = std::filesystem;
 
@@ -23,11 +26,11 @@ struct Result {
 };
 
 /// Runs the slamkit binary with `args` (shell-quoted by the caller), capturing stdout and stderr; in
-/// the folder `cwd` if given.
-Result slamkit(const std::string& args, const fs::path& work, const fs::path& cwd = {}) {
+/// the folder `cwd` if given, after the shell text `prefix` (a ulimit, a timeout).
+Result slamkit(const std::string& args, const fs::path& work, const fs::path& cwd = {}, const std::string& prefix = {}) {
   const fs::path err_file = work / "stderr.txt";
-  const std::string command = (cwd.empty() ? "" : "cd " + cwd.string() + " && ") + std::string(SLAMKIT_CLI) + " " +
-                              args + " 2>" + err_file.string();
+  const std::string command = (cwd.empty() ? "" : "cd " + cwd.string() + " && ") + prefix + std::string(SLAMKIT_CLI) +
+                              " " + args + " 2>" + err_file.string();
   Result r;
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return r;
@@ -873,3 +876,111 @@ TEST_F(Cli, FamilyMistakesAreUsageErrors) {
   EXPECT_EQ(slamkit("make-world --family sparse --landmarks 10" + out, *work_).exit_code, 2);
   EXPECT_FALSE(fs::exists(*work_ / "family_never"));
 }
+
+// ---- Hostile inputs and sizes (issue 26, section 4) ------------------------------------------------
+
+// run.json is a file users edit. A 'dataset' or 'dataset_settings' of another kind than a string
+// aborted `run --config` on an uncaught JSON type error (SIGABRT, no error line); each is now one
+// line naming the file and the key, exit code 1. tests/run_settings_test.cpp sweeps every key.
+TEST_F(Cli, RunJsonWithADatasetOfAnotherKindIsOneErrorNamingTheKey) {
+  const fs::path dir = *work_ / "wrong_kinds";
+  const Result run =
+      slamkit("run --history none --quiet --data sim:" + (*work_ / "sim").string() + " --out " + (dir / "r").string(),
+              *work_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json original = read_json(dir / "r" / "run.json");
+  const fs::path variant = dir / "variant.json";
+  for (const char* key : {"dataset", "dataset_settings"})
+    for (const nlohmann::json& value : {nlohmann::json::array({1}), nlohmann::json(1.5), nlohmann::json::object({{"a", 1}}),
+                                        nlohmann::json()}) {
+      nlohmann::json j = original;
+      j[key] = value;
+      std::ofstream(variant) << j.dump();
+      const Result r = slamkit("run --config " + variant.string() + " --out " + (dir / "v").string(), *work_);
+      EXPECT_EQ(r.exit_code, 1) << key << " = " << value << ": " << r.err;
+      EXPECT_EQ(count_lines(r.err), 1u) << r.err;
+      EXPECT_NE(r.err.find("slamkit: error: " + variant.string() + ": '" + key + "' must be"), std::string::npos)
+          << r.err;
+    }
+}
+
+// Victoria Park with an empty (0-byte) LASER.txt.gz ran with exit code 0, no scans and no warning:
+// dead reckoning reported as a SLAM result.
+TEST_F(Cli, EmptyVictoriaParkLaserFileIsRefusedNamingIt) {
+  const fs::path dir = *work_ / "empty_laser";
+  fs::create_directories(dir);
+  std::ofstream(dir / "DRS.txt") << "0.025\t1.0\t0.01\r\n0.050\t1.0\t0.01\r\n";
+  std::ofstream(dir / "GPS.txt") << "0.000\t0.00\t0.00\r\n";
+  std::ofstream(dir / "LASER.txt.gz");
+  const Result r = slamkit("run --data victoria-park:" + dir.string() + " --out " + (dir / "r").string(), *work_);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find((dir / "LASER.txt.gz").string() + ": no laser scans"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "r" / "run.json"));
+}
+
+// A truth landmark at 1e300 m ran the whole filter and then failed in the plot, naming no input, with
+// run.json saying "partial": false; a start 1e20 m out reported a map RMSE of 1e20 m. Both are now
+// refused where they are read, naming the file (and the line).
+TEST_F(Cli, PositionsBeyondTheCoordinateBoundAreRefusedWhereTheyAreRead) {
+  const fs::path log = copy_of_log("far_landmark");
+  replace_line(log / "truth_landmarks.txt", 3, "0 1e300 5");
+  const Result far = slamkit("run --data sim:" + log.string() + " --out " + (log / "r").string(), *work_);
+  EXPECT_EQ(far.exit_code, 1);
+  EXPECT_NE(far.err.find("truth_landmarks.txt:3: expected x within +-2e6 m, found 1e+300"), std::string::npos)
+      << far.err;
+  EXPECT_FALSE(fs::exists(log / "r" / "run.json"));
+
+  const fs::path moved = copy_of_log("far_start");
+  nlohmann::json params = read_json(moved / "params.json");
+  params["initial_pose"] = {1e20, 0.0, 0.0};
+  std::ofstream(moved / "params.json") << params.dump(2);
+  const Result start = slamkit("run --data sim:" + moved.string() + " --out " + (moved / "r").string(), *work_);
+  EXPECT_EQ(start.exit_code, 1);
+  EXPECT_NE(start.err.find("params.json: expected \"initial_pose\" x and y within +-2e6 m"), std::string::npos)
+      << start.err;
+}
+
+// A FIFO given as an input file blocked forever, waiting for a writer; `timeout` turns a regression
+// into a failure (exit 124) instead of a hung suite.
+TEST_F(Cli, FifoGivenAsAnInputFileIsRefusedNotWaitedOn) {
+  const fs::path dir = *work_ / "fifo";
+  fs::create_directories(dir);
+  const fs::path fifo = dir / "pipe";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const fs::path log = copy_of_log("fifo_log");
+  fs::remove(log / "events.txt");
+  ASSERT_EQ(mkfifo((log / "events.txt").c_str(), 0600), 0);
+  for (const std::string& args : {"run --config " + fifo.string() + " --out " + (dir / "r").string(),
+                                  "simulate --world " + fifo.string() + " --out " + (dir / "s").string(),
+                                  "run --data sim:" + log.string() + " --out " + (dir / "r").string()}) {
+    const Result r = slamkit(args, *work_, {}, "timeout 60 ");
+    EXPECT_EQ(r.exit_code, 1) << args << ": " << r.err;
+    EXPECT_NE(r.err.find("is a FIFO (named pipe); expected a regular file"), std::string::npos) << r.err;
+  }
+}
+
+#if !defined(__SANITIZE_ADDRESS__)  // AddressSanitizer reserves terabytes of address space: no ulimit -v
+// `run --particles 1000000` had no memory estimate and ended in a bare "std::bad_alloc" at 7.3 GB.
+// Under a 4 GiB address-space limit the estimate refuses it before the filter is built, naming the
+// flag; and whatever runs out of memory regardless ends in a message, not the exception's name.
+TEST_F(Cli, RunsBeyondTheMemoryLimitAreRefusedUpFrontAndOutOfMemoryIsAMessage) {
+  const fs::path dir = *work_ / "memory";
+  const Result particles = slamkit("run --filter fastslam2 --particles 1000000 --data sim:" +
+                                       (*work_ / "sim").string() + " --out " + (dir / "r").string(),
+                                   *work_, {}, "ulimit -v 4194304; ");
+  EXPECT_EQ(particles.exit_code, 1);
+  EXPECT_EQ(count_lines(particles.err), 1u) << particles.err;
+  EXPECT_NE(particles.err.find("fastslam2 with 1000000 particles (--particles) and maps of about "),
+            std::string::npos)
+      << particles.err;
+  EXPECT_NE(particles.err.find("GiB of memory; this process may use 4 GiB (ulimit)"), std::string::npos)
+      << particles.err;
+
+  // Ten million landmarks take more than 300 MiB before the generator has placed any.
+  const Result world = slamkit("make-world --landmarks 10000000 --out " + (dir / "w.txt").string(), *work_, {},
+                               "ulimit -v 307200; ");
+  EXPECT_EQ(world.exit_code, 1);
+  EXPECT_EQ(world.err.find("bad_alloc"), std::string::npos) << world.err;
+  EXPECT_NE(world.err.find("slamkit: error: out of memory"), std::string::npos) << world.err;
+}
+#endif

@@ -220,7 +220,7 @@ TEST_F(CourseLog, MalformedSensorDataIsNamed) {
 }
 
 TEST_F(CourseLog, MalformedWorldIsAnErrorButAMissingOneIsNot) {
-  write("sensor_data.dat", "ODOMETRY 0 1 0\n");
+  write("sensor_data.dat", "ODOMETRY 0 1 0\nSENSOR 1 2.0 0.1\n");
   EXPECT_TRUE(read_course_log(dir_.string()).truth.landmarks.empty());
   write("world.dat", "1 2.0 3.0\n2 2.0\n");
   EXPECT_NE(input_error("world.dat", 2).find("expected 3 fields (<id> <x> <y>)"), std::string::npos);
@@ -228,6 +228,16 @@ TEST_F(CourseLog, MalformedWorldIsAnErrorButAMissingOneIsNot) {
   EXPECT_NE(input_error("world.dat", 2).find("duplicate landmark id 1 (first on line 1)"), std::string::npos);
   write("world.dat", "1 2.0 nan\n");
   input_error("world.dat", 1);
+  write("world.dat", "1 2.0 -1e300\n");
+  EXPECT_NE(input_error("world.dat", 1).find("expected y within +-2e6 m"), std::string::npos);
+  write("world.dat", "# no landmark\n");
+  EXPECT_NE(input_error("world.dat", 0).find("no landmarks"), std::string::npos);
+}
+
+// Without a SENSOR line the run would be dead reckoning, reported like a SLAM result.
+TEST_F(CourseLog, SensorDataWithoutObservationsIsRefused) {
+  write("sensor_data.dat", "ODOMETRY 0 1 0\nODOMETRY 0.1 1 0\n");
+  EXPECT_NE(input_error("sensor_data.dat", 0).find("no SENSOR lines; expected observations"), std::string::npos);
 }
 
 TEST_F(CourseLog, MissingSensorDataIsNamed) {

@@ -352,6 +352,34 @@ TEST_F(MrclamFiles, MalformedBarcodesAndLandmarksAreRejected) {
   EXPECT_NE(input_error("Landmark_Groundtruth.dat", 3).find("landmark subject number"), std::string::npos);
 }
 
+// A robot that measured no landmark within its run would be dead reckoning, reported like a SLAM
+// result; an empty truth file where one is given is a broken copy, not a dataset without truth.
+TEST_F(MrclamFiles, DataWithoutObservationsAndEmptyTruthFilesAreRefused) {
+  write("Robot1_Measurement.dat",
+        "1000000099.900 \t 63 \t 2.0 \t 0.1 \r\n"    // before the run
+        "1000000100.201 \t 14 \t 3.0 \t 0.0 \r\n"    // a robot
+        "1000000100.500 \t 43 \t 1.0 \t 0.0 \r\n");  // a false detection
+  EXPECT_NE(input_error("Robot1_Measurement.dat", 0)
+                .find("no landmark measurement within the run (of 3 rows: 1 of robots, 1 with unknown barcodes, 1 "
+                      "outside the odometry's time span)"),
+            std::string::npos);
+  SetUp();
+  write("Landmark_Groundtruth.dat", "");
+  EXPECT_NE(input_error("Landmark_Groundtruth.dat", 0).find("no landmarks"), std::string::npos);
+  SetUp();
+  write_gz("Robot1_Groundtruth.dat.gz", "");
+  EXPECT_NE(input_error("Robot1_Groundtruth.dat.gz", 0).find("no poses"), std::string::npos);
+}
+
+TEST_F(MrclamFiles, PositionsBeyondTheCoordinateBoundAreRefused) {
+  write("Landmark_Groundtruth.dat", "  6 \t 1e300 \t 2.0 \t 0.0001 \t 0.0002 \r\n");
+  EXPECT_NE(input_error("Landmark_Groundtruth.dat", 3).find("expected x within +-2e6 m, found 1e+300"),
+            std::string::npos);
+  SetUp();
+  write_gz("Robot1_Groundtruth.dat.gz", "1000000100.000 \t 0.5 \t 3e6 \t -3.0 \r\n");
+  EXPECT_NE(input_error("Robot1_Groundtruth.dat.gz", 3).find("expected y within +-2e6 m"), std::string::npos);
+}
+
 TEST_F(MrclamFiles, MissingFilesAreNamed) {
   fs::remove(path("Barcodes.dat"));
   EXPECT_NE(input_error("Barcodes.dat", 0).find("missing file"), std::string::npos);

@@ -16,20 +16,14 @@
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/pipeline/runner.hpp"
 #include "slamkit/sim/simulator.hpp"
+#include "sim_test_support.hpp"
 
 namespace slamkit {
 namespace {
 
 namespace fs = std::filesystem;
 
-const Dataset& one_lap() {
-  static const Dataset data = [] {
-    Scenario s = scenario("default");
-    s.config.loops = 1;
-    return simulate(s.world, s.config);
-  }();
-  return data;
-}
+using test_sim::one_lap;
 
 RunResult run_with(History history, std::size_t decimated_samples = 10'000,
                    FilterKind kind = FilterKind::kEkf) {
@@ -196,6 +190,27 @@ TEST(CheckEvents, RefusesWhatNoFilterCanBeFed) {
   while (!std::holds_alternative<ScanEvent>(one_lap().events.at(scan))) ++scan;
   expect_refused(scan, [](Event& e) { std::get<ScanEvent>(e).observations.at(0).z.y() = -INFINITY; },
                  "observations within +-1e+06");
+}
+
+// A dataset built in code is not checked by a reader: a start 1e20 m out was scored as a map error
+// of 1e20 m.
+TEST(CheckEvents, RefusesAStartPoseBeyondTheCoordinateBound) {
+  for (const Pose2& start : {Pose2(1e20, 0.0, 0.0), Pose2(0.0, -2.5e6, 0.0), Pose2(0.0, 0.0, INFINITY)}) {
+    Dataset data = one_lap();
+    data.spec = "sim:moved";
+    data.initial_pose = start;
+    try {
+      check_events(data);
+      ADD_FAILURE() << "expected an InputError for the start " << start.transpose();
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("sim:moved: expected an initial pose with x and y within"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  Dataset data = one_lap();
+  data.initial_pose = Pose2(2e6, -2e6, 3.0);
+  EXPECT_NO_THROW(check_events(data));
 }
 
 TEST(CheckEvents, AcceptsLongGapsAndRepeatedTimes) {

@@ -359,6 +359,34 @@ TEST_F(SimLog, RejectsBadParams) {
   expect_input_error([&] { read(); }, file("params.json"), 3, "number overflow parsing '1e400'");
 }
 
+// Without a single observation a run is dead reckoning, which used to be reported as a SLAM result.
+TEST_F(SimLog, RefusesALogWithoutObservations) {
+  std::vector<std::string> controls;
+  for (const std::string& line : read_lines(file("events.txt")))
+    if (!line.starts_with("obs ")) controls.push_back(line);
+  write_lines(file("events.txt"), controls);
+  fs::remove(file("truth_observations.txt"));
+  expect_input_error([&] { read(); }, file("events.txt"), 0, "no 'obs' lines; expected observations");
+}
+
+// A truth landmark at 1e300 m used to run the whole filter and then fail in the plot without naming
+// any input; a start at 1e20 m was scored as a map error of 1e20 m.
+TEST_F(SimLog, RefusesPositionsBeyondTheCoordinateBound) {
+  const std::size_t n = line_starting(file("truth_landmarks.txt"), "0 ");
+  replace_line(file("truth_landmarks.txt"), n, "0 1e300 5");
+  expect_input_error([&] { read(); }, file("truth_landmarks.txt"), n, "expected x within +-2e6 m, found 1e+300");
+  SetUp();
+  replace_line(file("truth_poses.txt"), line_starting(file("truth_poses.txt"), "0 "), "0 0 -3e6 0");
+  expect_input_error([&] { read(); }, file("truth_poses.txt"), line_starting(file("truth_poses.txt"), "0 "),
+                     "expected y within +-2e6 m");
+  SetUp();
+  edit_params([](nlohmann::json& j) { j["initial_pose"] = {1e20, 0.0, 0.0}; });
+  expect_input_error([&] { read(); }, file("params.json"), 0, "expected \"initial_pose\" x and y within +-2e6 m");
+  SetUp();
+  edit_params([](nlohmann::json& j) { j["initial_pose"] = {2e6, -2e6, 0.0}; });  // the bound itself is inside
+  EXPECT_EQ(read().initial_pose, Pose2(2e6, -2e6, 0.0));
+}
+
 TEST(SimLogWriter, LeavesOutScansWithoutObservations) {
   const ScratchDir scratch;
   Dataset d;

@@ -26,6 +26,16 @@ inline std::vector<ControlEvent> controls_of(const Dataset& d) {
   return out;
 }
 
+// One lap of the default scenario, simulated once per test binary.
+inline const Dataset& one_lap() {
+  static const Dataset data = [] {
+    Scenario s = scenario("default");
+    s.config.loops = 1;
+    return simulate(s.world, s.config);
+  }();
+  return data;
+}
+
 // Sweeps the sensor made, with or without a ScanEvent: one every observation period.
 inline std::size_t sweeps_of(const Dataset& d, const SimulatorConfig& c) {
   return controls_of(d).size() /

@@ -177,6 +177,35 @@ TEST(World, ShrinksTheSpacingWhenTheBandCannotHoldEveryLandmark) {
   EXPECT_GT(spacing, 0.5);
 }
 
+// Generation grew about quadratically once the band filled (100,000 landmarks took 8.5 s, a million
+// over a minute): the band was filled until it jammed at one spacing after another, 10% apart, and
+// each spacing test looked at every landmark of nine cells sized for the first spacing. Counted, its
+// work now grows in proportion to the landmarks; the reported spacing is kept by every pair.
+TEST(World, GenerationWorkGrowsInProportionToTheLandmarks) {
+  for (const int n : {20'000, 200'000}) {
+    WorldGenOptions o;
+    o.landmarks = n;
+    WorldGenReport report;
+    World w = generate_world(o, &report);
+    ASSERT_EQ(w.landmarks.size(), static_cast<std::size_t>(n));
+    EXPECT_LT(report.candidates, 30u * static_cast<unsigned>(n)) << n;
+    EXPECT_LT(report.comparisons, 100u * static_cast<unsigned>(n)) << n;
+    EXPECT_LT(report.spacing, 3.0);
+    // Every pair at least the spacing apart, by a sweep along x.
+    std::sort(w.landmarks.begin(), w.landmarks.end(),
+              [](const Landmark& a, const Landmark& b) { return a.position.x() < b.position.x(); });
+    const auto x = [&](std::size_t i) { return w.landmarks[i].position.x(); };
+    double closest = INFINITY;
+    for (std::size_t i = 0; i < w.landmarks.size(); ++i)
+      for (std::size_t j = i + 1; j < w.landmarks.size() && x(j) - x(i) < closest; ++j)
+        closest = std::min(closest, (w.landmarks[j].position - w.landmarks[i].position).norm());
+    EXPECT_GE(closest, report.spacing) << n;
+  }
+  WorldGenReport report;  // a band that holds them keeps min_spacing
+  generate_world(WorldGenOptions{}, &report);
+  EXPECT_EQ(report.spacing, 3.0);
+}
+
 TEST(World, RejectsImpossibleOptions) {
   WorldGenOptions empty_band;
   empty_band.band_outer = empty_band.band_inner;

@@ -38,6 +38,23 @@ TEST(SvgPlotSlam, MapIsEqualAspectWithLegendOutsideThePlotArea) {
   EXPECT_GT(legend_x, f.left + f.plot_width);
 }
 
+// A landmark 1e300 m out (an estimate run off, or a truth no reader would now accept) wrote tick
+// labels of 300 digits, too wide for the figure: "leaves no room to plot" ended a run after the
+// filter had finished. Large values and steps far below them get a shared power of ten instead.
+TEST(SvgPlotSlam, FarOffPointsGetShortTickLabels) {
+  for (const double far : {1e300, -3.5e12, 2e7}) {
+    MapPlotData m = sample_map();
+    m.true_landmarks.push_back(Landmark{99, Vector2(far, far), Matrix2::Zero()});
+    const Figure fig = map_figure(m);
+    const std::string svg = fig.to_svg();
+    EXPECT_EQ(xml_error(svg), "") << far;
+    EXPECT_LT(fig.frame().left, 150.0) << far << ": the y tick labels took the plot's room";
+    EXPECT_EQ(svg.find("0000000000"), std::string::npos) << far << ": a label with ten zeros";
+    // Eight digits are still written out.
+    EXPECT_EQ(svg.find("\u00D710") == std::string::npos, far == 2e7) << far;
+  }
+}
+
 TEST(SvgPlotSlam, ManyLandmarksAreExplainedByStyleNotListed) {
   const std::string svg = landmark_std_figure(sample_std(150)).to_svg();
   EXPECT_EQ(xml_error(svg), "");

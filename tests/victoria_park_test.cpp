@@ -57,13 +57,14 @@ void write_gzip(const std::string& path, const std::string& text) {
   ASSERT_EQ(gzclose(f), Z_OK);
 }
 
-// One laser line: time, then 361 ranges with no return except a 0.4 m trunk 10 m straight ahead.
-std::string laser_line(double t) {
+// One laser line: time, then 361 ranges with no return except a 0.4 m trunk `distance` m straight
+// ahead.
+std::string laser_line(double t, double distance = 10.0) {
   std::ostringstream line;
   line << t;
   for (int k = 0; k < 361; ++k) {
     const double a = k * kPi / 360.0 - kPi / 2.0;  // from straight ahead
-    const double along = 10.0 * std::cos(a), disc = along * along - 100.0 + 0.04;
+    const double along = distance * std::cos(a), disc = along * along - distance * distance + 0.04;
     line << '\t' << (disc >= 0.0 ? along - std::sqrt(disc) : 81.91);
   }
   return line.str() + "\n";
@@ -347,11 +348,47 @@ TEST(VictoriaParkReader, MergesControlsAndScansAndCutsControlsAtScans) {
 TEST(VictoriaParkReader, MaxRangeDropsFartherTrees) {
   ScratchDir dir;
   write_small_release(dir);
+  write_gzip(dir.file("LASER.txt.gz"), laser_line(0.06) + laser_line(0.075, 8.0));
   VictoriaParkOptions options;
   options.max_range = 9.0;
   const Dataset data = read_victoria_park(dir.path().string(), options);
   EXPECT_TRUE(std::get<ScanEvent>(data.events[3]).observations.empty());
+  ASSERT_EQ(std::get<ScanEvent>(data.events[5]).observations.size(), 1U);
+  EXPECT_NEAR(std::get<ScanEvent>(data.events[5]).observations[0].z[0], 8.0, 0.1);
   EXPECT_DOUBLE_EQ(data.sensor.max_range, 9.0);
+}
+
+// An empty file, or scans without a single tree, used to run as dead reckoning with exit code 0,
+// reported like a SLAM result.
+TEST(VictoriaParkReader, RefusesEmptyFilesAndDataWithoutObservations) {
+  for (const char* name : {"DRS.txt", "GPS.txt", "LASER.txt.gz"}) {
+    ScratchDir dir;
+    write_small_release(dir);
+    write_text(dir.file(name), "");
+    const std::string message = test_data::input_error_at([&] { read_victoria_park(dir.path().string()); },
+                                                          dir.file(name), 0);
+    EXPECT_NE(message.find(": no "), std::string::npos) << message;
+  }
+  {  // a gzip stream of nothing but a comment
+    ScratchDir dir;
+    write_small_release(dir);
+    write_gzip(dir.file("LASER.txt.gz"), "# no scans\n");
+    const std::string message = test_data::input_error_at([&] { read_victoria_park(dir.path().string()); },
+                                                          dir.file("LASER.txt.gz"), 0);
+    EXPECT_NE(message.find("no laser scans"), std::string::npos) << message;
+  }
+  ScratchDir dir;
+  write_small_release(dir);
+  VictoriaParkOptions options;
+  options.max_range = 9.0;  // beyond the only trunk's 10 m
+  std::string message = test_data::input_error_at([&] { read_victoria_park(dir.path().string(), options); },
+                                                  dir.file("LASER.txt.gz"), 0);
+  EXPECT_NE(message.find("no tree within max_range_m (9 m) in any of its 2 scans"), std::string::npos) << message;
+  options.max_range = 30.0;
+  options.end_time = 0.05;  // before the first scan
+  message = test_data::input_error_at([&] { read_victoria_park(dir.path().string(), options); },
+                                      dir.file("LASER.txt.gz"), 0);
+  EXPECT_NE(message.find("and end_time_s (0.05 s)"), std::string::npos) << message;
 }
 
 TEST(VictoriaParkReader, MissingFolderOrFileNamesIt) {
@@ -492,6 +529,29 @@ TEST(TextReader, LinesAcrossAndBeyondTheReadBuffer) {
     EXPECT_EQ(in.number(1, "x"), i * 7 + 0.25);
   }
   EXPECT_FALSE(in.next());
+}
+
+// A line had no cap: 100 MB of one line cost 1.2 GB before its error, longer ones ended in
+// std::bad_alloc. The cap is found before more than twice it is held, plain or compressed, and a
+// line of exactly the cap is still read.
+TEST(TextReader, RefusesALineLongerThanTheCap) {
+  ScratchDir dir;
+  const std::string text = "1 2\n" + std::string(8 * kMaxLineBytes, '7') + "\n3 4\n";
+  write_gzip(dir.file("long.gz"), text);
+  write_text(dir.file("long.txt"), text);
+  write_gzip(dir.file("unended.gz"), "1 2\n" + std::string(kMaxLineBytes + 1, '7'));
+  for (const char* name : {"long.gz", "long.txt", "unended.gz"}) {
+    TextReader in(dir.file(name));
+    ASSERT_TRUE(in.next());
+    const std::string message = test_data::input_error_at([&] { in.next(); }, dir.file(name), 2);
+    EXPECT_NE(message.find("line longer than 1048576 bytes"), std::string::npos) << message;
+  }
+  write_gzip(dir.file("cap.gz"), std::string(kMaxLineBytes, '7') + "\n8\n");
+  TextReader in(dir.file("cap.gz"));
+  ASSERT_TRUE(in.next());
+  EXPECT_EQ(in.field(0).size(), kMaxLineBytes);
+  ASSERT_TRUE(in.next());
+  EXPECT_EQ(in.field(0), "8");
 }
 
 // parse_double's fast path for plain decimals must give exactly the double std::from_chars gives,

@@ -1,10 +1,8 @@
 #include "slamkit/core/json_options.hpp"
 
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
-#include <fstream>
-#include <sstream>
+
+#include "slamkit/core/input_file.hpp"
 
 namespace slamkit {
 namespace {
@@ -56,13 +54,6 @@ nlohmann::json parse_json(const std::string& text, const std::string& source) {
   }
 }
 
-nlohmann::json read_json_file(const std::string& path) {
-  errno = 0;
-  std::ifstream in(path);
-  if (!in) throw InputError(path, 0, fmt::format("cannot open file for reading ({})", std::strerror(errno)));
-  std::stringstream text;
-  text << in.rdbuf();
-  return parse_json(text.str(), path);
-}
+nlohmann::json read_json_file(const std::string& path) { return parse_json(read_input_file(path), path); }
 
 }  // namespace slamkit

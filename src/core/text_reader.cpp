@@ -1,5 +1,7 @@
 #include "slamkit/core/text_reader.hpp"
 
+#include <fmt/format.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -10,6 +12,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+
+#include "slamkit/core/input_file.hpp"
 
 namespace slamkit {
 
@@ -28,11 +32,11 @@ bool is_separator(char c) { return kSeparators[static_cast<unsigned char>(c)]; }
 }  // namespace
 
 TextReader::TextReader(std::string path) : path_(std::move(path)) {
-  errno = 0;
-  file_ = gzopen(path_.c_str(), "rb");
+  const int fd = open_input_file(path_);
+  file_ = gzdopen(fd, "rb");
   if (file_ == nullptr) {
-    const std::string reason = errno != 0 ? std::strerror(errno) : "out of memory";
-    throw InputError(path_, 0, "cannot open file for reading (" + reason + ")");
+    ::close(fd);
+    throw InputError(path_, 0, "cannot open file for reading (out of memory)");
   }
   gzbuffer(file_, kZlibBuffer);
   buffer_.resize(kZlibBuffer);
@@ -58,7 +62,7 @@ bool TextReader::refill() {
             buffer_.begin());
   end_ -= begin_;
   begin_ = 0;
-  // A line longer than the buffer: grow it, so any line length is read whole.
+  // A line longer than the buffer: grow it, so any line up to kMaxLineBytes is read whole.
   if (end_ == buffer_.size()) buffer_.resize(2 * buffer_.size());
   const int got = gzread(file_, buffer_.data() + end_, static_cast<unsigned>(buffer_.size() - end_));
   if (got <= 0) {
@@ -82,6 +86,12 @@ bool TextReader::read_line() {
       return true;
     }
     const std::size_t pending = end_ - begin_;
+    // Checked before reading on, so a line without end costs at most twice the cap in memory.
+    if (pending > kMaxLineBytes)
+      throw InputError(path_, line_number_ + 1,
+                       fmt::format("line longer than {} bytes; expected a text file of lines far shorter (the "
+                                   "longest of any format slamkit reads are a few kilobytes)",
+                                   kMaxLineBytes));
     if (!refill()) break;
     searched = pending;  // refill moved the unread bytes to the front
   }
@@ -128,6 +138,13 @@ double TextReader::number(std::size_t i, std::string_view what) const {
   double v = 0.0;
   if (!parse_double(field(i), v))
     fail("expected a finite number for " + std::string(what) + ", found '" + std::string(field(i)) + "'");
+  return v;
+}
+
+double TextReader::coordinate(std::size_t i, std::string_view what) const {
+  const double v = number(i, what);
+  static_assert(kMaxAbsCoordinate == 2e6, "the message states the bound");
+  if (std::abs(v) > kMaxAbsCoordinate) fail(fmt::format("expected {} within +-2e6 m, found {}", what, v));
   return v;
 }
 

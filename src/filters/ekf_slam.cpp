@@ -82,6 +82,12 @@ std::vector<Landmark> EkfSlam::landmarks() const {
   return out;
 }
 
+double EkfSlam::memory_estimate(std::size_t landmarks) {
+  // The covariance lives in a square buffer (of which updates use the lower triangle).
+  const double n = 3.0 + 2.0 * static_cast<double>(landmarks);
+  return n * n * static_cast<double>(sizeof(double));
+}
+
 std::map<std::string, double> EkfSlam::statistics() const {
   std::map<std::string, double> s = {{"discarded_observations", static_cast<double>(discarded_)},
                                      {"landmarks_removed", static_cast<double>(removed_)},

@@ -324,6 +324,16 @@ void FastSlam::reserve(std::size_t steps, std::size_t landmarks) {
   }
 }
 
+double FastSlam::memory_estimate(std::size_t particles, std::size_t landmarks) {
+  // Resampling leaves particles sharing the parts of their maps not changed since their common
+  // ancestor: on the default world's route with maps of 100 and 1,000 landmarks, a particle held
+  // about 40 bytes of its own per landmark, half a LandmarkGaussian.
+  constexpr double kOwnShare = 0.5;
+  return static_cast<double>(particles) *
+         (static_cast<double>(sizeof(Impl::Particle) + sizeof(Impl::Slot)) +
+          kOwnShare * static_cast<double>(landmarks) * static_cast<double>(sizeof(LandmarkGaussian)));
+}
+
 const FastSlamConfig& FastSlam::config() const { return impl_->config; }
 
 unsigned FastSlam::threads() const { return impl_->pool.size(); }

@@ -59,7 +59,7 @@ int landmark_id(const TextReader& in, std::size_t field) {
 }
 
 std::vector<Event> read_sensor_data(const fs::path& file, double step_period) {
-  if (!fs::is_regular_file(file)) throw InputError(file.string(), 0, "missing file");
+  if (!fs::exists(file)) throw InputError(file.string(), 0, "missing file");
   TextReader in(file.string());
   std::vector<Event> events;
   long steps = 0;
@@ -93,6 +93,9 @@ std::vector<Event> read_sensor_data(const fs::path& file, double step_period) {
     }
   }
   if (steps == 0) throw InputError(file.string(), 0, "no ODOMETRY lines; expected at least one step");
+  if (std::none_of(events.begin(), events.end(), [](const Event& e) { return std::holds_alternative<ScanEvent>(e); }))
+    throw InputError(file.string(), 0,
+                     "no SENSOR lines; expected observations, without which a run is dead reckoning");
   return events;
 }
 
@@ -105,8 +108,9 @@ std::vector<Landmark> read_world(const fs::path& file) {
     const int id = landmark_id(in, 0);
     if (const auto [it, fresh] = line_of_id.emplace(id, in.line_number()); !fresh)
       in.fail(fmt::format("duplicate landmark id {} (first on line {})", id, it->second));
-    landmarks.push_back(Landmark{id, Vector2(in.number(1, "x"), in.number(2, "y")), Matrix2::Zero()});
+    landmarks.push_back(Landmark{id, Vector2(in.coordinate(1, "x"), in.coordinate(2, "y")), Matrix2::Zero()});
   }
+  if (landmarks.empty()) throw InputError(in.path(), 0, "no landmarks; expected <id> <x> <y> lines (or no file)");
   return landmarks;
 }
 

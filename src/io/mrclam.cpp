@@ -95,10 +95,11 @@ UnixTime read_time(const TextReader& in, std::size_t i) {
 
 // ---- The files ----------------------------------------------------------------------------------------
 
-// `name` in `dir`, else its gzip-compressed form; an empty path if neither exists.
+// `name` in `dir`, else its gzip-compressed form; an empty path if neither exists. One that is not
+// a regular file is returned too, for the reader to refuse by what it is.
 fs::path find_file(const fs::path& dir, const std::string& name) {
   for (const fs::path& candidate : {dir / name, dir / (name + ".gz")})
-    if (fs::is_regular_file(candidate)) return candidate;
+    if (fs::exists(candidate)) return candidate;
   return {};
 }
 
@@ -161,8 +162,10 @@ std::vector<Landmark> read_landmarks(const fs::path& file) {
     for (std::size_t i = 3; i < 5; ++i)
       if (in.number(i, "a standard deviation") < 0.0) in.fail("expected standard deviations >= 0");
     landmarks.push_back(
-        Landmark{static_cast<int>(subject), Vector2(in.number(1, "x"), in.number(2, "y")), Matrix2::Zero()});
+        Landmark{static_cast<int>(subject), Vector2(in.coordinate(1, "x"), in.coordinate(2, "y")), Matrix2::Zero()});
   }
+  if (landmarks.empty())
+    throw InputError(in.path(), 0, "no landmarks; expected <subject> <x> <y> <std_x> <std_y> lines (or no file)");
   return landmarks;
 }
 
@@ -227,6 +230,13 @@ std::vector<ScanEvent> read_scans(const fs::path& file, const std::unordered_map
     else
       scans.push_back(ScanEvent{t, {o}});
   }
+  if (scans.empty())
+    throw InputError(in.path(), 0,
+                     fmt::format("no landmark measurement within the run (of {} rows: {} of robots, {} with unknown "
+                                 "barcodes, {} outside the odometry's time span); expected observations, without "
+                                 "which a run is dead reckoning",
+                                 stats.measurement_rows, stats.robot_measurements, stats.unknown_barcodes,
+                                 stats.outside_run));
   return scans;
 }
 
@@ -238,8 +248,9 @@ std::vector<StampedPose> read_truth_poses(const fs::path& file, const UnixTime& 
     in.expect_fields(4, "<time> <x> <y> <theta>");
     const double t = order.check(in, read_time(in, 0).minus(origin));
     poses.push_back(
-        StampedPose{t, Pose2(in.number(1, "x"), in.number(2, "y"), wrap_angle(in.number(3, "theta")))});
+        StampedPose{t, Pose2(in.coordinate(1, "x"), in.coordinate(2, "y"), wrap_angle(in.number(3, "theta")))});
   }
+  if (poses.empty()) throw InputError(in.path(), 0, "no poses; expected <time> <x> <y> <theta> lines (or no file)");
   return poses;
 }
 

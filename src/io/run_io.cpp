@@ -5,8 +5,6 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -232,9 +230,9 @@ RunResult read_run(const std::string& dir) {
   require_run_folder(dir);
   RunResult run;
   const std::string info_path = path_in(dir, "run.json");
-  std::ifstream in(info_path);
-  if (!in) throw InputError(info_path, 0, "cannot open file for reading (is this a slamkit run folder?)");
-  const nlohmann::json info = parse_json(std::string(std::istreambuf_iterator<char>(in), {}), info_path);
+  if (!fs::exists(info_path))
+    throw InputError(info_path, 0, "cannot open file for reading (is this a slamkit run folder?)");
+  const nlohmann::json info = read_json_file(info_path);
   try {
     run.filter = info.at("filter").get<std::string>();
     run.dataset = info.at("dataset").get<std::string>();

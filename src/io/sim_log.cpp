@@ -14,6 +14,7 @@
 #include <unordered_map>
 #include <variant>
 
+#include "slamkit/core/coordinates.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/json_options.hpp"
@@ -183,6 +184,9 @@ Params read_params(const fs::path& file) {
                      fmt::format("expected \"initial_pose\" as [x, y, theta], found {}", pose.dump()));
   params.initial_pose =
       Pose2(pose[0].get<double>(), pose[1].get<double>(), wrap_angle(pose[2].get<double>()));
+  if (!within_coordinates(params.initial_pose.head<2>()))
+    throw InputError(path, 0,
+                     fmt::format("expected \"initial_pose\" x and y within +-2e6 m, found {}", pose.dump()));
   return params;
 }
 
@@ -254,6 +258,10 @@ void read_events(const fs::path& file, std::vector<Event>& events, std::vector<O
     last_obs_t = t;
   }
   if (events.empty()) throw InputError(file.string(), 0, "no events; expected 'control' and 'obs' lines");
+  if (obs_lines.empty())
+    throw InputError(file.string(), 0,
+                     "no 'obs' lines; expected observations, without which a run is dead reckoning (a world "
+                     "with no landmark ever in the sensor's range gives none)");
 }
 
 void read_truth_poses(const fs::path& file, std::vector<StampedPose>& poses) {
@@ -265,7 +273,7 @@ void read_truth_poses(const fs::path& file, std::vector<StampedPose>& poses) {
     if (t < last_t) in.fail(fmt::format("time {} is earlier than the {} of the line before", t, last_t));
     last_t = t;
     poses.push_back(
-        StampedPose{t, Pose2(in.number(1, "x"), in.number(2, "y"), wrap_angle(in.number(3, "theta")))});
+        StampedPose{t, Pose2(in.coordinate(1, "x"), in.coordinate(2, "y"), wrap_angle(in.number(3, "theta")))});
   }
 }
 
@@ -277,7 +285,7 @@ void read_truth_landmarks(const fs::path& file, std::vector<Landmark>& landmarks
     const int id = read_id(in, 0, 0, "a landmark id");
     if (const auto [it, fresh] = line_of_id.emplace(id, in.line_number()); !fresh)
       in.fail(fmt::format("duplicate landmark id {} (first on line {})", id, it->second));
-    landmarks.push_back(Landmark{id, Vector2(in.number(1, "x"), in.number(2, "y")), Matrix2::Zero()});
+    landmarks.push_back(Landmark{id, Vector2(in.coordinate(1, "x"), in.coordinate(2, "y")), Matrix2::Zero()});
   }
 }
 

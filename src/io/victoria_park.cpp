@@ -132,6 +132,7 @@ std::vector<DrRow> read_dr(const std::string& path) {
     expect_later(in, row.t, rows.empty() ? 0.0 : rows.back().t, rows.empty());
     rows.push_back(row);
   }
+  if (rows.empty()) throw InputError(path, 0, "no dead-reckoning rows; expected lines of time_s speed_m/s steering_rad");
   return rows;
 }
 
@@ -141,11 +142,12 @@ std::vector<StampedPose> read_gps(const std::string& path) {
   while (in.next()) {
     in.expect_fields(3, "time_s north_m east_m");
     const double t = in.number(0, "the time");
-    const double north = in.number(1, "the north coordinate");
-    const double east = in.number(2, "the east coordinate");
+    const double north = in.coordinate(1, "the north coordinate");
+    const double east = in.coordinate(2, "the east coordinate");
     expect_later(in, t, fixes.empty() ? 0.0 : fixes.back().t, fixes.empty());
     fixes.push_back({t, Pose2(east, north, 0.0)});
   }
+  if (fixes.empty()) throw InputError(path, 0, "no GPS fixes; expected lines of time_s north_m east_m");
   return fixes;
 }
 
@@ -169,6 +171,7 @@ std::vector<ScanEvent> read_laser(const std::string& path, const VictoriaParkOpt
         scan.observations.push_back({Vector2(tree.range, tree.bearing), kUnknownId});
     scans.push_back(std::move(scan));
   }
+  if (scans.empty()) throw InputError(path, 0, "no laser scans; expected one line per scan: time_s and 361 ranges");
   return scans;
 }
 
@@ -218,12 +221,25 @@ Dataset read_victoria_park(const std::string& dir, const VictoriaParkOptions& op
   const fs::path folder = ascii_folder(dir);
   const std::vector<DrRow> dr = read_dr(required_file(folder, kDrFile));
   std::vector<StampedPose> gps = read_gps(required_file(folder, kGpsFile));
-  std::vector<ScanEvent> scans = read_laser(required_file(folder, kLaserFile), options);
+  const std::string laser_path = required_file(folder, kLaserFile);
+  std::vector<ScanEvent> scans = read_laser(laser_path, options);
+  const std::size_t scans_read = scans.size();
 
   Dataset data;
   data.spec = "victoria-park:" + dir;
   data.name = "Victoria Park";
   data.events = merge(dr, scans, options);
+  // Without a single tree the run would be dead reckoning, reported as if it were SLAM.
+  const bool observed = std::any_of(data.events.begin(), data.events.end(), [](const Event& e) {
+    const auto* scan = std::get_if<ScanEvent>(&e);
+    return scan != nullptr && !scan->observations.empty();
+  });
+  if (!observed)
+    throw InputError(laser_path, 0,
+                     fmt::format("no tree within max_range_m ({} m) in any of its {} scans between start_time_s ({} "
+                                 "s) and end_time_s ({} s); expected observations, without which a run is dead "
+                                 "reckoning",
+                                 options.max_range, scans_read, options.start_time, options.end_time));
   data.motion = std::make_shared<const AcfrCarModel>(options.car);
   RangeBearingModel::Params sensor;
   sensor.sigma_range = options.sigma_range;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "slamkit/core/coordinates.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/names.hpp"
 #include "slamkit/models/motion_model.hpp"
@@ -121,6 +122,12 @@ std::string to_string(History history) {
 }
 
 void check_events(const Dataset& dataset) {
+  const Pose2& start = dataset.initial_pose;
+  if (!within_coordinates(start.head<2>()) || !std::isfinite(start.z()))
+    throw InputError(dataset.spec, 0,
+                     fmt::format("expected an initial pose with x and y within +-{:g} m and a finite heading, found "
+                                 "({}, {}, {})",
+                                 kMaxAbsCoordinate, start.x(), start.y(), start.z()));
   const int control_dim = dataset.motion ? dataset.motion->control_dim() : -1;
   double previous = -INFINITY;
   for (std::size_t i = 0; i < dataset.events.size(); ++i) {

@@ -40,6 +40,8 @@ double nice_step(double raw) {
   return 10 * magnitude;
 }
 
+int decimal_exponent(double v) { return static_cast<int>(std::floor(std::log10(std::abs(v)) + 1e-9)); }
+
 /// Plain decimals ("0.01") while they stay short, powers of ten ("10⁻⁶") beyond.
 std::vector<std::string> log_labels(const std::vector<double>& ticks) {
   const bool plain = std::all_of(ticks.begin(), ticks.end(), [](double v) { return v >= 1e-4 && v < 1e5; });
@@ -49,7 +51,7 @@ std::vector<std::string> log_labels(const std::vector<double>& ticks) {
       labels.push_back(fmt::format("{:g}", v));
       continue;
     }
-    const int k = static_cast<int>(std::floor(std::log10(v) + 1e-9));
+    const int k = decimal_exponent(v);
     const double mantissa = v / std::pow(10.0, k);
     const std::string power = "10" + superscript(k);
     labels.push_back(std::abs(mantissa - 1.0) < 1e-6 ? power : fmt::format("{:g}\u00D7{}", mantissa, power));
@@ -57,15 +59,34 @@ std::vector<std::string> log_labels(const std::vector<double>& ticks) {
   return labels;
 }
 
+/// Digits of a plain label beyond which ticks are written as m×10^k.
+constexpr int kMaxPlainDigits = 10;
+
 }  // namespace
 
-int decimals_for_step(double step) {
-  return std::max(0, -static_cast<int>(std::floor(std::log10(step) + 1e-9)));
-}
-
-std::string linear_label(double v, int decimals) {
-  if (v == 0.0) v = 0.0;  // -0.0 (from ceil(-0.5) * step) would print as "-0"
-  return with_minus_sign(fmt::format("{:.{}f}", v, decimals));
+std::vector<std::string> linear_labels(const std::vector<double>& ticks) {
+  double largest = 0;
+  for (const double v : ticks) largest = std::max(largest, std::abs(v));
+  const double step = ticks.size() > 1 ? ticks[1] - ticks[0] : 0.0;
+  // Decimals that tell the ticks apart.
+  const int decimals = step > 0 ? std::max(0, -decimal_exponent(step)) : 0;
+  const int integer_digits = largest >= 1 ? decimal_exponent(largest) + 1 : 1;
+  // A plot of an estimate that has run off to 1e300 m, or of steps of 1e-12, still gets labels a
+  // few characters wide: a mantissa with the digits the step needs, times a power of ten, where
+  // that is the shorter form.
+  const int k = largest > 0 ? decimal_exponent(largest) : 0;
+  const int mantissa_decimals = step > 0 ? std::max(0, k - decimal_exponent(step)) : 0;
+  const bool plain = integer_digits + decimals <= std::max(kMaxPlainDigits, mantissa_decimals + 4);
+  std::vector<std::string> labels;
+  for (double v : ticks) {
+    if (v == 0.0) v = 0.0;  // -0.0 (from ceil(-0.5) * step) would print as "-0"
+    if (plain || v == 0.0)
+      labels.push_back(with_minus_sign(fmt::format("{:.{}f}", v, plain ? decimals : 0)));
+    else
+      labels.push_back(with_minus_sign(
+          fmt::format("{:.{}f}\u00D7{}", v / std::pow(10.0, k), mantissa_decimals, "10" + superscript(k))));
+  }
+  return labels;
 }
 
 Ticks compute_ticks(const Frame& f) {
@@ -73,13 +94,9 @@ Ticks compute_ticks(const Frame& f) {
   // Fewer x ticks while their labels would collide (long numbers on a narrow axis).
   for (double target = f.plot_width / kTickSpacing;; target *= 0.7) {
     t.x = linear_ticks(f.x_min, f.x_max, std::max(target, 1.0));
-    t.x_labels.clear();
+    t.x_labels = linear_labels(t.x);
     double widest = 0;
-    const int decimals = t.x.size() > 1 ? decimals_for_step(t.x[1] - t.x[0]) : 0;
-    for (const double v : t.x) {
-      t.x_labels.push_back(linear_label(v, decimals));
-      widest = std::max(widest, text_width(t.x_labels.back(), kTickSize));
-    }
+    for (const std::string& label : t.x_labels) widest = std::max(widest, text_width(label, kTickSize));
     const double spacing = f.plot_width * (t.x.size() > 1 ? (t.x[1] - t.x[0]) / (f.x_max - f.x_min) : 1.0);
     if (widest + 10 <= spacing || target <= 1.0) break;
   }
@@ -100,8 +117,7 @@ Ticks compute_ticks(const Frame& f) {
     }
   } else {
     t.y = linear_ticks(f.y_min, f.y_max, std::max(f.plot_height / kTickSpacing, 1.0));
-    const int decimals = t.y.size() > 1 ? decimals_for_step(t.y[1] - t.y[0]) : 0;
-    for (const double v : t.y) t.y_labels.push_back(linear_label(v, decimals));
+    t.y_labels = linear_labels(t.y);
   }
   return t;
 }

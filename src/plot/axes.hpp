@@ -22,9 +22,9 @@ struct Ticks {
 
 Ticks compute_ticks(const Frame& f);
 
-/// Decimals that tell ticks `step` apart.
-int decimals_for_step(double step);
-std::string linear_label(double v, int decimals);
+/// Labels of evenly spaced ticks (linear_ticks): plain decimals with the decimals that tell them
+/// apart while those stay short, else a mantissa times a shared power of ten.
+std::vector<std::string> linear_labels(const std::vector<double>& ticks);
 
 /// The grid goes behind the data, at the major ticks.
 void write_grid(std::string& out, const Frame& f, const Ticks& t);

@@ -2,13 +2,12 @@
 
 #include <filesystem>
 #include <fmt/format.h>
-#include <fstream>
-#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/input_file.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/plot/svg_plot.hpp"
 
@@ -69,9 +68,7 @@ double seconds_per_unit(const std::string& unit, const std::string& path) {
 
 // Benchmark name (aggregate suffix removed) -> CPU time [s]: medians where the file has them.
 std::map<std::string, double> read_times(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path, 0, "cannot open file for reading");
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string text = read_input_file(path);
   // Google Benchmark writes NaN and inf bare (e.g. the coefficient of variation of a counter that is
   // always 0), which JSON does not allow; no time is ever one of them, so they are read as null.
   static const std::regex non_finite(R"(:\s*-?(NaN|nan|inf|Infinity)\b)");

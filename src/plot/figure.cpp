@@ -404,13 +404,13 @@ void Figure::write_legend(std::string& out, const Frame& f, std::string_view gra
                    px(x), px(bar_y), px(kColorbarWidth), px(bar_height), gradient_id, kTickColor);
     const double span = colorbar_->hi - colorbar_->lo;
     const std::vector<double> values = linear_ticks(colorbar_->lo, colorbar_->hi, 4);
-    const int decimals = values.size() > 1 ? decimals_for_step(values[1] - values[0]) : 0;
+    const std::vector<std::string> labels = linear_labels(values);
     std::string marks;
-    for (const double v : values) {
-      const double tick_x = x + (span > 0 ? (v - colorbar_->lo) / span : 0.5) * kColorbarWidth;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      const double tick_x = x + (span > 0 ? (values[i] - colorbar_->lo) / span : 0.5) * kColorbarWidth;
       marks += fmt::format("M{} {}v{}", px(tick_x), px(bar_y + bar_height), px(kMinorTickLength));
-      out += text_element(tick_x, bar_y + bar_height + kMinorTickLength + 2 + 0.6 * kTickSize,
-                          linear_label(v, decimals), kTickSize, kTextColor, Anchor::kMiddle) +
+      out += text_element(tick_x, bar_y + bar_height + kMinorTickLength + 2 + 0.6 * kTickSize, labels[i],
+                          kTickSize, kTextColor, Anchor::kMiddle) +
              '\n';
     }
     fmt::format_to(o, "<path d=\"{}\" stroke=\"{}\" stroke-width=\"1\"/>\n", marks, kTickColor);

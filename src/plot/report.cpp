@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <new>
 #include <numbers>
 #include <stdexcept>
 #include <string_view>
@@ -14,6 +15,7 @@
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/chi_square.hpp"
+#include "slamkit/core/error.hpp"
 #include "slamkit/plot/svg_plot.hpp"
 
 namespace slamkit {
@@ -122,6 +124,21 @@ void write_pose_error_plot(const std::string& path, const RunResult& run, const 
   write_file_atomically(path, plot::stacked_svg({position, heading}));
 }
 
+/// Runs `draw`, which writes the figure `path`: a failure names the figure, so that an error after a
+/// whole run says what could not be done (a write error names its file already).
+template <class Draw>
+void draw_figure(const std::string& path, Draw&& draw) {
+  try {
+    draw();
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw std::runtime_error(fmt::format("{}: cannot draw the figure: {}", path, e.what()));
+  }
+}
+
 }  // namespace
 
 void write_run_plots(const std::string& dir, const RunResult& run, const GroundTruth& truth,
@@ -147,24 +164,27 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
     lm.covariance = rotation * lm.covariance * rotation.transpose();
     map.estimated_landmarks.push_back(lm);
   }
-  plot::Figure figure = plot::map_figure(map);
-  if (!run.particles.empty()) {
-    // The clouds, thinned to at most ~100 particles per sample time so the map stays readable.
-    std::vector<Vector2> cloud;
-    std::size_t per_time = 0;
-    double t = -1.0;
-    for (const ParticleSample& s : run.particles) {
-      per_time = s.t == t ? per_time + 1 : 0;
-      t = s.t;
-      if (per_time < 100) cloud.push_back(align.apply(Vector2(s.particle.pose.head<2>())));
+  const std::string map_path = (fs::path(dir) / "map.svg").string();
+  draw_figure(map_path, [&] {
+    plot::Figure figure = plot::map_figure(map);
+    if (!run.particles.empty()) {
+      // The clouds, thinned to at most ~100 particles per sample time so the map stays readable.
+      std::vector<Vector2> cloud;
+      std::size_t per_time = 0;
+      double t = -1.0;
+      for (const ParticleSample& s : run.particles) {
+        per_time = s.t == t ? per_time + 1 : 0;
+        t = s.t;
+        if (per_time < 100) cloud.push_back(align.apply(Vector2(s.particle.pose.head<2>())));
+      }
+      plot::MarkerStyle style;
+      style.color = plot::palette::kPurple;
+      style.size = 2.0;
+      style.opacity = 0.35;
+      figure.add_markers(cloud, style, "particles (every second)");
     }
-    plot::MarkerStyle style;
-    style.color = plot::palette::kPurple;
-    style.size = 2.0;
-    style.opacity = 0.35;
-    figure.add_markers(cloud, style, "particles (every second)");
-  }
-  figure.save((fs::path(dir) / "map.svg").string());
+    figure.save(map_path);
+  });
 
   plot::StdPlotData std_plot;
   std_plot.title = "Landmark uncertainty over time: " + title;
@@ -178,7 +198,8 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
     series.std_x.push_back(s.std_x);
     series.std_y.push_back(s.std_y);
   }
-  plot::write_landmark_std_svg((fs::path(dir) / "landmark_std.svg").string(), std_plot);
+  const std::string std_path = (fs::path(dir) / "landmark_std.svg").string();
+  draw_figure(std_path, [&] { plot::write_landmark_std_svg(std_path, std_plot); });
 
   if (metrics.nees_pose && !metrics.nees_pose_series.empty()) {
     plot::NeesPlotData nees;
@@ -190,12 +211,13 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
     nees.nees = metrics.nees_pose_series;
     nees.band_lo = metrics.nees_pose->interval.lo;
     nees.band_hi = metrics.nees_pose->interval.hi;
-    plot::nees_figure(nees).save((fs::path(dir) / "nees.svg").string());
+    const std::string nees_path = (fs::path(dir) / "nees.svg").string();
+    draw_figure(nees_path, [&] { plot::nees_figure(nees).save(nees_path); });
   }
 
   const std::string pose_error_path = (fs::path(dir) / "pose_error.svg").string();
   if (truth.poses_have_heading)
-    write_pose_error_plot(pose_error_path, run, truth, title);
+    draw_figure(pose_error_path, [&] { write_pose_error_plot(pose_error_path, run, truth, title); });
   else
     fs::remove(pose_error_path);
 }

@@ -13,10 +13,12 @@
 #include <random>
 #include <stdexcept>
 #include <unordered_map>
+#include <utility>
 
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/checked_integer.hpp"
+#include "slamkit/core/coordinates.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/text_reader.hpp"
 
@@ -92,6 +94,8 @@ class RoundedRectRoute {
 // and simulated observations).
 constexpr double kMaxExtent = 1e6;
 constexpr int kMaxLandmarks = 10'000'000;
+// A generated world reaches a band's width beyond its extent, and must read back as a world file.
+static_assert(2 * kMaxExtent <= kMaxAbsCoordinate);
 
 void require(bool ok, const char* option, const char* expected, double found) {
   if (!ok)
@@ -255,26 +259,46 @@ std::vector<Vector2> random_route(const RandomWorldOptions& o, std::mt19937_64& 
 }
 
 // Buckets of already placed landmarks, so that the spacing test looks at a handful of neighbours
-// instead of all of them. Hashed cells keep memory proportional to the landmarks, not the area.
+// instead of all of them. Hashed cells keep memory proportional to the landmarks, not the area; each
+// cell is a list threaded through the landmarks (its first in the map, the rest by `next_`).
 class SpacingGrid {
  public:
   explicit SpacingGrid(double cell) : cell_(cell) {}
 
   // Valid for any spacing up to the cell size: closer points are then always in adjacent cells.
-  bool has_neighbour_within(const Vector2& p, double spacing, const std::vector<Landmark>& placed) const {
+  // Counts the distances it tests in `comparisons`.
+  bool has_neighbour_within(const Vector2& p, double spacing, const std::vector<Landmark>& placed,
+                            std::uint64_t& comparisons) const {
     const std::int64_t cx = cell_of(p.x()), cy = cell_of(p.y());
     for (std::int64_t ix = cx - 1; ix <= cx + 1; ++ix) {
       for (std::int64_t iy = cy - 1; iy <= cy + 1; ++iy) {
-        const auto it = cells_.find(key(static_cast<std::int32_t>(ix), static_cast<std::int32_t>(iy)));
-        if (it == cells_.end()) continue;
-        for (const int i : it->second)
-          if ((placed[i].position - p).squaredNorm() < spacing * spacing) return true;
+        const auto it = first_.find(key(static_cast<std::int32_t>(ix), static_cast<std::int32_t>(iy)));
+        if (it == first_.end()) continue;
+        for (int i = it->second; i >= 0; i = next_[static_cast<std::size_t>(i)]) {
+          ++comparisons;
+          if ((placed[static_cast<std::size_t>(i)].position - p).squaredNorm() < spacing * spacing) return true;
+        }
       }
     }
     return false;
   }
 
-  void add(const Vector2& p, int index) { cells_[key(cell_of(p.x()), cell_of(p.y()))].push_back(index); }
+  /// Adds placed landmark `index` (the next one: indices come in order).
+  void add(const Vector2& p, int index) {
+    const auto [it, fresh] = first_.try_emplace(key(cell_of(p.x()), cell_of(p.y())), index);
+    next_.push_back(fresh ? -1 : std::exchange(it->second, index));
+  }
+
+  /// Once the spacing has shrunk to half the cells or less, rebuilds them at the spacing: with cells
+  /// much wider than it, a full band puts ever more landmarks in each cell, and the test, which
+  /// looks at every landmark of nine cells, grows with their number (quadratic generation).
+  void fit(double spacing, const std::vector<Landmark>& placed) {
+    if (spacing > 0.5 * cell_) return;
+    cell_ = spacing;
+    first_.clear();
+    next_.clear();
+    for (std::size_t i = 0; i < placed.size(); ++i) add(placed[i].position, static_cast<int>(i));
+  }
 
  private:
   std::int32_t cell_of(double v) const { return checked_integer<std::int32_t>(std::floor(v / cell_), "a grid cell"); }
@@ -283,8 +307,34 @@ class SpacingGrid {
   }
 
   double cell_;
-  std::unordered_map<std::uint64_t, std::vector<int>> cells_;
+  std::unordered_map<std::uint64_t, int> first_;
+  std::vector<int> next_;
 };
+
+// Random placement of points at least s apart jams when disks of diameter s about them cover 0.547 of
+// the plane (random sequential adsorption; Feder, J. Theor. Biol. 87, 1980). Near that, most samples
+// are rejected; at kEasyCover, a sample still finds room often.
+constexpr double kJammedCover = 0.547;
+constexpr double kEasyCover = 0.40;
+
+/// The spacing at which `count` disks cover `cover` of `area`.
+double spacing_for(double cover, double area, int count) {
+  return std::sqrt(cover * 4.0 * area / (kPi * static_cast<double>(count)));
+}
+
+/// The band's area: its bounding box's, times the share of a lattice of points over the box that
+/// lie in the band (0 for a band thinner than the lattice's pitch).
+double band_area(const RoundedRectRoute& route, const WorldGenOptions& o, const Vector2& lo, const Vector2& hi) {
+  constexpr int kLattice = 256;
+  long inside = 0;
+  for (int i = 0; i < kLattice; ++i)
+    for (int j = 0; j < kLattice; ++j) {
+      const Vector2 p = lo + (hi - lo).cwiseProduct(Vector2(i + 0.5, j + 0.5) / kLattice);
+      const double d = route.distance(p);
+      inside += d >= o.band_inner && d <= o.band_outer;
+    }
+  return (hi - lo).prod() * static_cast<double>(inside) / (kLattice * kLattice);
+}
 
 }  // namespace
 
@@ -344,8 +394,9 @@ World random_world(const RandomWorldOptions& o, std::uint64_t seed) {
   return world;
 }
 
-World generate_world(const WorldGenOptions& o) {
+World generate_world(const WorldGenOptions& o, WorldGenReport* report) {
   validate(o);
+  WorldGenReport done;
   const RoundedRectRoute route(o.width, o.height);
   World world;
 
@@ -363,8 +414,16 @@ World generate_world(const WorldGenOptions& o) {
   // a band with room left essentially never produces such a run.
   constexpr int kPatience = 1000;
   std::mt19937_64 rng(o.seed);
-  SpacingGrid grid(o.min_spacing);
+  // A band that cannot hold the landmarks at min_spacing would be filled until it jams at one
+  // spacing after another, each 10% below the last: for a million landmarks in the default band,
+  // twenty-odd times over. Starting at a spacing it holds them at with ease fills it once.
   double spacing = o.min_spacing;
+  if (spacing_for(kJammedCover, (x1 - x0) * (y1 - y0), o.landmarks) < o.min_spacing) {  // even the box is too small
+    const double area = band_area(route, o, Vector2(x0, y0), Vector2(x1, y1));
+    if (area > 0.0 && spacing_for(kJammedCover, area, o.landmarks) < o.min_spacing)
+      spacing = spacing_for(kEasyCover, area, o.landmarks);
+  }
+  SpacingGrid grid(spacing);
   int rejected_in_a_row = 0;
   // A band that covers a fraction f of the box takes 1/f samples per landmark; past this many in a
   // row outside it (f below about 1e-6) it is too thin to fill in any reasonable time.
@@ -376,6 +435,7 @@ World generate_world(const WorldGenOptions& o) {
     // differ, and the worlds with them); y first, the order gcc gave the existing worlds.
     const double uy = uniform01(rng);
     const double ux = uniform01(rng);
+    ++done.candidates;
     const Vector2 p(x0 + (x1 - x0) * ux, y0 + (y1 - y0) * uy);
     const double d = route.distance(p);
     if (d < o.band_inner || d > o.band_outer) {
@@ -387,9 +447,10 @@ World generate_world(const WorldGenOptions& o) {
       continue;
     }
     outside_band_in_a_row = 0;
-    if (grid.has_neighbour_within(p, spacing, world.landmarks)) {
+    if (grid.has_neighbour_within(p, spacing, world.landmarks, done.comparisons)) {
       if (++rejected_in_a_row == kPatience) {
         spacing *= 0.9;
+        grid.fit(spacing, world.landmarks);
         rejected_in_a_row = 0;
       }
       continue;
@@ -399,15 +460,9 @@ World generate_world(const WorldGenOptions& o) {
     grid.add(p, id);
     world.landmarks.push_back(Landmark{id, p, Matrix2::Zero()});
   }
+  done.spacing = spacing;
+  if (report != nullptr) *report = done;
   return world;
-}
-
-// A coordinate of a world file, in metres: finite and inside the largest world (see kMaxExtent),
-// with room for the band around a route.
-double coordinate(const TextReader& in, std::size_t field, const char* what) {
-  const double v = in.number(field, what);
-  if (std::abs(v) > 2.0 * kMaxExtent) in.fail(fmt::format("expected {} within +-2e6 m, found {}", what, v));
-  return v;
 }
 
 World read_world(const std::string& path) {
@@ -424,11 +479,11 @@ World read_world(const std::string& path) {
         in.fail(fmt::format("expected a landmark id from 0 to {}, found {}", INT_MAX, id));
       if (const auto [it, fresh] = line_of_id.emplace(id, in.line_number()); !fresh)
         in.fail(fmt::format("duplicate landmark id {} (first defined on line {})", id, it->second));
-      const Vector2 p(coordinate(in, 2, "landmark x"), coordinate(in, 3, "landmark y"));
+      const Vector2 p(in.coordinate(2, "landmark x"), in.coordinate(3, "landmark y"));
       world.landmarks.push_back(Landmark{static_cast<int>(id), p, Matrix2::Zero()});
     } else if (keyword == "waypoint") {
       in.expect_fields(3, "waypoint <x> <y>");
-      const Vector2 p(coordinate(in, 1, "waypoint x"), coordinate(in, 2, "waypoint y"));
+      const Vector2 p(in.coordinate(1, "waypoint x"), in.coordinate(2, "waypoint y"));
       if (!world.waypoints.empty() && p == world.waypoints.back())
         in.fail("waypoint repeats the previous one; expected a distinct point");
       world.waypoints.push_back(p);
@@ -446,7 +501,7 @@ World read_world(const std::string& path) {
       if (start_line != 0)
         in.fail(fmt::format("duplicate start line (first on line {}); expected at most one", start_line));
       start_line = in.line_number();
-      world.start = Pose2(coordinate(in, 1, "start x"), coordinate(in, 2, "start y"),
+      world.start = Pose2(in.coordinate(1, "start x"), in.coordinate(2, "start y"),
                           wrap_angle(deg2rad(in.number(3, "start heading in degrees"))));
     } else if (keyword == "family") {
       in.expect_fields(3, "family <name> <world seed>");

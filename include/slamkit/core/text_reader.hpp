@@ -3,20 +3,27 @@
 // gzip-compressed (zlib reads a file without a gzip header as it is). Every parse failure becomes an
 // InputError naming the file, the line and what was expected; numbers must be finite (a NaN or inf
 // in a log is an error, not a value); a truncated .gz is an error at the line where the data stop.
+// Only regular files are opened (core/input_file.hpp), and a line longer than kMaxLineBytes is an
+// error at that line, found before more than twice the cap is held in memory.
 #include <cstddef>
 #include <string>
 #include <string_view>
 #include <vector>
 
+#include "slamkit/core/coordinates.hpp"
 #include "slamkit/core/error.hpp"
 
 struct gzFile_s;  // zlib's file handle, kept out of the header
 
 namespace slamkit {
 
+/// The longest line any reader accepts: hundreds of times the longest real one (a Victoria Park
+/// laser scan, 361 ranges, is about 2 kB), so only a file of the wrong kind reaches it.
+inline constexpr std::size_t kMaxLineBytes = std::size_t{1} << 20;
+
 class TextReader {
  public:
-  /// Opens `path`; throws InputError if it cannot be read.
+  /// Opens `path`; throws InputError if it cannot be read or is not a regular file.
   explicit TextReader(std::string path);
   ~TextReader();
   TextReader(const TextReader&) = delete;
@@ -36,6 +43,8 @@ class TextReader {
   void expect_fields(std::size_t n, std::string_view what) const { expect_fields(n, n, what); }
 
   double number(std::size_t i, std::string_view what) const;
+  /// A number within +-kMaxAbsCoordinate (core/coordinates.hpp): a position in metres.
+  double coordinate(std::size_t i, std::string_view what) const;
   long integer(std::size_t i, std::string_view what) const;
 
   /// An InputError at the current line.

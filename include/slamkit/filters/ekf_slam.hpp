@@ -94,6 +94,9 @@ class EkfSlam final : public SlamFilter {
   std::vector<Landmark> landmarks() const override;
   const std::vector<AssociationRecord>& last_associations() const override { return last_associations_; }
   std::map<std::string, double> statistics() const override;
+  /// About the bytes of the joint covariance once the map has `landmarks` landmarks, which dwarfs
+  /// the rest of the filter's state.
+  static double memory_estimate(std::size_t landmarks);
 
   /// The joint Gaussian, indexed by map index (landmarks in the order they were added, less the
   /// removed ones).

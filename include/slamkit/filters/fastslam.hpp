@@ -175,6 +175,10 @@ class FastSlam final : public SlamFilter {
   /// in chunks of thousands of poses, and by doubling.
   void reserve(std::size_t steps, std::size_t landmarks);
 
+  /// About the bytes `particles` particles hold once their maps have `landmarks` landmarks: each
+  /// particle's state and scratch, and the part of its map it shares with no other particle.
+  static double memory_estimate(std::size_t particles, std::size_t landmarks);
+
   const FastSlamConfig& config() const;
   /// Threads the per-particle work runs on, the calling thread included.
   unsigned threads() const;

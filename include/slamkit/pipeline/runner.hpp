@@ -57,7 +57,8 @@ struct RunOptions {
 /// running, for an event stream check_events refuses.
 RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOptions& options = {});
 
-/// Throws InputError naming the dataset and the first event no filter can be fed: a time that is not
+/// Throws InputError naming the dataset for an initial pose beyond kMaxAbsCoordinate (core/coordinates.hpp)
+/// or with a heading that is not finite, and the first event no filter can be fed: a time that is not
 /// finite, beyond kMaxAbsTime or earlier than the event before; a control interval dt that is
 /// negative or not finite; a control of the wrong size for the motion model; or a control or
 /// observation component that is not finite or beyond kMaxAbsValue. The readers check their files

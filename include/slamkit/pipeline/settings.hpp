@@ -8,7 +8,8 @@
 //   3. an association settings file (`slamkit run --assoc-config`), run.json's settings.association;
 //   4. the explicit settings (the command line's flags).
 // The result is validated once, whole. run.json records it with the recommended settings that took
-// effect, so `--config run.json` repeats a run without consulting any source again.
+// effect, so `--config run.json` repeats a run without consulting any source again
+// (run_settings_from_json; run.json is a file a user may edit, so every key it reads is checked).
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -41,5 +42,25 @@ struct LayeredSettings {
 /// only the chosen one's. Settings that no filter runs with together throw std::invalid_argument from
 /// validate(FilterConfig).
 LayeredSettings layer_settings(const SettingsSources& sources);
+
+/// What `slamkit run --config RUN.json` repeats of an earlier run.
+struct RunSettings {
+  FilterConfig filter;
+  std::string dataset;           // the "kind:PATH" spec
+  std::string dataset_settings;  // the settings file the run named; empty for the reader's defaults
+  /// The settings themselves (null for the defaults): those run.json recorded, or where it recorded
+  /// none (an older run.json), the named file's.
+  nlohmann::json dataset_settings_contents;
+  /// How errors in the settings name them: run.json and its key, or the file they came from.
+  std::string dataset_settings_source;
+  /// The recommended settings the run applied, recorded again as they were (null for none).
+  nlohmann::json recommended_settings;
+};
+
+/// Reads a run.json's contents; `source` names it. 'settings' (the keys filter_config_from_json
+/// reads) and 'dataset' (a string) are required; 'dataset_settings' is a string,
+/// 'dataset_settings_contents' and 'recommended_settings' an object or null where present; other
+/// keys are left alone. Anything else is an InputError naming `source` and the key.
+RunSettings run_settings_from_json(const nlohmann::json& run_json, const std::string& source);
 
 }  // namespace slamkit

@@ -14,7 +14,7 @@
 // Lines may be interleaved; only the order of the waypoint lines matters. A closed route ends where
 // it began: after the last waypoint the vehicle heads back to the first. An open route ends at its
 // last waypoint. At least two waypoints are required, and no waypoint may repeat the one before it.
-// Every number must be finite.
+// Every number must be finite, and every coordinate within +-kMaxAbsCoordinate (2e6 m).
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -53,7 +53,8 @@ struct WorldGenOptions {
   double waypoint_spacing = 10.0;  // m, along the route (adjusted so the loop divides evenly)
   std::uint64_t seed = 20240521;
   /// No two landmarks closer than this [m]. When the band cannot hold `landmarks` at this spacing,
-  /// the spacing is reduced step by step until they fit.
+  /// generation starts at the spacing at which random placement fits them with ease (0.86 of the
+  /// spacing at which it jams), and reduces it further, step by step, if they still do not fit.
   double min_spacing = 3.0;
 };
 
@@ -74,8 +75,16 @@ World loop_closure_world();
 /// metres between sightings and the return to the start is a real loop closure.
 World sparse_world();
 
+/// What generate_world did, for a caller that reports it, and its work, which grows in proportion
+/// to the landmarks.
+struct WorldGenReport {
+  double spacing = 0.0;           // m, the distance every two landmarks keep at least
+  std::uint64_t candidates = 0;   // points drawn in the band's bounding box
+  std::uint64_t comparisons = 0;  // distances from a candidate to a placed landmark tested
+};
+
 /// Throws InputError when an option is out of range (non-positive size, empty band, ...).
-World generate_world(const WorldGenOptions& options);
+World generate_world(const WorldGenOptions& options, WorldGenReport* report = nullptr);
 
 /// A random world after the sparse world's pattern, for families of worlds (simulator.hpp). The
 /// route is a closed polygon of min_corners to max_corners straight legs round a centre, driven

@@ -1,0 +1,79 @@
+#include "slamkit/pipeline/run_memory.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_set>
+#include <variant>
+
+#include "slamkit/core/memory_budget.hpp"
+#include "slamkit/core/run_result.hpp"
+#include "slamkit/filters/ekf_slam.hpp"
+#include "slamkit/filters/fastslam.hpp"
+
+namespace slamkit {
+namespace {
+
+bool particle_filter(FilterKind kind) { return kind == FilterKind::kFastSlam1 || kind == FilterKind::kFastSlam2; }
+
+std::size_t expected_landmarks(const Dataset& dataset) {
+  std::unordered_set<int> ids;
+  for (const Event& event : dataset.events)
+    if (const auto* scan = std::get_if<ScanEvent>(&event))
+      for (const Observation& o : scan->observations)
+        if (o.id != kUnknownId) ids.insert(o.id);
+  return ids.empty() ? dataset.truth.landmarks.size() : ids.size();
+}
+
+constexpr double kGiB = 0x1p30;
+
+}  // namespace
+
+RunMemoryEstimate estimate_run_memory(const FilterConfig& config, const Dataset& dataset, const RunOptions& options) {
+  RunMemoryEstimate estimate;
+  estimate.landmarks = expected_landmarks(dataset);
+  const bool particles = particle_filter(config.filter);
+  estimate.filter_bytes = particles
+                              ? FastSlam::memory_estimate(static_cast<std::size_t>(config.particles), estimate.landmarks)
+                              : EkfSlam::memory_estimate(estimate.landmarks);
+  if (options.history == History::kNone) return estimate;
+
+  double scans = 0.0, observations = 0.0;
+  for (const Event& event : dataset.events)
+    if (const auto* scan = std::get_if<ScanEvent>(&event)) {
+      scans += 1.0;
+      observations += static_cast<double>(scan->observations.size());
+    }
+  const auto time_of = [](const Event& e) { return std::visit([](const auto& ev) { return ev.t; }, e); };
+  const double duration = dataset.events.empty() ? 0.0 : time_of(dataset.events.back()) - time_of(dataset.events.front());
+  // Landmark and particle samples are taken at most once per std_interval_s, at scans.
+  double samples = options.std_interval_s > 0.0 ? std::min(scans, std::floor(duration / options.std_interval_s) + 1.0)
+                                                : scans;
+  double steps = static_cast<double>(dataset.events.size()) + 1.0;
+  if (options.history == History::kDecimated) {
+    const auto cap = static_cast<double>(options.decimated_samples);
+    samples = std::min(samples, cap);
+    steps = std::min(steps, cap);
+  } else {
+    estimate.history_bytes += observations * sizeof(AssociationRecord);
+  }
+  estimate.history_bytes += steps * (sizeof(StampedPose) + sizeof(Matrix3));
+  estimate.history_bytes += samples * static_cast<double>(estimate.landmarks) * sizeof(LandmarkStdSample);
+  if (particles) estimate.history_bytes += samples * config.particles * sizeof(ParticleSample);
+  return estimate;
+}
+
+void require_run_memory(const FilterConfig& config, const Dataset& dataset, const RunOptions& options) {
+  const RunMemoryEstimate estimate = estimate_run_memory(config, dataset, options);
+  const std::string filter =
+      particle_filter(config.filter)
+          ? fmt::format("{} with {} particles (--particles) and maps of about {} landmarks ({:.3g} GiB)",
+                        to_string(config.filter), config.particles, estimate.landmarks, estimate.filter_bytes / kGiB)
+          : fmt::format("{} with a map of about {} landmarks ({:.3g} GiB for its covariance)", to_string(config.filter),
+                        estimate.landmarks, estimate.filter_bytes / kGiB);
+  require_memory(estimate.total_bytes(), fmt::format("{} and the history --history {} keeps ({:.3g} GiB)", filter,
+                                                     to_string(options.history), estimate.history_bytes / kGiB));
+}
+
+}  // namespace slamkit
