@@ -765,7 +765,7 @@ int run_command(int argc, char** argv) {
       run.dataset = dataset_spec;
       run.dataset_settings = settings_path;
       run.provenance = std::move(provenance);
-      const Metrics metrics = write_run_folder(out.path(), run, dataset, recorder ? &*recorder : nullptr);
+      const Metrics metrics = write_run_folder_files(out.path(), run, dataset, recorder ? &*recorder : nullptr);
       out.commit();
       stage("written and evaluated");
       print_outputs(run_out, metrics, verbosity);

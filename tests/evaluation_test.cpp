@@ -217,7 +217,7 @@ TEST(EvaluateRun, TheHeadlineSaysWhoseNeesAParticleFilterReports) {
   m.nees_pose = eval::summarize_nees({1.0, 50.0}, 3);
   EXPECT_EQ(headline(m).find("particle cloud"), std::string::npos);
   EXPECT_FALSE(to_json(m).contains("nees_pose_note"));
-  m.filter_statistics["particles"] = 100;
+  m.filter = "fastslam2";
   EXPECT_NE(headline(m).find("pose NEES in 95% bounds 50% of steps (of the particle cloud, which resampling "
                              "collapses; judge accuracy by the ATE)"),
             std::string::npos)

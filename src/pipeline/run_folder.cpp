@@ -47,8 +47,8 @@ nlohmann::json replay_recording(const ReplayRecorder& recorder, const RunResult&
   return recorder.to_json(run.filter, Pose2(a.translation.x(), a.translation.y(), a.theta));
 }
 
-Metrics write_run_folder(const std::string& dir, const RunResult& run, const Dataset& dataset,
-                         const ReplayRecorder* replay) {
+Metrics write_run_folder_files(const std::string& dir, const RunResult& run, const Dataset& dataset,
+                               const ReplayRecorder* replay) {
   write_run_files(dir, run);
   const Metrics metrics = write_evaluation(dir, run, dataset);
   if (replay != nullptr) {
@@ -56,6 +56,14 @@ Metrics write_run_folder(const std::string& dir, const RunResult& run, const Dat
     write_file_atomically((fs::path(dir) / "replay.json").string(), recording.dump() + "\n");
     plot::write_replay_html((fs::path(dir) / "replay.html").string(), recording);
   }
+  return metrics;
+}
+
+Metrics write_run_folder(const std::string& dir, const RunResult& run, const Dataset& dataset,
+                         const ReplayRecorder* replay) {
+  AtomicFolder folder = stage_run_folder(dir);
+  const Metrics metrics = write_run_folder_files(folder.path(), run, dataset, replay);
+  folder.commit();
   return metrics;
 }
 

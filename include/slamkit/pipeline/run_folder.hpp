@@ -31,10 +31,16 @@ Metrics write_evaluation(const std::string& dir, const RunResult& run, const Dat
 nlohmann::json replay_recording(const ReplayRecorder& recorder, const RunResult& run, const Dataset& dataset,
                                 const Metrics& metrics);
 
-/// Writes every file of the folder into `dir`, a staged folder (stage_run_folder) that the caller
-/// commits: write_run_files(), write_evaluation() and, with a `replay` that recorded the run,
-/// replay.json and replay.html. Returns the evaluation. Throws InputError if a file cannot be
-/// written.
+/// Writes every file of a run folder into `dir`, a staged folder (io/run_io.hpp, stage_run_folder)
+/// that the caller commits: write_run_files(), write_evaluation() and, with a `replay` that
+/// recorded the run, replay.json and replay.html. Returns the evaluation. Throws InputError if a
+/// file cannot be written. The command line stages its folder before it reads the data, so that a
+/// second writer of the folder is refused at once.
+Metrics write_run_folder_files(const std::string& dir, const RunResult& run, const Dataset& dataset,
+                               const ReplayRecorder* replay = nullptr);
+
+/// Replaces the run folder `dir` as a whole by the run's (stage_run_folder, write_run_folder_files,
+/// commit): the previous one stays until every file of the new one is written.
 Metrics write_run_folder(const std::string& dir, const RunResult& run, const Dataset& dataset,
                          const ReplayRecorder* replay = nullptr);
 
