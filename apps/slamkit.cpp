@@ -164,11 +164,26 @@ bool has_landmark_ids(const Dataset& dataset) {
   return false;
 }
 
+/// A warning when the known-identity gate rejected most observations over part of the run
+/// (assoc/gate_tally.hpp): a filter that lost itself, whose figures from then on are odometry's.
+void warn_if_lost(const Metrics& metrics) {
+  const auto& stats = metrics.filter_statistics;
+  const auto lost_at = stats.find("known_id_lost_at_s");
+  if (lost_at == stats.end()) return;
+  std::cerr << fmt::format(
+      "slamkit: warning: the filter lost itself: the known-identity gate rejected most observations in {:.0f} tenth(s) "
+      "of the run, the first from t = {:.1f} s ({:.0f}% of all {:.0f} judged); its estimate strayed further than its "
+      "covariance allows and it ran on odometry (known_id_* in metrics.json)\n",
+      stats.at("known_id_lost_tenths"), lost_at->second, 100.0 * stats.at("known_id_rejected_fraction"),
+      stats.at("known_id_judged"));
+}
+
 /// Evaluates a run against its dataset's truth, writes metrics.json and the pictures.
 Metrics evaluate_and_report(const std::string& dir, const RunResult& run, const Dataset& dataset) {
   const Metrics metrics = evaluate_run(run, dataset.truth);
   write_metrics(dir, metrics);
   write_run_plots(dir, run, dataset.truth, metrics);
+  warn_if_lost(metrics);
   return metrics;
 }
 

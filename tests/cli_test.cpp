@@ -319,6 +319,37 @@ TEST_F(Cli, DatasetSettingsFileIsUsedAndChecked) {
   EXPECT_NE(b.err.find("unknown key 'bogus'"), std::string::npos) << b.err;
 }
 
+// The shipped course with every noise a hundredth of the shipped one: the filter believes itself far
+// more precise than it is, its known-identity gate rejects nearly every observation, and the run says
+// that it lost itself (and why) instead of reporting odometry as SLAM.
+TEST_F(Cli, ARunWhoseGateRejectsMostIdentifiedObservationsWarns) {
+  const fs::path course = fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course";
+  std::ifstream shipped(fs::path(SLAMKIT_SOURCE_DIR) / "config" / "course.json");
+  nlohmann::json settings = nlohmann::json::parse(shipped);
+  for (auto& [key, value] : settings.items())
+    if (key.starts_with("sigma_") || key.starts_with("alpha_")) value = value.get<double>() / 100.0;
+  const fs::path tight = *work_ / "course-overconfident.json";
+  std::ofstream(tight) << settings.dump();
+  const fs::path out = *work_ / "course-lost";
+  const Result lost = slamkit("run --data course:" + course.string() + " --data-config " + tight.string() +
+                                  " --out " + out.string() + " --quiet",
+                              *work_);
+  ASSERT_EQ(lost.exit_code, 0) << lost.err;
+  EXPECT_EQ(count_lines(lost.err), 1u) << lost.err;
+  EXPECT_NE(lost.err.find("warning: the filter lost itself"), std::string::npos) << lost.err;
+  std::ifstream in(out / "metrics.json");
+  const nlohmann::json metrics = nlohmann::json::parse(in);
+  EXPECT_GT(metrics["known_id_rejected_fraction"].get<double>(), 0.5);
+  EXPECT_TRUE(metrics.contains("known_id_lost_at_s"));
+  EXPECT_TRUE(metrics.contains("known_id_rejected_fraction_tenth_10"));
+
+  const Result fine = slamkit("run --data course:" + course.string() + " --out " + (*work_ / "course-fine").string() +
+                                  " --quiet",
+                              *work_);
+  ASSERT_EQ(fine.exit_code, 0) << fine.err;
+  EXPECT_EQ(fine.err, "");
+}
+
 TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
   // The dataset does not exist: an error about the settings shows they were checked first.
   const std::string rest = " --data sim:/nonexistent/log --out " + (*work_ / "never").string();

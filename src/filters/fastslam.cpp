@@ -337,6 +337,13 @@ void FastSlam::update(const ScanEvent& scan) {
   if (!s.known()) {
     s.assign_new_ids(n_obs, scan_index);
     s.index_grid_entries();
+  } else if (s.gate_known) {
+    std::size_t judged = 0, rejected = 0;
+    for (const Impl::Slot& slot : s.slots) {
+      judged += slot.gate_judged;
+      rejected += slot.gate_rejected;
+    }
+    s.gate_tally.add_scan(scan.t, judged, rejected);
   }
   s.reweight_and_resample();
   if (!s.known() && ++s.scans_since_prune >= kGridPruneScans) s.prune_grid();
@@ -408,13 +415,16 @@ std::map<std::string, double> FastSlam::statistics() const {
   });
   std::size_t searches = 0;
   for (const Impl::Slot& slot : s.slots) searches += slot.relocalisation_searches;
-  return {{"particles", n},
-          {"landmarks_provisional", static_cast<double>(provisional)},
-          {"ess_mean", s.scans > 0 ? s.ess_sum / static_cast<double>(s.scans) : n},
-          {"resamples", static_cast<double>(s.resamples)},
-          {"weight_collapses", static_cast<double>(s.collapses)},
-          {"relocalisations", static_cast<double>(s.relocalisations)},
-          {"relocalisation_searches", static_cast<double>(searches)}};
+  std::map<std::string, double> out = {{"particles", n},
+                                       {"landmarks_provisional", static_cast<double>(provisional)},
+                                       {"ess_mean", s.scans > 0 ? s.ess_sum / static_cast<double>(s.scans) : n},
+                                       {"resamples", static_cast<double>(s.resamples)},
+                                       {"weight_collapses", static_cast<double>(s.collapses)},
+                                       {"relocalisations", static_cast<double>(s.relocalisations)},
+                                       {"relocalisation_searches", static_cast<double>(searches)}};
+  // Summed over the particles: each judges its own landmarks.
+  if (s.known() && s.gate_known) s.gate_tally.add_statistics(out);
+  return out;
 }
 
 void FastSlam::set_initial_map(const std::vector<Landmark>& map) {
