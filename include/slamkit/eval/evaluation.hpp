@@ -4,6 +4,9 @@
 //   ate_rmse_m              RMSE of position over the time-matched truth samples, after the SE(2)
 //                           least-squares alignment of the per-step (filtered) estimates onto the
 //                           truth; smoothed_ate_rmse_m the same for a smoothed trajectory
+//   unaligned_position_rmse_m  the same RMSE without the alignment, where the truth has headings:
+//                           its frame is the map's (the start pose is known in it), as for NEES. An
+//                           EKF that turned its whole map about the start keeps that error here
 //   final_position_error_m  position error of the last matched sample, same alignment
 //   map_rmse_m              RMSE of landmark position over landmarks paired with the truth, after
 //                           the trajectory's alignment. Each landmark is paired by its origin (below)
@@ -59,6 +62,7 @@ struct Metrics {
 
   std::size_t matched_poses = 0;
   std::optional<double> ate_rmse_m, final_position_error_m;  // of the per-step (filtered) estimates
+  std::optional<double> unaligned_position_rmse_m;
   bool smoothed = false;                                       // the run's trajectory is smoothed
   std::optional<double> smoothed_ate_rmse_m;
   std::optional<double> dead_reckoning_ate_rmse_m, dead_reckoning_final_position_error_m;
