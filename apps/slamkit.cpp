@@ -18,6 +18,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "slamkit/calib/calibration.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
@@ -25,6 +26,7 @@
 #include "slamkit/eval/evaluation.hpp"
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/io/load_dataset.hpp"
+#include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/io/sim_log.hpp"
 #include "slamkit/io/trajectory_io.hpp"
@@ -185,6 +187,28 @@ Metrics evaluate_and_report(const std::string& dir, const RunResult& run, const 
   write_run_plots(dir, run, dataset.truth, metrics);
   warn_if_lost(metrics);
   return metrics;
+}
+
+/// The calibration as a few lines and its evidence as two tables.
+std::string calibration_summary(const Calibration& c, double total_delay) {
+  std::string out = fmt::format(
+      "command delay {:.2f} s ({:+.2f} s on the logs' settings)\n"
+      "motion: q_v {:.3g} m^2/s, q_omega {:.3g} rad^2/s over {} stretches between scans\n"
+      "measurement: sigma_range {:.3f} m, sigma_bearing {:.2f} deg over {} passes of {} observations "
+      "(per observation {:.3f} m, {:.2f} deg; {} gross outliers left out)\n",
+      total_delay, c.command_delay_s, c.motion.q_v, c.motion.q_omega, c.motion_windows, c.measurement.sigma_range,
+      rad2deg(c.measurement.sigma_bearing), c.passes, c.observations, c.rms_range_m, rad2deg(c.rms_bearing_rad),
+      c.gross_outliers);
+  out += "horizon [s]  windows  q_v [m^2/s]  q_omega [rad^2/s]  speed bias [m/s]  turn bias [rad/s]\n";
+  for (const MotionErrorAtHorizon& r : c.motion_by_horizon)
+    out += fmt::format("{:11.2f}  {:7}  {:11.3g}  {:17.3g}  {:16.4f}  {:17.5f}\n", r.horizon_s, r.windows, r.q_v,
+                       r.q_omega, r.speed_bias_mps, r.turn_rate_bias_radps);
+  out += "range [m]  observations  rms range [m]  rms bearing [deg]  mean range [m]  mean bearing [deg]\n";
+  for (const MeasurementErrorAtRange& r : c.measurement_by_range)
+    out += fmt::format("{:4.0f}-{:<4.0f}  {:12}  {:13.3f}  {:17.2f}  {:14.3f}  {:18.2f}\n", r.range_from_m, r.range_to_m,
+                       r.observations, r.rms_range_m, rad2deg(r.rms_bearing_rad), r.mean_range_m,
+                       rad2deg(r.mean_bearing_rad));
+  return out;
 }
 
 }  // namespace
@@ -374,6 +398,23 @@ int main(int argc, char** argv) {
   auto* eval_cmd = app.add_subcommand("evaluate", "Recompute metrics.json and the plots of a run folder");
   std::string eval_dir;
   eval_cmd->add_option("dir", eval_dir, "Run folder written by 'slamkit run'")->required()->check(CLI::ExistingDirectory);
+
+  // ---- calibrate ----
+  auto* calibrate_cmd = app.add_subcommand(
+      "calibrate", "Measure a robot's command delay, motion noise and measurement noise against ground truth and write "
+                   "the dataset settings (MRCLAM logs: commanded velocities, range-bearing to identified landmarks)");
+  std::vector<std::string> calibrate_specs;
+  std::string calibrate_config, calibrate_out, calibrate_report;
+  calibrate_cmd->add_option("--data", calibrate_specs, "Logs to calibrate on, each mrclam:DIR:robotN (repeat for several)")
+      ->required();
+  calibrate_cmd
+      ->add_option("--data-config", calibrate_config,
+                   "Settings the logs are read with (default: config/mrclam.json's); the written file keeps its other keys")
+      ->check(CLI::ExistingFile);
+  calibrate_cmd->add_option("--out", calibrate_out, "Dataset settings file to write (JSON, for run --data-config)")
+      ->required();
+  calibrate_cmd->add_option("--report", calibrate_report,
+                            "Also write the evidence (errors by horizon and by range, outliers) as JSON");
 
   // ---- plot-bench ----
   auto* nees_cmd = app.add_subcommand(
@@ -592,6 +633,29 @@ int main(int argc, char** argv) {
         fmt::print("replay: {}\n", (fs::path(run_out) / "replay.html").string());
       if (run.diverged_at_s) return kExitDiverged;
       if (run.partial) return kExitInterrupted;
+    } else if (*calibrate_cmd) {
+      for (const std::string& spec : calibrate_specs)
+        if (!spec.starts_with("mrclam:")) {
+          std::cerr << "slamkit: error: calibrate writes MRCLAM settings; expected --data mrclam:DIR:robotN, found '"
+                    << spec << "' (see 'slamkit calibrate --help')\n";
+          return kExitUsage;
+        }
+      const nlohmann::json contents = dataset_settings_json(calibrate_config);
+      MrclamOptions settings =
+          calibrate_config.empty() ? MrclamOptions{} : mrclam_options_from_json(contents, calibrate_config);
+      std::vector<Dataset> logs;
+      for (const std::string& spec : calibrate_specs)
+        logs.push_back(load_dataset(absolute_dataset_spec(spec), contents, calibrate_config));
+      CalibrationOptions options;
+      options.min_command_delay_s = -settings.command_delay;  // a robot cannot act before it logs
+      const Calibration c = calibrate(logs, options);
+      settings.command_delay += c.command_delay_s;
+      settings.motion = c.motion;
+      settings.measurement = c.measurement;
+      write_file_atomically(calibrate_out, to_json(settings).dump(2) + "\n");
+      if (!calibrate_report.empty()) write_file_atomically(calibrate_report, to_json(c).dump(2) + "\n");
+      fmt::print("{}", calibration_summary(c, settings.command_delay));
+      fmt::print("wrote {}\n", calibrate_out);
     } else if (*nees_cmd) {
       std::vector<Metrics> runs;
       for (const std::string& dir : nees_dirs) {

@@ -35,6 +35,10 @@ constexpr int kRobots = 5;
 using namespace option_ranges;
 using Real = RealOption<MrclamOptions>;
 
+// A robot that takes seconds to act on a command is not following its log; the bound also keeps the
+// shifted times far inside the range the time checks allow.
+constexpr RealRange kCommandDelay{[](double v) { return v >= 0.0 && v <= 10.0; }, ">= 0 and <= 10 (s)"};
+
 const OptionKey<MrclamOptions> kOptionKeys[] = {
     {"q_v_m2_per_s", Real{[](MrclamOptions& o) -> double& { return o.motion.q_v; }, kNonNegative}},
     {"q_omega_rad2_per_s", Real{[](MrclamOptions& o) -> double& { return o.motion.q_omega; }, kNonNegative}},
@@ -46,6 +50,7 @@ const OptionKey<MrclamOptions> kOptionKeys[] = {
     {"max_range_m", Real{[](MrclamOptions& o) -> double& { return o.sensor.max_range; }, kPositive}},
     {"fov_deg", Real{[](MrclamOptions& o) -> double& { return o.sensor.fov; }, kFieldOfView, Unit::kDegrees}},
     {"scan_window_s", Real{[](MrclamOptions& o) -> double& { return o.scan_window; }, kNonNegative}},
+    {"command_delay_s", Real{[](MrclamOptions& o) -> double& { return o.command_delay; }, kCommandDelay}},
 };
 
 void validate(const MrclamOptions& options, const std::string& source) {
@@ -171,8 +176,9 @@ struct Command {
   Control u;
 };
 
-// The odometry rows, the first of which sets the time origin.
-std::vector<Command> read_odometry(const fs::path& file, UnixTime& origin, MrclamStats& stats) {
+// The odometry rows, the first of which sets the time origin; each command takes effect `delay` after
+// its row.
+std::vector<Command> read_odometry(const fs::path& file, double delay, UnixTime& origin, MrclamStats& stats) {
   TextReader in(file.string());
   std::vector<Command> rows;
   TimeOrder order;
@@ -184,7 +190,7 @@ std::vector<Command> read_odometry(const fs::path& file, UnixTime& origin, Mrcla
     const double v = in.number(1, "v"), omega = in.number(2, "omega");
     Control u(2);
     u << v, omega;
-    rows.push_back(Command{order.check(in, time.minus(origin)), u});
+    rows.push_back(Command{order.check(in, time.minus(origin)) + delay, u});
   }
   stats.odometry_rows = rows.size();
   if (rows.size() < 2)
@@ -323,7 +329,10 @@ Dataset read_mrclam(const std::string& dataset_dir, int robot, const MrclamOptio
   const std::string prefix = fmt::format("Robot{}_", robot);
   const auto subject_of = read_barcodes(require_file(dir, "Barcodes.dat"));
   UnixTime origin;
-  const std::vector<Command> commands = read_odometry(require_file(dir, prefix + "Odometry.dat"), origin, stats);
+  std::vector<Command> commands =
+      read_odometry(require_file(dir, prefix + "Odometry.dat"), options.command_delay, origin, stats);
+  // Until the first row takes effect the robot is taken to stand still: nothing says what it did.
+  if (options.command_delay > 0.0) commands.insert(commands.begin(), Command{0.0, Control::Zero(2)});
   stats.time_origin = static_cast<double>(origin.seconds) + origin.fraction;
   const double end = commands.back().t;
   stats.duration = end;
