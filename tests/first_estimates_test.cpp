@@ -28,6 +28,23 @@ Eigen::VectorXd turn_at(const Eigen::VectorXd& points) {
   return n;
 }
 
+// The Kalman update of covariance p with the observation Jacobians at (pose, landmark 1 at m) of a
+// three-state-plus-two-landmark state: H, S and the gain.
+struct Update {
+  Eigen::MatrixXd h, s, gain;
+  Update(const RangeBearingModel& model, const Eigen::MatrixXd& p, const Pose2& pose, const Vector2& m) {
+    Matrix23 hx;
+    Matrix2 hm;
+    model.jacobians(pose, m, hx, hm);
+    h = Eigen::MatrixXd::Zero(2, 7);
+    h.leftCols<3>() = hx;
+    h.block<2, 2>(0, 5) = hm;
+    s = h * p * h.transpose() + model.noise();
+    gain = p * h.transpose() * s.inverse();
+  }
+  Eigen::MatrixXd covariance(const Eigen::MatrixXd& p) const { return p - gain * s * gain.transpose(); }
+};
+
 struct Scene {
   std::shared_ptr<VelocityModel> motion = std::make_shared<VelocityModel>(VelocityModel::Params{.q_v = 1e-3, .q_omega = 1e-2});
   std::shared_ptr<RangeBearingModel> observation =
@@ -80,21 +97,14 @@ TEST(FirstEstimatesEkf, MovesAFirstEstimateTheBeliefRulesOutCarryingTheCovarianc
 
   // The update is then the Kalman update of the carried covariance with the Jacobians at the pose
   // and the new anchor, i.e. at the current estimate.
-  Matrix23 hx;
-  Matrix2 hm;
-  scene.observation->jacobians(x.head<3>(), x.segment<2>(5), hx, hm);
-  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(2, 7);
-  h.leftCols<3>() = hx;
-  h.block<2, 2>(0, 5) = hm;
-  const Eigen::MatrixXd s = h * carried * h.transpose() + scene.observation->noise();
-  const Eigen::MatrixXd gain = carried * h.transpose() * s.inverse();
+  const Update kalman(*scene.observation, carried, x.head<3>(), x.segment<2>(5));
   const Vector2 nu = scene.observation->residual(z, scene.observation->predict(x.head<3>(), x.segment<2>(5)));
-  Eigen::VectorXd expected_x = x + gain * nu;
+  Eigen::VectorXd expected_x = x + kalman.gain * nu;
   expected_x[2] = wrap_angle(expected_x[2]);
   EXPECT_LT((fej.state() - expected_x).cwiseAbs().maxCoeff(), 1e-9);
-  EXPECT_LT((fej.covariance() - (carried - gain * s * gain.transpose())).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((fej.covariance() - kalman.covariance(carried)).cwiseAbs().maxCoeff(), 1e-9);
   // The Jacobian at the new anchors leaves the new turn unobserved.
-  EXPECT_LT((h * turn_at(anchors_after)).norm(), 1e-9);
+  EXPECT_LT((kalman.h * turn_at(anchors_after)).norm(), 1e-9);
 }
 
 TEST(FirstEstimatesEkf, KeepsAFirstEstimateTheBeliefAllows) {
@@ -112,15 +122,8 @@ TEST(FirstEstimatesEkf, KeepsAFirstEstimateTheBeliefAllows) {
   fej.add_statistics(stats);
   EXPECT_EQ(stats.at("first_estimates_moved"), 0.0);
   // FEJ's own update: the Jacobians at the pose and the first estimate, the covariance as it was.
-  Matrix23 hx;
-  Matrix2 hm;
-  scene.observation->jacobians(x.head<3>(), first, hx, hm);
-  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(2, 7);
-  h.leftCols<3>() = hx;
-  h.block<2, 2>(0, 5) = hm;
-  const Eigen::MatrixXd s = h * p * h.transpose() + scene.observation->noise();
-  const Eigen::MatrixXd gain = p * h.transpose() * s.inverse();
-  EXPECT_LT((fej.covariance() - (p - gain * s * gain.transpose())).cwiseAbs().maxCoeff(), 1e-9);
+  const Update kalman(*scene.observation, p, x.head<3>(), first);
+  EXPECT_LT((fej.covariance() - kalman.covariance(p)).cwiseAbs().maxCoeff(), 1e-9);
 }
 
 }  // namespace

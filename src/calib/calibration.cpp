@@ -13,6 +13,7 @@
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/chi_square.hpp"
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/pose_at.hpp"
 
 namespace slamkit {
 namespace {
@@ -53,24 +54,8 @@ class Truth {
  public:
   Truth(const std::vector<StampedPose>& poses, double max_gap) : poses_(poses), max_gap_(max_gap) {}
 
-  /// The true pose at t, linear in position and the short way round in heading; false outside the
-  /// truth's span or inside a gap longer than max_gap.
-  bool at(double t, Pose2& out) const {
-    const auto after = std::lower_bound(poses_.begin(), poses_.end(), t,
-                                        [](const StampedPose& p, double time) { return p.t < time; });
-    if (after == poses_.end()) return false;
-    if (after->t == t) {
-      out = after->pose;
-      return true;
-    }
-    if (after == poses_.begin()) return false;
-    const StampedPose& before = *std::prev(after);
-    if (after->t - before.t > max_gap_) return false;
-    const double s = (t - before.t) / (after->t - before.t);
-    out.head<2>() = before.pose.head<2>() + s * (after->pose.head<2>() - before.pose.head<2>());
-    out[2] = wrap_angle(before.pose[2] + s * wrap_angle(after->pose[2] - before.pose[2]));
-    return true;
-  }
+  /// The true pose at t (pose_at, within max_gap).
+  bool at(double t, Pose2& out) const { return pose_at(poses_, t, out, max_gap_); }
 
   /// The true motion over [from, to] in the frame of the pose at `from`.
   bool motion(double from, double to, Pose2& out) const {

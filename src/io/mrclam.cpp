@@ -20,6 +20,7 @@
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
+#include "slamkit/core/pose_at.hpp"
 #include "slamkit/core/text_reader.hpp"
 
 namespace slamkit {
@@ -249,24 +250,6 @@ std::vector<StampedPose> read_truth_poses(const fs::path& file, const UnixTime& 
   return poses;
 }
 
-// The truth at time t, linear in position and the short way round in heading; false if t lies outside
-// the truth's span.
-bool interpolate(const std::vector<StampedPose>& poses, double t, Pose2& out) {
-  const auto after = std::lower_bound(poses.begin(), poses.end(), t,
-                                      [](const StampedPose& p, double time) { return p.t < time; });
-  if (after == poses.end()) return false;
-  if (after->t == t) {
-    out = after->pose;
-    return true;
-  }
-  if (after == poses.begin()) return false;
-  const StampedPose& before = *std::prev(after);
-  const double s = (t - before.t) / (after->t - before.t);
-  out.head<2>() = before.pose.head<2>() + s * (after->pose.head<2>() - before.pose.head<2>());
-  out[2] = wrap_angle(before.pose[2] + s * wrap_angle(after->pose[2] - before.pose[2]));
-  return true;
-}
-
 // The event stream: each command held until the next odometry row, cut at the scans in between.
 std::vector<Event> merge(const std::vector<Command>& commands, const std::vector<ScanEvent>& scans,
                          MrclamStats& stats) {
@@ -357,7 +340,7 @@ Dataset read_mrclam(const std::string& dataset_dir, int robot, const MrclamOptio
     truth.landmarks = read_landmarks(file);
   if (const fs::path file = find_file(dir, prefix + "Groundtruth.dat"); !file.empty()) {
     std::vector<StampedPose> poses = read_truth_poses(file, origin);
-    stats.initial_pose_from_truth = interpolate(poses, 0.0, dataset.initial_pose);
+    stats.initial_pose_from_truth = pose_at(poses, 0.0, dataset.initial_pose);
     std::erase_if(poses, [&](const StampedPose& p) { return p.t < 0.0 || p.t > end; });
     truth.poses = std::move(poses);
   }
