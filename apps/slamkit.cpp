@@ -21,6 +21,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "slamkit/calib/calibration.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/atomic_folder.hpp"
 #include "slamkit/core/error.hpp"
@@ -29,6 +30,7 @@
 #include "slamkit/core/version.hpp"
 #include "slamkit/eval/evaluation.hpp"
 #include "slamkit/io/load_dataset.hpp"
+#include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/io/sim_log.hpp"
 #include "slamkit/pipeline/factory.hpp"
@@ -306,6 +308,42 @@ int out_of_memory() {
   return kExitBadInput;
 }
 
+/// A warning when the known-identity gate rejected most observations over part of the run
+/// (assoc/gate_tally.hpp): a filter that lost itself, whose figures from then on are odometry's.
+void warn_if_lost(const Metrics& metrics) {
+  const auto& stats = metrics.filter_statistics;
+  const auto lost_at = stats.find("known_id_lost_at_s");
+  if (lost_at == stats.end()) return;
+  std::cerr << fmt::format(
+      "slamkit: warning: the filter lost itself: the known-identity gate rejected most observations in {:.0f} tenth(s) "
+      "of the run, the first from t = {:.1f} s ({:.0f}% of all {:.0f} judged); its estimate strayed further than its "
+      "covariance allows and it ran on odometry (known_id_* in metrics.json)\n",
+      stats.at("known_id_lost_tenths"), lost_at->second, 100.0 * stats.at("known_id_rejected_fraction"),
+      stats.at("known_id_judged"));
+}
+
+/// The calibration as a few lines and its evidence as two tables.
+std::string calibration_summary(const Calibration& c, double total_delay) {
+  std::string out = fmt::format(
+      "command delay {:.2f} s ({:+.2f} s on the logs' settings)\n"
+      "motion: q_v {:.3g} m^2/s, q_omega {:.3g} rad^2/s over {} stretches between scans\n"
+      "measurement: sigma_range {:.3f} m, sigma_bearing {:.2f} deg over {} passes of {} observations "
+      "(per observation {:.3f} m, {:.2f} deg; {} gross outliers left out)\n",
+      total_delay, c.command_delay_s, c.motion.q_v, c.motion.q_omega, c.motion_windows, c.measurement.sigma_range,
+      rad2deg(c.measurement.sigma_bearing), c.passes, c.observations, c.rms_range_m, rad2deg(c.rms_bearing_rad),
+      c.gross_outliers);
+  out += "horizon [s]  windows  q_v [m^2/s]  q_omega [rad^2/s]  speed bias [m/s]  turn bias [rad/s]\n";
+  for (const MotionErrorAtHorizon& r : c.motion_by_horizon)
+    out += fmt::format("{:11.2f}  {:7}  {:11.3g}  {:17.3g}  {:16.4f}  {:17.5f}\n", r.horizon_s, r.windows, r.q_v,
+                       r.q_omega, r.speed_bias_mps, r.turn_rate_bias_radps);
+  out += "range [m]  observations  rms range [m]  rms bearing [deg]  mean range [m]  mean bearing [deg]\n";
+  for (const MeasurementErrorAtRange& r : c.measurement_by_range)
+    out += fmt::format("{:4.0f}-{:<4.0f}  {:12}  {:13.3f}  {:17.2f}  {:14.3f}  {:18.2f}\n", r.range_from_m, r.range_to_m,
+                       r.observations, r.rms_range_m, rad2deg(r.rms_bearing_rad), r.mean_range_m,
+                       rad2deg(r.mean_bearing_rad));
+  return out;
+}
+
 int run_command(int argc, char** argv) {
   CLI::App app{"slamkit: landmark-based SLAM (EKF-SLAM, UKF, FastSLAM) with a simulator, evaluation and plots"};
   app.require_subcommand(1);
@@ -544,6 +582,22 @@ int run_command(int argc, char** argv) {
       ->capture_default_str()
       ->check(number_where(">= 0", [](double v) { return v >= 0.0; }));
 
+  // ---- calibrate ----
+  auto* calibrate_cmd = app.add_subcommand(
+      "calibrate", "Measure a robot's command delay, motion noise and measurement noise against ground truth and write "
+                   "the dataset settings (MRCLAM logs: commanded velocities, range-bearing to identified landmarks)");
+  std::vector<std::string> calibrate_specs;
+  std::string calibrate_config, calibrate_out, calibrate_report;
+  calibrate_cmd->add_option("--data", calibrate_specs, "Logs to calibrate on, each mrclam:DIR:robotN (repeat for several)")
+      ->required();
+  calibrate_cmd
+      ->add_option("--data-config", calibrate_config,
+                   "Settings the logs are read with (default: config/mrclam.json's); the written file keeps its other keys");
+  calibrate_cmd->add_option("--out", calibrate_out, "Dataset settings file to write (JSON, for run --data-config)")
+      ->required();
+  calibrate_cmd->add_option("--report", calibrate_report,
+                            "Also write the evidence (errors by horizon and by range, outliers) as JSON");
+
   // ---- plot-nees ----
   auto* nees_cmd = app.add_subcommand(
       "plot-nees", "Draw the pose NEES of Monte Carlo runs (one filter, logs differing only in their seed) averaged "
@@ -767,12 +821,36 @@ int run_command(int argc, char** argv) {
       run.provenance = std::move(provenance);
       const Metrics metrics = write_run_folder_files(out.path(), run, dataset, recorder ? &*recorder : nullptr);
       out.commit();
+      warn_if_lost(metrics);
       stage("written and evaluated");
       print_outputs(run_out, metrics, verbosity);
       if (recorder && verbosity != Verbosity::kQuiet)
         fmt::print("replay: {}\n", (fs::path(run_out) / "replay.html").string());
       if (run.diverged_at_s) return kExitDiverged;
       if (run.partial) return exit_code_for_signal(stop_signal);
+    } else if (*calibrate_cmd) {
+      for (const std::string& spec : calibrate_specs)
+        if (!spec.starts_with("mrclam:")) {
+          std::cerr << "slamkit: error: calibrate writes MRCLAM settings; expected --data mrclam:DIR:robotN, found '"
+                    << spec << "' (see 'slamkit calibrate --help')\n";
+          return kExitUsage;
+        }
+      const nlohmann::json contents = dataset_settings_json(calibrate_config);
+      MrclamOptions settings =
+          calibrate_config.empty() ? MrclamOptions{} : mrclam_options_from_json(contents, calibrate_config);
+      std::vector<Dataset> logs;
+      for (const std::string& spec : calibrate_specs)
+        logs.push_back(load_dataset(absolute_dataset_spec(spec), contents, calibrate_config));
+      CalibrationOptions options;
+      options.min_command_delay_s = -settings.command_delay;  // a robot cannot act before it logs
+      const Calibration c = calibrate(logs, options);
+      settings.command_delay += c.command_delay_s;
+      settings.motion = c.motion;
+      settings.measurement = c.measurement;
+      write_file_atomically(calibrate_out, to_json(settings).dump(2) + "\n");
+      if (!calibrate_report.empty()) write_file_atomically(calibrate_report, to_json(c).dump(2) + "\n");
+      fmt::print("{}", calibration_summary(c, settings.command_delay));
+      fmt::print("wrote {}\n", calibrate_out);
     } else if (*nees_cmd) {
       std::vector<Metrics> runs;
       for (const std::string& dir : nees_dirs) {
@@ -803,7 +881,9 @@ int run_command(int argc, char** argv) {
           run.provenance.contains("dataset_settings_contents")
               ? load_dataset(run.dataset, run.provenance.at("dataset_settings_contents"), run.dataset_settings)
               : load_dataset(run.dataset, run.dataset_settings);
-      print_outputs(eval_dir, write_evaluation(eval_dir, run, dataset, eval_options), Verbosity::kNormal);
+      const Metrics metrics = write_evaluation(eval_dir, run, dataset, eval_options);
+      warn_if_lost(metrics);
+      print_outputs(eval_dir, metrics, Verbosity::kNormal);
     }
   } catch (const std::bad_alloc&) {
     return out_of_memory();

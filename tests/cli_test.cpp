@@ -324,6 +324,68 @@ TEST_F(Cli, DatasetSettingsFileIsUsedAndChecked) {
   EXPECT_NE(b.err.find("unknown key 'bogus'"), std::string::npos) << b.err;
 }
 
+// The shipped course with every noise a hundredth of the shipped one: the filter believes itself far
+// more precise than it is, its known-identity gate rejects nearly every observation, and the run says
+// that it lost itself (and why) instead of reporting odometry as SLAM.
+TEST_F(Cli, ARunWhoseGateRejectsMostIdentifiedObservationsWarns) {
+  const fs::path course = fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course";
+  std::ifstream shipped(fs::path(SLAMKIT_SOURCE_DIR) / "config" / "course.json");
+  nlohmann::json settings = nlohmann::json::parse(shipped);
+  for (auto& [key, value] : settings.items())
+    if (key.starts_with("sigma_") || key.starts_with("alpha_")) value = value.get<double>() / 100.0;
+  const fs::path tight = *work_ / "course-overconfident.json";
+  std::ofstream(tight) << settings.dump();
+  const fs::path out = *work_ / "course-lost";
+  const Result lost = slamkit("run --data course:" + course.string() + " --data-config " + tight.string() +
+                                  " --out " + out.string() + " --quiet",
+                              *work_);
+  ASSERT_EQ(lost.exit_code, 0) << lost.err;
+  EXPECT_EQ(count_lines(lost.err), 1u) << lost.err;
+  EXPECT_NE(lost.err.find("warning: the filter lost itself"), std::string::npos) << lost.err;
+  std::ifstream in(out / "metrics.json");
+  const nlohmann::json metrics = nlohmann::json::parse(in);
+  EXPECT_GT(metrics["known_id_rejected_fraction"].get<double>(), 0.5);
+  EXPECT_TRUE(metrics.contains("known_id_lost_at_s"));
+  EXPECT_TRUE(metrics.contains("known_id_rejected_fraction_tenth_10"));
+
+  const Result fine = slamkit("run --data course:" + course.string() + " --out " + (*work_ / "course-fine").string() +
+                                  " --quiet",
+                              *work_);
+  ASSERT_EQ(fine.exit_code, 0) << fine.err;
+  EXPECT_EQ(fine.err, "");
+}
+
+TEST_F(Cli, CalibrateWritesMrclamSettingsThatRunReads) {
+  // Where test_data::shared_dataset looks (its header's namespace would hide this file's slamkit()).
+  const char* data = std::getenv("SLAMKIT_DATA");
+  const fs::path dataset = (data != nullptr && *data != '\0' ? fs::path(data)
+                                                              : fs::path(SLAMKIT_SOURCE_DIR) / ".." / "shared" / "datasets") /
+                           "mrclam" / "MRCLAM_Dataset6";
+  if (!fs::exists(dataset)) GTEST_SKIP() << "dataset not found at " << dataset.string();
+  const fs::path settings = *work_ / "calibrated.json", report = *work_ / "calibration-report.json";
+  const std::string robot4 = "mrclam:" + dataset.string() + ":robot4";
+  const Result c =
+      slamkit("calibrate --data " + robot4 + " --out " + settings.string() + " --report " + report.string(), *work_);
+  ASSERT_EQ(c.exit_code, 0) << c.err;
+  EXPECT_NE(c.out.find("command delay"), std::string::npos) << c.out;
+  std::ifstream in(settings);
+  const nlohmann::json written = nlohmann::json::parse(in);
+  // Read with the shipped delay, robot 4 needs about as much more (0.22 s alone).
+  EXPECT_NEAR(written["command_delay_s"].get<double>(), 0.22, 0.03);
+  EXPECT_GT(written["sigma_range_m"].get<double>(), 0.2);
+  EXPECT_EQ(written["fov_deg"], 70.0);  // kept from the settings the log was read with
+  std::ifstream report_in(report);
+  EXPECT_EQ(nlohmann::json::parse(report_in)["motion_by_horizon"].size(), 7u);
+  const Result run = slamkit("run --data " + robot4 + " --data-config " + settings.string() + " --out " +
+                                 (*work_ / "calibrated-run").string() + " --quiet",
+                             *work_);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+
+  const Result wrong = slamkit("calibrate --data sim:" + (*work_ / "sim").string() + " --out " + settings.string(), *work_);
+  EXPECT_EQ(wrong.exit_code, 2);
+  EXPECT_NE(wrong.err.find("expected --data mrclam:DIR:robotN"), std::string::npos) << wrong.err;
+}
+
 TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
   // The dataset does not exist: an error about the settings shows they were checked first.
   const std::string rest = " --data sim:/nonexistent/log --out " + (*work_ / "never").string();

@@ -76,8 +76,8 @@ TEST(ConsistentFiltersOnTheSparseWorld, AreFarCloserToConsistentThanThePlainEkfA
 // The divergent runs of the 50-run table start at the first loop closure, after 640 m of drift: the
 // single linearisation at the drifted pose leaves the filter overconfident, and then the known-id
 // gate rejects true observations. The iterated update closes the loop at the maximum a posteriori
-// estimate: with the default gate, FEJ without it averages a NEES of 8.6 and 83% of steps in the band
-// over these seeds, with it 2.7 and 92% (the 50-run figures are in docs/consistency.md).
+// estimate: with the default gate, FEJ without it averages a NEES of 8.9 and 83% of steps in the band
+// over these seeds, with it 2.7 and 93% (the 50-run figures are in docs/consistency.md).
 TEST(ConsistentFiltersOnTheSparseWorld, IteratedFirstEstimatesEkfIsConsistentWithTheDefaultGate) {
   const Summary single = monte_carlo(FilterKind::kEkf, EkfVariant::kFirstEstimates, AssociationMethod::kKnown,
                                      EkfUpdate::kJoint, true);

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -223,4 +224,30 @@ TEST(EvaluateRun, TheHeadlineSaysWhoseNeesAParticleFilterReports) {
             std::string::npos)
       << headline(m);
   EXPECT_TRUE(to_json(m).contains("nees_pose_note"));
+
+// A trajectory turned as a whole about the start, where the truth's frame is the map's: the aligned ATE
+// forgives the turn, the unaligned RMSE keeps it; a truth without headings (GPS) has no frame to keep.
+TEST(EvaluateRun, TheUnalignedPositionErrorKeepsATurnOfTheWholeTrajectory) {
+  RunResult run;
+  GroundTruth truth;
+  const double turn = 0.1;
+  for (int i = 0; i <= 100; ++i) {
+    const double t = i;
+    const Pose2 p(0.5 * t, 3.0 * std::sin(0.1 * t), 0.0);
+    truth.poses.push_back({t, p});
+    const Vector2 turned = Eigen::Rotation2Dd(turn) * p.head<2>();
+    run.filtered.push_back({t, Pose2(turned.x(), turned.y(), turn)});
+    run.pose_covariances.push_back(0.01 * Matrix3::Identity());
+  }
+  run.trajectory = run.filtered;
+  const Metrics m = evaluate_run(run, truth);
+  ASSERT_TRUE(m.ate_rmse_m && m.unaligned_position_rmse_m);
+  EXPECT_LT(*m.ate_rmse_m, 1e-9);
+  double squares = 0.0;
+  for (int i = 0; i <= 100; ++i) squares += std::pow(2.0 * std::sin(turn / 2.0) * truth.poses[i].pose.head<2>().norm(), 2);
+  EXPECT_NEAR(*m.unaligned_position_rmse_m, std::sqrt(squares / 101.0), 1e-9);
+  EXPECT_EQ(to_json(m).at("unaligned_position_rmse_m"), *m.unaligned_position_rmse_m);
+
+  truth.poses_have_heading = false;
+  EXPECT_FALSE(evaluate_run(run, truth).unaligned_position_rmse_m);
 }

@@ -222,7 +222,12 @@ class MrclamFiles : public testing::Test {
     ASSERT_EQ(gzwrite(f, text.data(), static_cast<unsigned>(text.size())), static_cast<int>(text.size()));
     ASSERT_EQ(gzclose(f), Z_OK);
   }
-  Dataset read(MrclamStats& stats) const { return read_mrclam(dir_.string(), 1, MrclamOptions{}, stats); }
+  /// Robot 1, its commands taking effect at their rows' times.
+  Dataset read(MrclamStats& stats) const {
+    MrclamOptions prompt;
+    prompt.command_delay = 0.0;
+    return read_mrclam(dir_.string(), 1, prompt, stats);
+  }
 
   /// Reading robot 1 must throw an InputError at `line` of `file`; returns its message.
   std::string input_error(const std::string& file, std::size_t line, int robot = 1) const {
@@ -280,6 +285,49 @@ TEST_F(MrclamFiles, EventsSplitHeldCommandsAtScans) {
   EXPECT_EQ(d.initial_pose, Pose2(0.5, 0.25, -3.0));
   ASSERT_EQ(d.truth.landmarks.size(), 2u);
   EXPECT_EQ(d.truth.landmarks[1].position, Vector2(-1.5, 0.5));
+}
+
+// A robot that acts on a command 0.2 s after its row: the commands move later (the robot standing
+// still until the first takes effect), the scans and the truth stay, and the run ends 0.2 s after the
+// last row.
+TEST_F(MrclamFiles, CommandsTakeEffectAfterTheDelay) {
+  MrclamOptions late;
+  late.command_delay = 0.2;
+  MrclamStats stats;
+  const Dataset d = read_mrclam(dir_.string(), 1, late, stats);
+  EXPECT_DOUBLE_EQ(stats.time_origin, 1000000100.0);
+  EXPECT_NEAR(stats.duration, 1.2, 1e-9);
+  // still (0, 0.2] | scan at 0.2 | control (0.2, 0.5] v=0.1 | scan at 0.5 | control (0.5, 0.7] v=0.1 |
+  // control (0.7, 1.2]
+  ASSERT_EQ(d.events.size(), 6u);
+  const auto& still = std::get<ControlEvent>(d.events[0]);
+  EXPECT_NEAR(still.t, 0.2, 1e-9);
+  EXPECT_NEAR(still.dt, 0.2, 1e-9);
+  EXPECT_EQ(still.u, Control::Zero(2));
+  EXPECT_NEAR(std::get<ScanEvent>(d.events[1]).t, 0.2, 1e-9);
+  const auto& c1 = std::get<ControlEvent>(d.events[2]);
+  EXPECT_NEAR(c1.t, 0.5, 1e-9);
+  EXPECT_NEAR(c1.dt, 0.3, 1e-9);
+  EXPECT_EQ(c1.u[0], 0.1);
+  EXPECT_NEAR(std::get<ScanEvent>(d.events[3]).t, 0.5, 1e-9);
+  const auto& c2 = std::get<ControlEvent>(d.events[4]);
+  EXPECT_NEAR(c2.dt, 0.2, 1e-9);
+  EXPECT_EQ(c2.u[1], 0.0);
+  const auto& c3 = std::get<ControlEvent>(d.events[5]);
+  EXPECT_NEAR(c3.t, 1.2, 1e-9);
+  EXPECT_EQ(c3.u[1], 0.2);
+  EXPECT_EQ(d.initial_pose, Pose2(0.5, 0.25, -3.0));
+
+  const auto message = [](double delay) {
+    try {
+      mrclam_options_from_json({{"command_delay_s", delay}}, "opts.json");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message(-0.1).find("'command_delay_s' must be >= 0 and <= 10 (s)"), std::string::npos) << message(-0.1);
+  EXPECT_NE(message(11.0).find("'command_delay_s'"), std::string::npos);
 }
 
 TEST_F(MrclamFiles, InitialPoseIsInterpolatedTheShortWayRound) {

@@ -218,6 +218,10 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
     std::vector<double> nees;
     const auto exact_pairs = eval::match_by_time(run.filtered, truth.poses, options.max_interpolation_gap_s);
     nees.reserve(exact_pairs.size());
+    double squares = 0.0;
+    for (const auto& pair : exact_pairs) squares += (pair.estimate.head<2>() - pair.truth.head<2>()).squaredNorm();
+    if (!exact_pairs.empty())
+      m.unaligned_position_rmse_m = std::sqrt(squares / static_cast<double>(exact_pairs.size()));
     for (const auto& pair : exact_pairs) {
       const auto i = static_cast<std::size_t>(pair.estimate_index);
       if (run.filtered[i].t != pair.t) continue;
@@ -246,6 +250,7 @@ nlohmann::json to_json(const Metrics& m) {
       {"wall_time_s", m.wall_time_s},
       {"matched_poses", m.matched_poses},
       {"ate_rmse_m", optional_json(m.ate_rmse_m)},
+      {"unaligned_position_rmse_m", optional_json(m.unaligned_position_rmse_m)},
       {"final_position_error_m", optional_json(m.final_position_error_m)},
       {"dead_reckoning_ate_rmse_m", optional_json(m.dead_reckoning_ate_rmse_m)},
       {"dead_reckoning_final_position_error_m", optional_json(m.dead_reckoning_final_position_error_m)},
@@ -300,6 +305,9 @@ nlohmann::json to_json(const Metrics& m) {
        "sample of the shorter trajectory with the other's nearest sample at most time_matching_max_difference_s "
        "away, nothing interpolated"},
       {"smoothed_ate_rmse_m", "the same for the smoothed trajectory (FastSLAM: the final best particle's path)"},
+      {"unaligned_position_rmse_m",
+       "the same without the alignment, where the truth has headings: its frame is the map's, the start pose "
+       "being known in it (as for pose NEES)"},
       {"history",
        "what the run kept (--history): full, decimated (trajectory metrics over at most 10,000 evenly spread "
        "samples) or none (no trajectory metrics)"},

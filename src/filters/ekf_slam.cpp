@@ -94,8 +94,7 @@ std::map<std::string, double> EkfSlam::statistics() const {
                                      {"landmarks_in_state", static_cast<double>(ids_.size())},
                                      {"landmarks_provisional", static_cast<double>(ids_.size() - landmarks().size())}};
   estimator_->add_statistics(s);
-  if (association_.method == AssociationMethod::kKnown && gate_known_)
-    s["outliers_rejected"] = static_cast<double>(outliers_);
+  if (association_.method == AssociationMethod::kKnown && gate_known_) gate_tally_.add_statistics(s);
   if (association_.method != AssociationMethod::kKnown)
     s["association_pairs_evaluated"] = static_cast<double>(association_stats_.candidate_pairs);
   if (association_.method != AssociationMethod::kKnown && pending_.active()) {
@@ -187,14 +186,16 @@ void EkfSlam::update(const ScanEvent& scan) {
 
 void EkfSlam::update_known(const ScanEvent& scan) {
   new_observations_.clear();
+  std::size_t judged = 0, rejected = 0;
   auto apply = [&](std::size_t k, std::size_t index) {
     if (gate_known_) {
       Vector2 zhat;
       Matrix2 s;
       estimator_->innovation(index, zhat, s);
       const Vector2 nu = estimator_->observation_model().residual(scan.observations[k].z, zhat);
+      ++judged;
       if (nu.dot(s.ldlt().solve(nu)) > gates_.new_landmark) {
-        ++outliers_;
+        ++rejected;
         ++discarded_;
         return;
       }
@@ -236,6 +237,7 @@ void EkfSlam::update_known(const ScanEvent& scan) {
     }
   }
   apply_joint_batch();
+  gate_tally_.add_scan(scan.t, judged, rejected);
 }
 
 void EkfSlam::apply_joint_batch() {

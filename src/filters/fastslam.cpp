@@ -385,6 +385,13 @@ void FastSlam::update(const ScanEvent& scan) {
   if (!s.known()) {
     s.assign_new_ids(n_obs, scan_index);
     s.index_grid_entries();
+  } else if (s.gate_known) {
+    std::size_t judged = 0, rejected = 0;
+    for (const Impl::Slot& slot : s.slots) {
+      judged += slot.gate_judged;
+      rejected += slot.gate_rejected;
+    }
+    s.gate_tally.add_scan(scan.t, judged, rejected);
   }
   s.reweight_and_resample();
   if (!s.known() && ++s.scans_since_prune >= kGridPruneScans) s.prune_grid();
@@ -468,6 +475,8 @@ std::map<std::string, double> FastSlam::statistics() const {
     statistics["observations_pending"] = static_cast<double>(s.pending_observations);
     statistics["landmarks_pending"] = static_cast<double>(s.pending.size());
   }
+  // Summed over the particles: each judges its own landmarks.
+  if (s.known() && s.gate_known) s.gate_tally.add_statistics(statistics);
   return statistics;
 }
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "slamkit/assoc/association.hpp"
+#include "slamkit/assoc/gate_tally.hpp"
 #include "slamkit/assoc/landmark_existence.hpp"
 #include "slamkit/assoc/landmark_grid.hpp"
 #include "slamkit/assoc/pending_landmarks.hpp"
@@ -167,6 +168,7 @@ struct FastSlam::Impl {
     std::vector<slamkit::Pairing> matches;
     std::vector<char> paired;  // per old landmark
     bool relocalised = false;  // in this scan
+    std::size_t gate_judged = 0, gate_rejected = 0;  // the known-identity gate's verdicts, this scan
     std::size_t relocalisation_searches = 0;  // joint searches run in this slot, all scans
   };
 
@@ -183,8 +185,9 @@ struct FastSlam::Impl {
   void reject_known_outliers(const Particle& p, Slot& s, const ScanEvent& scan) const;
   /// The covariance of the innovation of landmark lm as particle p predicts it, and the Jacobians.
   Matrix2 innovation_covariance(const Particle& p, const LandmarkGaussian& lm, Matrix23& hx, Matrix2& hm) const;
-  /// Whether z lies beyond the new-landmark gate of landmark lm as particle p predicts it.
-  bool beyond_gate(const Particle& p, const LandmarkGaussian& lm, const Vector2& z) const;
+  /// Whether z lies beyond the new-landmark gate of landmark lm as particle p predicts it; the verdict
+  /// is counted in the slot.
+  bool beyond_gate(const Particle& p, const LandmarkGaussian& lm, const Vector2& z, Slot& s) const;
   void update_particle(std::size_t i, const ScanEvent& scan);
   /// Landmark updates and new landmarks at pose x with covariance x_cov (FastSLAM 2.0: what the particle
   /// carries of its pose uncertainty, see FastSlamConfig::pose_sample_fraction; else zero).
@@ -233,6 +236,7 @@ struct FastSlam::Impl {
   Matrix2 r;
   Gates gates;
   bool gate_known;
+  GateTally gate_tally;  // over every particle's verdicts
   SensorView association_view;
   double clutter_density;  // of config.association over the sensor's view
   ExistenceRule existence;

@@ -42,21 +42,24 @@ Matrix2 FastSlam::Impl::innovation_covariance(const Particle& p, const LandmarkG
   return cov;
 }
 
-bool FastSlam::Impl::beyond_gate(const Particle& p, const LandmarkGaussian& lm, const Vector2& z) const {
+bool FastSlam::Impl::beyond_gate(const Particle& p, const LandmarkGaussian& lm, const Vector2& z, Slot& s) const {
   Matrix23 hx;
   Matrix2 hm;
   Matrix2 inverse;
   double log_det = 0.0;
   if (!invert_spd(symmetric(innovation_covariance(p, lm, hx, hm)), inverse, log_det)) return false;
   const Vector2 nu = observation->residual(z, observation->predict(p.pose, lm.mean));
-  return nu.dot(inverse * nu) > gates.new_landmark;
+  ++s.gate_judged;
+  const bool beyond = nu.dot(inverse * nu) > gates.new_landmark;
+  s.gate_rejected += beyond ? 1 : 0;
+  return beyond;
 }
 
 void FastSlam::Impl::reject_known_outliers(const Particle& p, Slot& s, const ScanEvent& scan) const {
   for (std::size_t k = 0; k < s.pairings.size(); ++k) {
     const Pairing& pairing = s.pairings[k];
     if (pairing.decision == AssociationDecision::kUpdate && pairing.index < p.map.size() &&
-        beyond_gate(p, p.map[pairing.index], scan.observations[k].z))
+        beyond_gate(p, p.map[pairing.index], scan.observations[k].z, s))
       s.pairings[k] = Pairing{};
   }
 }
@@ -164,6 +167,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
     // Every particle starts from the common plan; the outlier gate is each particle's own.
     make_room(s.pairings, n_obs);
     s.pairings = known_plan;
+    s.gate_judged = s.gate_rejected = 0;
     if (gate_known) reject_known_outliers(p, s, scan);
   }  // else associate() has run for every particle (FastSlam::update)
   s.grid_entries.clear();
@@ -238,7 +242,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
     const Vector2& z = scan.observations[k].z;
     // A landmark started in this scan and seen again in it meets the outlier gate only now.
     if (known() && gate_known && pairing.decision == AssociationDecision::kUpdate && !is_old_update(k) &&
-        beyond_gate(p, p.map[pairing.index], z))
+        beyond_gate(p, p.map[pairing.index], z, s))
       pairing = Pairing{};
     if (pairing.decision == AssociationDecision::kNew) {
       p.map.push_back(new_landmark(p.pose, p.pose_cov, z, known() ? scan.observations[k].id : kUnknownId));

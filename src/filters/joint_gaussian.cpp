@@ -6,12 +6,19 @@
 #include <string>
 
 #include "slamkit/core/angles.hpp"
+#include "slamkit/core/chi_square.hpp"
 
 namespace slamkit {
 
 namespace {
 // An iterate that moves no row the batch reads by more than this (metres, radians) has converged.
 constexpr double kIterateTolerance = 1e-6;
+
+// A first estimate beyond this probability's region of the belief about the landmark's position
+// relative to the vehicle (chi-square, 2 dof) is moved: AssociationConfig's default known-identity
+// gate, so the belief rules it out as the landmark's position as firmly as the gate rules out an
+// observation of it.
+constexpr double kPlausibleAnchorProbability = 0.9999;
 
 // Eigen's matrix-product kernels pack their operands into buffers that live on the stack up to
 // EIGEN_STACK_ALLOCATION_LIMIT (128 KB) and come from the heap above it. A product over the whole
@@ -132,6 +139,7 @@ bool JointGaussian::update_landmark(std::size_t index, const Vector2& z) {
     return update_landmarks(std::span<const LandmarkObservation>(&one, 1));
   }
   apply_pending_motion();
+  if (linearisation_ == Linearisation::kFirstEstimates) anchor_where_plausible(index);
   const std::size_t l = landmark_offset(index);
   const auto li = static_cast<Eigen::Index>(l);
   const auto n = static_cast<Eigen::Index>(dim_);
@@ -185,6 +193,8 @@ bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch)
   if (batch.empty()) return true;
   if (batch.size() == 1 && update_iterations_ == 1) return update_landmark(batch[0].index, batch[0].z);
   apply_pending_motion();
+  if (linearisation_ == Linearisation::kFirstEstimates)
+    for (const LandmarkObservation& o : batch) anchor_where_plausible(o.index);
   const auto n = static_cast<Eigen::Index>(dim_);
   const auto k = static_cast<Eigen::Index>(2 * batch.size());
   reserve_joint_update(k);
@@ -384,6 +394,37 @@ void JointGaussian::correct(const Eigen::Ref<const Eigen::VectorXd>& delta) {
   bvec.tail(n - 3) = p_.block(3, 2, n - 3, 1);
   bvec += (0.5 * bvec[2]) * u;
   p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>().rankUpdate(u, bvec);
+}
+
+void JointGaussian::anchor_where_plausible(std::size_t index) {
+  Vector2& anchor = first_estimates_[index];
+  const auto l = static_cast<Eigen::Index>(landmark_offset(index));
+  const Vector2 m = x_.segment<2>(l);
+  const Vector2 moved = m - anchor;
+  // Cov(m - p) = P_mm - P_mp - P_pm + P_pp over the vehicle's position.
+  const Matrix2 cross = p_.block<2, 2>(l, 0);
+  const Matrix2 relative =
+      diagonal_block<2>(landmark_offset(index)) - cross - cross.transpose() + diagonal_block<2>(0);
+  static const double gate = eval::chi_square_quantile(kPlausibleAnchorProbability, 2.0);
+  const Eigen::LLT<Matrix2> llt(relative);
+  if (llt.info() != Eigen::Success || moved.dot(llt.solve(moved)) <= gate) return;
+  // P -> M P M^T with M = I + u e_theta^T, u = J (m - anchor) in the landmark's rows only: those rows
+  // gain u times the heading's row a = P(2, :), and their diagonal block also a_theta u u^T.
+  const Vector2 u = GroupExponential::perp(moved);
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const double a_theta = p_(2, 2);
+  const Vector2 a_landmark = p_.block<2, 1>(l, 2);
+  for (Eigen::Index c = 0; c < l; ++c) p_.block<2, 1>(l, c) += u * (c >= 2 ? p_(c, 2) : p_(2, c));
+  for (Eigen::Index r = l + 2; r < n; ++r) p_.block<1, 2>(r, l) += p_(r, 2) * u.transpose();
+  const Matrix2 block = u * a_landmark.transpose() + a_landmark * u.transpose() + a_theta * u * u.transpose();
+  p_.block<2, 2>(l, l).triangularView<Eigen::Lower>() += block;
+  anchor = m;
+  ++anchors_moved_;
+}
+
+void JointGaussian::add_statistics(std::map<std::string, double>& statistics) const {
+  if (linearisation_ == Linearisation::kFirstEstimates)
+    statistics["first_estimates_moved"] = static_cast<double>(anchors_moved_);
 }
 
 std::size_t JointGaussian::add_landmark(const Vector2& z) {

@@ -20,6 +20,7 @@
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
+#include "slamkit/core/pose_at.hpp"
 #include "slamkit/core/text_reader.hpp"
 
 namespace slamkit {
@@ -35,6 +36,10 @@ constexpr int kRobots = 5;
 using namespace option_ranges;
 using Real = RealOption<MrclamOptions>;
 
+// A robot that takes seconds to act on a command is not following its log; the bound also keeps the
+// shifted times far inside the range the time checks allow.
+constexpr RealRange kCommandDelay{[](double v) { return v >= 0.0 && v <= 10.0; }, ">= 0 and <= 10 (s)"};
+
 const OptionKey<MrclamOptions> kOptionKeys[] = {
     {"q_v_m2_per_s", Real{[](MrclamOptions& o) -> double& { return o.motion.q_v; }, kNonNegative}},
     {"q_omega_rad2_per_s", Real{[](MrclamOptions& o) -> double& { return o.motion.q_omega; }, kNonNegative}},
@@ -46,6 +51,7 @@ const OptionKey<MrclamOptions> kOptionKeys[] = {
     {"max_range_m", Real{[](MrclamOptions& o) -> double& { return o.sensor.max_range; }, kPositive}},
     {"fov_deg", Real{[](MrclamOptions& o) -> double& { return o.sensor.fov; }, kFieldOfView, Unit::kDegrees}},
     {"scan_window_s", Real{[](MrclamOptions& o) -> double& { return o.scan_window; }, kNonNegative}},
+    {"command_delay_s", Real{[](MrclamOptions& o) -> double& { return o.command_delay; }, kCommandDelay}},
 };
 
 void validate(const MrclamOptions& options, const std::string& source) {
@@ -174,8 +180,9 @@ struct Command {
   Control u;
 };
 
-// The odometry rows, the first of which sets the time origin.
-std::vector<Command> read_odometry(const fs::path& file, UnixTime& origin, MrclamStats& stats) {
+// The odometry rows, the first of which sets the time origin; each command takes effect `delay` after
+// its row.
+std::vector<Command> read_odometry(const fs::path& file, double delay, UnixTime& origin, MrclamStats& stats) {
   TextReader in(file.string());
   std::vector<Command> rows;
   TimeOrder order;
@@ -187,7 +194,7 @@ std::vector<Command> read_odometry(const fs::path& file, UnixTime& origin, Mrcla
     const double v = in.number(1, "v"), omega = in.number(2, "omega");
     Control u(2);
     u << v, omega;
-    rows.push_back(Command{order.check(in, time.minus(origin)), u});
+    rows.push_back(Command{order.check(in, time.minus(origin)) + delay, u});
   }
   stats.odometry_rows = rows.size();
   if (rows.size() < 2)
@@ -254,24 +261,6 @@ std::vector<StampedPose> read_truth_poses(const fs::path& file, const UnixTime& 
   return poses;
 }
 
-// The truth at time t, linear in position and the short way round in heading; false if t lies outside
-// the truth's span.
-bool interpolate(const std::vector<StampedPose>& poses, double t, Pose2& out) {
-  const auto after = std::lower_bound(poses.begin(), poses.end(), t,
-                                      [](const StampedPose& p, double time) { return p.t < time; });
-  if (after == poses.end()) return false;
-  if (after->t == t) {
-    out = after->pose;
-    return true;
-  }
-  if (after == poses.begin()) return false;
-  const StampedPose& before = *std::prev(after);
-  const double s = (t - before.t) / (after->t - before.t);
-  out.head<2>() = before.pose.head<2>() + s * (after->pose.head<2>() - before.pose.head<2>());
-  out[2] = wrap_angle(before.pose[2] + s * wrap_angle(after->pose[2] - before.pose[2]));
-  return true;
-}
-
 // The event stream: each command held until the next odometry row, cut at the scans in between.
 std::vector<Event> merge(const std::vector<Command>& commands, const std::vector<ScanEvent>& scans,
                          MrclamStats& stats) {
@@ -334,7 +323,10 @@ Dataset read_mrclam(const std::string& dataset_dir, int robot, const MrclamOptio
   const std::string prefix = fmt::format("Robot{}_", robot);
   const auto subject_of = read_barcodes(require_file(dir, "Barcodes.dat"));
   UnixTime origin;
-  const std::vector<Command> commands = read_odometry(require_file(dir, prefix + "Odometry.dat"), origin, stats);
+  std::vector<Command> commands =
+      read_odometry(require_file(dir, prefix + "Odometry.dat"), options.command_delay, origin, stats);
+  // Until the first row takes effect the robot is taken to stand still: nothing says what it did.
+  if (options.command_delay > 0.0) commands.insert(commands.begin(), Command{0.0, Control::Zero(2)});
   stats.time_origin = static_cast<double>(origin.seconds) + origin.fraction;
   const double end = commands.back().t;
   stats.duration = end;
@@ -359,7 +351,7 @@ Dataset read_mrclam(const std::string& dataset_dir, int robot, const MrclamOptio
     truth.landmarks = read_landmarks(file);
   if (const fs::path file = find_file(dir, prefix + "Groundtruth.dat"); !file.empty()) {
     std::vector<StampedPose> poses = read_truth_poses(file, origin);
-    stats.initial_pose_from_truth = interpolate(poses, 0.0, dataset.initial_pose);
+    stats.initial_pose_from_truth = pose_at(poses, 0.0, dataset.initial_pose);
     std::erase_if(poses, [&](const StampedPose& p) { return p.t < 0.0 || p.t > end; });
     truth.poses = std::move(poses);
   }

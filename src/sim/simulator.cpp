@@ -382,15 +382,17 @@ struct ScenarioEntry {
   bool loop;       // one lap: a loop-closure route is driven once
   bool cluttered;  // the detection of the data-association experiments
   bool forward_sensor;  // the 180 degree field of view of the reference simulator's example
+  bool indoor;          // the MRCLAM-like robot of room_world
 };
 
 const ScenarioEntry kScenarios[] = {
-    {"default", &default_world, false, false, false},
-    {"loop-closure", &loop_closure_world, true, false, false},
-    {"cluttered", &default_world, false, true, false},
-    {"loop-closure-cluttered", &loop_closure_world, true, true, false},
-    {"sparse", &sparse_world, false, false, true},
-    {"sparse-cluttered", &sparse_world, false, true, true},
+    {"default", &default_world, false, false, false, false},
+    {"loop-closure", &loop_closure_world, true, false, false, false},
+    {"cluttered", &default_world, false, true, false, false},
+    {"loop-closure-cluttered", &loop_closure_world, true, true, false, false},
+    {"sparse", &sparse_world, false, false, true, false},
+    {"sparse-cluttered", &sparse_world, false, true, true, false},
+    {"room", &room_world, true, false, false, true},
 };
 
 // The reference simulator's example looks ahead of the vehicle only.
@@ -435,6 +437,22 @@ Scenario scenario(const std::string& name) {
   Scenario s{entry->name, entry->world(), SimulatorConfig{}};
   if (entry->loop) s.config.loops = 1;
   if (entry->forward_sensor) use_forward_sensor(s.config);
+  if (entry->indoor) {
+    // A slow robot that turns on the spot, a camera with a 70-degree view and 8 m of range, and a
+    // turn rate error of about 2e-3 rad^2/s, MRCLAM's size.
+    s.config.speed = 0.15;
+    s.config.wheelbase = 0.25;
+    s.config.max_steer = deg2rad(60.0);
+    s.config.max_steer_rate = deg2rad(120.0);
+    s.config.waypoint_tolerance = 0.3;
+    s.config.sigma_speed = 0.03;
+    s.config.sigma_steer = deg2rad(15.0);
+    s.config.max_range = 8.0;
+    s.config.fov = deg2rad(70.0);
+    s.config.sigma_range = 0.1;
+    s.config.sigma_bearing = deg2rad(1.0);
+    s.config.control_period = 0.1;
+  }
   if (entry->cluttered) use_cluttered_detection(s.config);
   return s;
 }

@@ -371,6 +371,32 @@ World sparse_world() {
   return world;
 }
 
+World room_world() {
+  World world;
+  world.closed = false;
+  world.start = Pose2(-4.0, 0.0, kPi);
+  world.landmarks = {{6, {-7.2, 1.0}, Matrix2::Zero()}, {7, {-7.2, -1.2}, Matrix2::Zero()},
+                     {8, {-6.8, 2.8}, Matrix2::Zero()}};
+  std::mt19937_64 rng(20261126);
+  constexpr double kHalfWidth = 7.5, kHalfHeight = 4.0, kMinSpacing = 1.5, kClearance = 0.6;
+  while (world.landmarks.size() < 15) {
+    const Vector2 p(1.0 + (kHalfWidth - 1.3) * uniform01(rng), (kHalfHeight - 0.4) * (2.0 * uniform01(rng) - 1.0));
+    const bool crowded = std::any_of(world.landmarks.begin(), world.landmarks.end(),
+                                     [&](const Landmark& l) { return (l.position - p).norm() < kMinSpacing; });
+    if (!crowded) world.landmarks.push_back({static_cast<int>(world.landmarks.size()) + 6, p, Matrix2::Zero()});
+  }
+  // The blind spell in the west, the crossing, the return to the first landmarks.
+  world.waypoints = {{-5.5, 0.0}, {-5.0, 3.5}, {-3.0, -3.5}, {-1.0, 3.5}, {-2.0, 0.0}, {4.0, 0.0}, {-5.0, 0.0}};
+  while (world.waypoints.size() < 37) {
+    const Vector2 p((kHalfWidth - 1.0) * (2.0 * uniform01(rng) - 1.0),
+                    (kHalfHeight - 1.0) * (2.0 * uniform01(rng) - 1.0));
+    const bool blocked = std::any_of(world.landmarks.begin(), world.landmarks.end(),
+                                     [&](const Landmark& l) { return (l.position - p).norm() < kClearance; });
+    if (!blocked && (p - world.waypoints.back()).norm() >= 2.0) world.waypoints.push_back(p);
+  }
+  return world;
+}
+
 World random_world(const RandomWorldOptions& o, std::uint64_t seed) {
   validate(o);
   // Two streams, so that the landmark options leave a seed's route unchanged.

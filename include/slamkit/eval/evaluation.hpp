@@ -6,6 +6,9 @@
 //                           truth; smoothed_ate_rmse_m the same for a smoothed trajectory. Matched
 //                           by interpolating the estimate at each truth time, or as evo matches
 //                           (TimeMatching)
+//   unaligned_position_rmse_m  the same RMSE without the alignment, where the truth has headings:
+//                           its frame is the map's (the start pose is known in it), as for NEES. An
+//                           EKF that turned its whole map about the start keeps that error here
 //   final_position_error_m  position error of the last matched sample, same alignment
 //   map_rmse_m              RMSE of landmark position over landmarks paired with the truth, after
 //                           the trajectory's alignment (map_alignment "trajectory"); with no
@@ -66,6 +69,7 @@ struct Metrics {
 
   std::size_t matched_poses = 0;
   std::optional<double> ate_rmse_m, final_position_error_m;  // of the per-step (filtered) estimates
+  std::optional<double> unaligned_position_rmse_m;
   bool smoothed = false;                                       // the run's trajectory is smoothed
   std::optional<double> smoothed_ate_rmse_m;
   std::optional<double> dead_reckoning_ate_rmse_m, dead_reckoning_final_position_error_m;

@@ -17,6 +17,7 @@
 
 #include "slamkit/assoc/association.hpp"
 #include "slamkit/assoc/association_config.hpp"
+#include "slamkit/assoc/gate_tally.hpp"
 #include "slamkit/assoc/landmark_existence.hpp"
 #include "slamkit/assoc/landmark_grid.hpp"
 #include "slamkit/assoc/map_matching.hpp"
@@ -81,7 +82,7 @@ class EkfSlam final : public SlamFilter {
   /// Pairs the scan's observations with landmarks (known ids, NN or JCBB, as configured), applies
   /// the updates, then adds the new landmarks. With known association an observation without an id
   /// is discarded, and so is one beyond the new-landmark gate (AssociationConfig::gate_known, on
-  /// unless set off). With unknown association the map is managed: provisional landmarks are
+  /// unless set off; its verdicts are tallied, assoc/gate_tally.hpp). With unknown association the map is managed: provisional landmarks are
   /// confirmed after repeated observations, and landmarks expected to be seen but repeatedly unseen
   /// are removed (ExistenceRule).
   void update(const ScanEvent& scan) override;
@@ -149,6 +150,7 @@ class EkfSlam final : public SlamFilter {
   AssociationConfig association_;
   Gates gates_;  // from association_, computed once
   bool gate_known_;
+  GateTally gate_tally_;
   SensorView association_view_;
   double clutter_density_;  // of association_ over the sensor's view
   ExistenceRule existence_rule_;
@@ -180,7 +182,7 @@ class EkfSlam final : public SlamFilter {
   std::vector<Pairing> pairings_;
   // Statistics.
   AssociationStats association_stats_;
-  std::size_t discarded_ = 0, removed_ = 0, outliers_ = 0;
+  std::size_t discarded_ = 0, removed_ = 0;
   std::size_t relocalisations_ = 0, landmarks_fused_ = 0;
   MapMatcher map_matcher_;
   std::vector<LandmarkPair> fused_pairs_;

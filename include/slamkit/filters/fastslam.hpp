@@ -44,8 +44,9 @@
 // Data association (AssociationConfig), decided per particle:
 //   kKnown: the observation id names the landmark; an observation without an id is discarded, and
 //     so is one beyond the new-landmark gate of its landmark in that particle when
-//     AssociationConfig::gate_known is set (unset: not gated). Identities are certain, so
-//     landmarks are confirmed at once and never removed.
+//     AssociationConfig::gate_known is set (unset: not gated; the verdicts of all particles are
+//     tallied, assoc/gate_tally.hpp). Identities are certain, so landmarks are confirmed at once and
+//     never removed.
 //   kNearestNeighbour, kJcbb: maximum likelihood per particle. Given a particle's path its landmarks
 //     are independent, so the joint compatibility of a hypothesis is the product of individual
 //     compatibilities and JCBB reduces to individual compatibility; both use the same rule.

@@ -83,6 +83,17 @@ struct WorldGenReport {
   std::uint64_t comparisons = 0;  // distances from a candidate to a placed landmark tested
 };
 
+/// The indoor test bed, after the MRCLAM logs: a 15 m x 8 m room centred on the origin with 15
+/// landmarks, which a slow robot with a narrow camera (see the "room" scenario) drives to waypoints.
+/// Three landmarks stand by the west wall, the others in the eastern half. The robot starts at
+/// (-4, 0) facing the three, then spends two minutes up and down the western half, where its view
+/// holds no landmark for spells of 20 to 40 s (MRCLAM Dataset6's robot 2 sees none for 48 s after its
+/// first, Dataset1's robot 5 none for 39 s) and glimpses the eastern ones from 6-8 m, returns to the
+/// first three and goes on to 30 waypoints drawn at random across the room, as the MRCLAM robots do.
+/// So landmarks are first seen from afar after dead reckoning, with the heading off by tenths of a
+/// radian, and later from close by.
+World room_world();
+
 /// Throws InputError when an option is out of range (non-positive size, empty band, ...).
 World generate_world(const WorldGenOptions& options, WorldGenReport* report = nullptr);
 
