@@ -688,7 +688,7 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
     int code;
     std::string message;
   } cases[] = {
-      {"", 2, "expected a subcommand: simulate, make-world, run, replay, evaluate, plot-nees, plot-bench"},
+      {"", 2, "expected a subcommand: simulate, make-world, run, replay, evaluate, calibrate, plot-nees, plot-bench"},
       {"rnu", 2, "unknown subcommand 'rnu' (did you mean 'run'?)"},
       {"--bogus", 2, "unknown option '--bogus'; expected a subcommand first"},
 
@@ -786,6 +786,14 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"evaluate " + run_dir + " --max-time-difference 0.1", 2, "--max-time-difference applies to --match evo"},
       {"evaluate " + run_dir + " " + run_dir, 2, "unexpected argument '" + run_dir + "'"},
 
+      {"calibrate --out " + out, 2, "missing --data: Logs to calibrate on"},
+      {"calibrate --data sim:" + sim + " --out " + out, 2,
+       "calibrate writes MRCLAM settings; expected --data mrclam:DIR:robotN, found 'sim:"},
+      {"calibrate --data mrclam:/nonexistent:robot1 --out " + out, 1, "/nonexistent: not a directory"},
+      {"calibrate --data mrclam:/nonexistent:robot1 --data-config /nonexistent/c.json --out " + out, 1,
+       "/nonexistent/c.json: cannot open file for reading (No such file or directory)"},
+      {"calibrate --data mrclam:/nonexistent:robot1 --out " + out + " --report", 2, "--report needs a value"},
+
       {"plot-nees --out " + out, 2, "missing DIRS: Run folders written by 'slamkit run'"},
       {"plot-nees /nonexistent/r --out " + out, 1, "/nonexistent/r: no such folder"},
       {"plot-nees " + run_dir, 2, "missing --out: SVG file to write"},
@@ -813,7 +821,7 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
     words >> command;
     while (words >> word) exercised[command].insert(word.substr(0, word.find('=')));
   }
-  for (const char* command : {"simulate", "make-world", "run", "replay", "evaluate", "plot-nees", "plot-bench"}) {
+  for (const char* command : {"simulate", "make-world", "run", "replay", "evaluate", "calibrate", "plot-nees", "plot-bench"}) {
     std::istringstream help(slamkit(std::string(command) + " --help", *work_).out);
     for (std::string line; std::getline(help, line);) {
       const auto start = line.find_first_not_of(' ');

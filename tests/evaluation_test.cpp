@@ -224,6 +224,7 @@ TEST(EvaluateRun, TheHeadlineSaysWhoseNeesAParticleFilterReports) {
             std::string::npos)
       << headline(m);
   EXPECT_TRUE(to_json(m).contains("nees_pose_note"));
+}
 
 // A trajectory turned as a whole about the start, where the truth's frame is the map's: the aligned ATE
 // forgives the turn, the unaligned RMSE keeps it; a truth without headings (GPS) has no frame to keep.
