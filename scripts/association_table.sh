@@ -48,7 +48,9 @@ known=("ekf nn=--filter ekf --assoc nn"
        "ekf jcbb cluttered=--filter ekf --assoc-config $config_dir/association-cluttered.json"
        "ekf jcbb fej iterated cluttered=--filter ekf --ekf-variant fej --ekf-update iterated --assoc-config $config_dir/association-cluttered.json"
        "fastslam1 nn=--filter fastslam1 --assoc nn --particles $particles"
-       "fastslam2 nn=--filter fastslam2 --assoc nn --particles $particles")
+       "fastslam2 nn=--filter fastslam2 --assoc nn --particles $particles"
+       "fastslam1 nn clutter=--filter fastslam1 --assoc nn --clutter-per-scan 1 --particles $particles"
+       "fastslam2 nn clutter 0.01=--filter fastslam2 --assoc nn --clutter-per-scan 1 --pose-sample-fraction 0.01 --particles $particles")
 runs=()
 if [[ -z ${FILTERS:-} ]]; then
   runs=("${known[@]}")
