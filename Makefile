@@ -102,11 +102,15 @@ define configure_sanitize
 endef
 
 # The whole suite (the Python module's and the browser test included) built with clang and run under
-# the sanitizers. The allocation-counting tests count through the sanitizer's allocator hooks.
+# the sanitizers. The allocation-counting tests count through the sanitizer's allocator hooks. Two of
+# the three Victoria Park seeds are left out: each is the first seed's code path again with other
+# random numbers, and takes over three minutes under the sanitizers.
+SANITIZE_EXCLUDE := ^TuningSeeds/VictoriaParkFastSlamSeed[.]StaysWithinHalfAgainTheEkf/(17|18)$$
 sanitize: test-deps
 	$(configure_sanitize)
 	cmake --build $(SANITIZE_BUILD_DIR) -j $(JOBS)
-	cd $(SANITIZE_BUILD_DIR) && UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j $(JOBS)
+	cd $(SANITIZE_BUILD_DIR) && UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j $(JOBS) \
+	  -E '$(SANITIZE_EXCLUDE)'
 
 # Each libFuzzer target of fuzz/ for FUZZ_SECONDS, from its seed corpus; fails on any finding.
 fuzz: test-deps

@@ -1,4 +1,5 @@
 #include "allocation_counter.hpp"
+#include "sanitizers.hpp"
 
 #include <atomic>
 #include <cerrno>
@@ -10,15 +11,6 @@ void count_one() { allocation_calls.fetch_add(1, std::memory_order_relaxed); }
 }  // namespace
 
 std::uint64_t slamkit::test::allocations_so_far() { return allocation_calls.load(std::memory_order_relaxed); }
-
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define SLAMKIT_ADDRESS_SANITIZER 1
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__)
-#define SLAMKIT_ADDRESS_SANITIZER 1
-#endif
 
 #ifdef SLAMKIT_ADDRESS_SANITIZER
 // Under AddressSanitizer malloc belongs to the sanitizer, which sets itself up on the first call:

@@ -15,6 +15,8 @@
 #include <utility>
 #include <vector>
 
+#include "sanitizers.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -1029,7 +1031,7 @@ TEST_F(Cli, FifoGivenAsAnInputFileIsRefusedNotWaitedOn) {
   }
 }
 
-#if !defined(__SANITIZE_ADDRESS__)  // AddressSanitizer reserves terabytes of address space: no ulimit -v
+#if !defined(SLAMKIT_ADDRESS_SANITIZER)  // AddressSanitizer reserves terabytes of address space: no ulimit -v
 // `run --particles 1000000` had no memory estimate and ended in a bare "std::bad_alloc" at 7.3 GB.
 // Under a 4 GiB address-space limit the estimate refuses it before the filter is built, naming the
 // flag; and whatever runs out of memory regardless ends in a message, not the exception's name.

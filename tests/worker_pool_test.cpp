@@ -1,6 +1,7 @@
 // FastSLAM's worker pool: every item runs once, errors reach the caller, and a pool the system
 // refuses threads fails with a clear error instead of hanging.
 #include "slamkit/filters/worker_pool.hpp"
+#include "sanitizers.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/resource.h>
@@ -43,7 +44,7 @@ TEST(WorkerPool, RethrowsAChunksErrorAfterEveryChunkHasFinished) {
   EXPECT_EQ(done.load(), 300u);
 }
 
-#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+#if !defined(SLAMKIT_ADDRESS_SANITIZER) && !defined(SLAMKIT_THREAD_SANITIZER)
 // Bytes of address space this process holds.
 long long address_space_in_use() {
   std::ifstream statm("/proc/self/statm");

@@ -36,8 +36,8 @@ class PendingLandmarks {
   /// Whether observations wait here at all: only where clutter is expected.
   bool active() const { return clutter_density_ > 0.0; }
 
-  /// Starts the scan's offers at time t from pose x, the estimate after the
-  /// scan's updates; forgets the hypotheses not detected for the window.
+  /// Starts the scan's offers at time t from pose x, the estimate after the scan's updates; forgets
+  /// the hypotheses not detected for the window.
   void begin_scan(double t, const Pose2& x);
 
   /// An observation z that no landmark explains, from the pose of begin_scan. Returns the number of
