@@ -320,6 +320,32 @@ TEST(EkfCompressed, AStraightDriveCrossesTheWholeSquareBeforeLeavingIt) {
   EXPECT_LE(statistics.at("local_area_flushes"), distance / side);
 }
 
+// Widening the pose (the known-identity recovery, ekf_slam.hpp) is process noise with an identity
+// transition: q joins the vehicle's block, and nothing else moves, in either storage.
+TEST(EkfCompressed, InflatingThePoseAddsToTheVehicleBlockAlone) {
+  const Dataset data = simulate(default_world(), SimulatorConfig{});
+  JointGaussian full(data.motion, data.observation, data.initial_pose, Matrix3::Identity() * 1e-4);
+  CompressedJointGaussian compressed(data.motion, data.observation, data.sensor.max_range, 0.0, data.initial_pose,
+                                     Matrix3::Identity() * 1e-4);
+  Control straight(2);
+  straight << 3.0, 0.05;
+  for (EkfEstimator* estimator : {static_cast<EkfEstimator*>(&full), static_cast<EkfEstimator*>(&compressed)}) {
+    for (int step = 0; step < 20; ++step) {
+      estimator->predict(straight, 0.1);
+      estimator->begin_scan();
+      if (step % 5 == 0) estimator->add_landmark(Vector2(8.0, 0.3 * step - 1.0));
+    }
+    const Eigen::MatrixXd before = estimator->covariance();
+    Matrix3 q;
+    q << 4.0, 0.5, 0.1, 0.5, 2.0, -0.2, 0.1, -0.2, 0.3;
+    estimator->inflate_pose(q);
+    Eigen::MatrixXd expected = before;
+    expected.topLeftCorner<3, 3>() += q;
+    EXPECT_LT((estimator->covariance() - expected).cwiseAbs().maxCoeff(), 1e-12);
+  }
+  EXPECT_LT((full.covariance() - compressed.covariance()).cwiseAbs().maxCoeff(), 1e-9);
+}
+
 TEST(EkfCompressed, FactoryRejectsAnUnknownVariant) {
   try {
     parse_ekf_variant("sparse");

@@ -165,6 +165,11 @@ void CompressedJointGaussian::predict(const Control& u, double dt) {
   predict_local(f, q);
 }
 
+void CompressedJointGaussian::inflate_pose(const Matrix3& q) {
+  if (!in_area()) begin_area();
+  predict_local(Matrix3::Identity(), q);
+}
+
 bool CompressedJointGaussian::update_landmark(std::size_t index, const Vector2& z) {
   const LandmarkObservation one{index, z};
   return update_landmarks({&one, 1});

@@ -2,7 +2,11 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <cmath>
+#include <functional>
 #include <stdexcept>
+
+#include "slamkit/core/chi_square.hpp"
 
 #include "slamkit/filters/compressed_joint_gaussian.hpp"
 #include "slamkit/filters/joint_gaussian.hpp"
@@ -57,6 +61,8 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
       grid_(std::max(5.0, options.sensor.max_range / 3.0)),
       relocalise_(options.association.method != AssociationMethod::kKnown &&
                   options.association.relocalise_min_pairs >= 2),
+      recover_known_(options.association.method == AssociationMethod::kKnown && gate_known_ &&
+                     options.association.relocalise_min_pairs >= 2),
       joint_scan_update_(options.joint_scan_update),
       unscented_(options.variant == EkfVariant::kUnscented) {
   if (!estimator_) throw std::invalid_argument("EkfSlam needs an estimator");
@@ -95,6 +101,7 @@ std::map<std::string, double> EkfSlam::statistics() const {
                                      {"landmarks_provisional", static_cast<double>(ids_.size() - landmarks().size())}};
   estimator_->add_statistics(s);
   if (association_.method == AssociationMethod::kKnown && gate_known_) gate_tally_.add_statistics(s);
+  if (recover_known_) s["known_id_recoveries"] = static_cast<double>(known_recoveries_);
   if (association_.method != AssociationMethod::kKnown)
     s["association_pairs_evaluated"] = static_cast<double>(association_stats_.candidate_pairs);
   if (association_.method != AssociationMethod::kKnown && pending_.active()) {
@@ -184,19 +191,27 @@ void EkfSlam::update(const ScanEvent& scan) {
     update_unknown(scan);
 }
 
+bool EkfSlam::inside_known_gate(std::size_t index, const Vector2& z) const {
+  Vector2 zhat;
+  Matrix2 s;
+  estimator_->innovation(index, zhat, s);
+  const Vector2 nu = estimator_->observation_model().residual(z, zhat);
+  return nu.dot(s.ldlt().solve(nu)) <= gates_.new_landmark;
+}
+
 void EkfSlam::update_known(const ScanEvent& scan) {
   new_observations_.clear();
+  rejected_.clear();
   std::size_t judged = 0, rejected = 0;
   auto apply = [&](std::size_t k, std::size_t index) {
     if (gate_known_) {
-      Vector2 zhat;
-      Matrix2 s;
-      estimator_->innovation(index, zhat, s);
-      const Vector2 nu = estimator_->observation_model().residual(scan.observations[k].z, zhat);
       ++judged;
-      if (nu.dot(s.ldlt().solve(nu)) > gates_.new_landmark) {
+      if (!inside_known_gate(index, scan.observations[k].z)) {
         ++rejected;
-        ++discarded_;
+        if (recover_known_)
+          rejected_.push_back(k);  // discarded, or kept as a copy
+        else
+          ++discarded_;
         return;
       }
     }
@@ -237,7 +252,70 @@ void EkfSlam::update_known(const ScanEvent& scan) {
     }
   }
   apply_joint_batch();
+  if (recover_known_) recover_known(scan);
   gate_tally_.add_scan(scan.t, judged, rejected);
+}
+
+void EkfSlam::recover_known(const ScanEvent& scan) {
+  const ObservationModel& model = estimator_->observation_model();
+  const Pose2 xv = estimator_->pose();
+  const Matrix3 pose_covariance = estimator_->pose_covariance();
+  for (const std::size_t k : rejected_) {
+    const Observation& obs = scan.observations[k];
+    Matrix23 gx;
+    Matrix2 gz;
+    model.inverse_jacobians(xv, obs.z, gx, gz);
+    ++discarded_;
+    copies_[obs.id] = {model.inverse(xv, obs.z),
+                       gx * pose_covariance * gx.transpose() + gz * model.noise() * gz.transpose(), now_};
+  }
+  // A copy not seen again for the window is forgotten: most likely a single outlier.
+  std::erase_if(copies_, [&](const auto& entry) { return entry.second.seen < now_ - association_.relocalise_window_s; });
+  if (copies_.size() < association_.relocalise_min_pairs) return;
+  const std::optional<Matrix3> missing_noise = drift_the_copies_show();
+  if (!missing_noise) return;
+  // Once the pose admits its drift, the originals pass the gate again and correct it.
+  estimator_->inflate_pose(*missing_noise);
+  copies_.clear();
+  ++known_recoveries_;
+}
+
+std::optional<Matrix3> EkfSlam::drift_the_copies_show() const {
+  // The rigid motion that best carries the copies onto their originals (least squares about the
+  // centroids), and the residuals against the copy's and the original's covariances.
+  Vector2 copy_centre = Vector2::Zero(), original_centre = Vector2::Zero();
+  for (const auto& [id, copy] : copies_) {
+    copy_centre += copy.position;
+    original_centre += estimator_->landmark_position(static_cast<std::size_t>(find_landmark(id)));
+  }
+  const double k = static_cast<double>(copies_.size());
+  copy_centre /= k;
+  original_centre /= k;
+  double dot = 0.0, cross = 0.0;
+  for (const auto& [id, copy] : copies_) {
+    const Vector2 c = copy.position - copy_centre;
+    const Vector2 o = estimator_->landmark_position(static_cast<std::size_t>(find_landmark(id))) - original_centre;
+    dot += c.dot(o);
+    cross += c.x() * o.y() - c.y() * o.x();
+  }
+  const double angle = std::atan2(cross, dot);
+  Matrix2 r;
+  r << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
+  double d2 = 0.0;
+  for (const auto& [id, copy] : copies_) {
+    const auto original = static_cast<std::size_t>(find_landmark(id));
+    const Vector2 residual =
+        estimator_->landmark_position(original) - original_centre - r * (copy.position - copy_centre);
+    const Matrix2 covariance = r * copy.covariance * r.transpose() + estimator_->landmark_covariance(original);
+    d2 += residual.dot(covariance.ldlt().solve(residual));
+  }
+  // 2 coordinates per copy, less the rigid motion's 3.
+  if (d2 > eval::chi_square_quantile(association_.accept_probability, 2.0 * k - 3.0)) return std::nullopt;
+  // Where the same motion carries the vehicle: its error, taken as one standard deviation of the
+  // process noise the filter lacked.
+  const Pose2 xv = estimator_->pose();
+  const Vector2 shift = original_centre + r * (xv.head<2>() - copy_centre) - xv.head<2>();
+  return Eigen::Vector3d(shift.x() * shift.x(), shift.y() * shift.y(), angle * angle).asDiagonal().toDenseMatrix();
 }
 
 void EkfSlam::apply_joint_batch() {

@@ -120,6 +120,12 @@ void JointGaussian::predict(const Control& u, double dt) {
   pending_motion_ = f * pending_motion_;
 }
 
+void JointGaussian::inflate_pose(const Matrix3& q) {
+  // The cross-covariances do not change (the noise is independent of the state), nor does the
+  // motion still pending for them.
+  p_.topLeftCorner<3, 3>() = diagonal_block<3>(0) + q;
+}
+
 void JointGaussian::covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm,
                                               Eigen::Ref<Eigen::MatrixX2d> out) const {
   const auto n = static_cast<Eigen::Index>(dim_);

@@ -59,13 +59,14 @@ struct AssociationConfig {
   /// the best hypothesis found so far; the first one it completes is the nearest-neighbour-like
   /// descent, so the budget degrades JCBB towards NN rather than towards nothing.
   std::size_t jcbb_max_nodes = 20000;
-  /// Relocalisation at a loop closure, for every filter without identities (0 turns it off; 2,
-  /// chosen on tuning seeds of the sparse worlds, is the default). After a long drift a filter back
-  /// at its first landmarks finds them beyond its gates, or finds clutter inside them, and maps them
-  /// again or takes a false detection for one; one observation cannot tell. So a landmark unseen
-  /// for relocalise_window_s seconds is recognised only jointly: when at least this many confirmed
-  /// landmarks started since then pair (JCBB, the joint gate of accept_probability) with landmarks
-  /// mapped before the window, the pairing is taken and each duplicate fused into its original.
+  /// Relocalisation at a loop closure, for every filter without identities and the EKF family with
+  /// them (0 turns it off; 2, chosen on tuning seeds of the sparse worlds, is the default). After a
+  /// long drift a filter back at its first landmarks finds them beyond its gates, or finds clutter
+  /// inside them, and maps them again or takes a false detection for one; one observation cannot
+  /// tell. So a landmark unseen for relocalise_window_s seconds is recognised only jointly: when at
+  /// least this many confirmed landmarks started since then pair (JCBB, the joint gate of
+  /// accept_probability) with landmarks mapped before the window, the pairing is taken and each
+  /// duplicate fused into its original.
   ///  - EKF and UKF: old landmarks (confirmed, unseen for the window) are left out of association
   ///    and of the miss count until the vehicle is anchored to them again; the match is made on
   ///    the joint Gaussian's exact covariances (assoc/map_matching.hpp) when a landmark started in
@@ -83,6 +84,10 @@ struct AssociationConfig {
   ///    the particle's pose takes the correction that best explains the pairs (iterated, as a pose
   ///    update with the drift as prior), the landmarks it saw in the window move with it, and each
   ///    duplicate is fused into the landmark it duplicates.
+  ///  - EKF and UKF with known identities and gate_known: the observations the gate rejects place
+  ///    copies of their landmarks outside the state; when this many fit their originals up to one
+  ///    rigid motion, the pose covariance takes the drift that motion shows, so that the old
+  ///    landmarks pass the gate again (docs/association.md, "Known identities").
   std::size_t relocalise_min_pairs = 2;
   double relocalise_window_s = 30.0;
   /// The probability that a landmark in view is detected: with clutter_per_scan, how the evidence

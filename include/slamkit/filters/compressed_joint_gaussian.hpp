@@ -37,6 +37,7 @@ class CompressedJointGaussian final : public EkfEstimator {
   Eigen::MatrixXd covariance() const override;
 
   void predict(const Control& u, double dt) override;
+  void inflate_pose(const Matrix3& q) override;
   bool update_landmark(std::size_t index, const Vector2& z) override;
   bool update_landmarks(std::span<const LandmarkObservation> batch) override;
   std::size_t add_landmark(const Vector2& z) override;

@@ -52,6 +52,8 @@ class EkfEstimator : public GaussianMapView {
 
   /// Eqs. (8)-(9): the time update with control u over dt.
   virtual void predict(const Control& u, double dt) = 0;
+  /// Adds q to the vehicle's covariance: process noise the motion model did not allow for.
+  virtual void inflate_pose(const Matrix3& q) = 0;
   /// Eqs. (10)-(11) for one observation z of the landmark at map index `index`. Returns false (and
   /// changes nothing) if the innovation covariance is not positive definite.
   virtual bool update_landmark(std::size_t index, const Vector2& z) = 0;

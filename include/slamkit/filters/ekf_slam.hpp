@@ -10,7 +10,9 @@
 // Gaussian) -> updates in order -> new landmarks -> re-bin the touched landmarks (rebuild the grid
 // after a large correction, i.e. a loop closure) -> map management (the existence rule's misses of
 // landmarks expected to be seen, confirmation, removal).
+#include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <unordered_map>
 #include <vector>
@@ -113,6 +115,17 @@ class EkfSlam final : public SlamFilter {
 
  private:
   void update_known(const ScanEvent& scan);
+  /// Whether observation z of landmark `index` passes the known-identity gate (the new-landmark gate).
+  bool inside_known_gate(std::size_t index, const Vector2& z) const;
+  /// Each observation the known-identity gate rejected this scan (rejected_) places a copy of its
+  /// landmark from the current pose, outside the state; copies unseen for the relocalisation window
+  /// are dropped. Once relocalise_min_pairs copies fit their originals up to one rigid motion, the
+  /// vehicle's covariance takes the drift that motion shows, and the copies are dropped.
+  void recover_known(const ScanEvent& scan);
+  /// If the copies sit where their originals do up to one rigid motion (within the chi-square gate of
+  /// accept_probability), the vehicle's error that motion implies, as a diagonal covariance;
+  /// otherwise nothing.
+  std::optional<Matrix3> drift_the_copies_show() const;
   /// Applies the scan's collected updates jointly (joint_scan_update).
   void apply_joint_batch();
   void update_unknown(const ScanEvent& scan);
@@ -165,6 +178,18 @@ class EkfSlam final : public SlamFilter {
   // setting asks for it. Until anchored_until_, a return has been verified and the old map is
   // recognised directly.
   bool relocalise_;
+  // Recovery with known identities: on where the gate is and relocalise_min_pairs asks for it. A
+  // filter whose gate rejects the old landmarks at a loop closure has lost itself (its covariance
+  // no longer admits its own drift), and would otherwise run on odometry from then on.
+  bool recover_known_;
+  struct KnownCopy {
+    Vector2 position;
+    Matrix2 covariance;
+    double seen = 0.0;  // the time of the observation that placed it
+  };
+  std::map<int, KnownCopy> copies_;  // by landmark id; ordered, so the fit sums in one order
+  std::vector<std::size_t> rejected_;                 // observations the gate rejected this scan
+  std::size_t known_recoveries_ = 0;
   double now_ = 0.0;  // the time of the scan being processed
   double anchored_until_ = 0.0;
   bool first_scan_ = true;

@@ -98,6 +98,7 @@ class JointGaussian : public EkfEstimator {
   Eigen::MatrixXd covariance() const override;
 
   void predict(const Control& u, double dt) override;
+  void inflate_pose(const Matrix3& q) override;
   bool update_landmark(std::size_t index, const Vector2& z) override;
   /// One joint innovation for the batch; equal to the sequential updates for linear models, and for
   /// nonlinear ones every observation is linearised at the prior, as in eqs. (10)-(11) with z_k the
