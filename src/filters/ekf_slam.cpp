@@ -3,11 +3,9 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <stdexcept>
 
 #include "slamkit/core/chi_square.hpp"
-
 #include "slamkit/filters/compressed_joint_gaussian.hpp"
 #include "slamkit/filters/joint_gaussian.hpp"
 #include "slamkit/filters/unscented_joint_gaussian.hpp"
@@ -266,11 +264,13 @@ void EkfSlam::recover_known(const ScanEvent& scan) {
     Matrix2 gz;
     model.inverse_jacobians(xv, obs.z, gx, gz);
     ++discarded_;
+    // The latest observation places the copy: the one nearest in time to the others'.
     copies_[obs.id] = {model.inverse(xv, obs.z),
                        gx * pose_covariance * gx.transpose() + gz * model.noise() * gz.transpose(), now_};
   }
   // A copy not seen again for the window is forgotten: most likely a single outlier.
-  std::erase_if(copies_, [&](const auto& entry) { return entry.second.seen < now_ - association_.relocalise_window_s; });
+  const double forget_before = now_ - association_.relocalise_window_s;
+  std::erase_if(copies_, [&](const auto& entry) { return entry.second.seen < forget_before; });
   if (copies_.size() < association_.relocalise_min_pairs) return;
   const std::optional<Matrix3> missing_noise = drift_the_copies_show();
   if (!missing_noise) return;

@@ -187,8 +187,8 @@ class EkfSlam final : public SlamFilter {
     Matrix2 covariance;
     double seen = 0.0;  // the time of the observation that placed it
   };
-  std::map<int, KnownCopy> copies_;  // by landmark id; ordered, so the fit sums in one order
-  std::vector<std::size_t> rejected_;                 // observations the gate rejected this scan
+  std::map<int, KnownCopy> copies_;    // by landmark id; ordered, so the fit sums in one order
+  std::vector<std::size_t> rejected_;  // observations the gate rejected this scan
   std::size_t known_recoveries_ = 0;
   double now_ = 0.0;  // the time of the scan being processed
   double anchored_until_ = 0.0;
