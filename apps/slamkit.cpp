@@ -314,12 +314,17 @@ void warn_if_lost(const Metrics& metrics) {
   const auto& stats = metrics.filter_statistics;
   const auto lost_at = stats.find("known_id_lost_at_s");
   if (lost_at == stats.end()) return;
+  const auto recoveries = stats.find("known_id_recoveries");
+  const std::string recovered =
+      recoveries == stats.end() || recoveries->second == 0.0
+          ? "it ran on odometry"
+          : fmt::format("it ran on odometry until one of its {:.0f} recoveries let it back", recoveries->second);
   std::cerr << fmt::format(
       "slamkit: warning: the filter lost itself: the known-identity gate rejected most observations in {:.0f} tenth(s) "
       "of the run, the first from t = {:.1f} s ({:.0f}% of all {:.0f} judged); its estimate strayed further than its "
-      "covariance allows and it ran on odometry (known_id_* in metrics.json)\n",
+      "covariance allows and {} (known_id_* in metrics.json)\n",
       stats.at("known_id_lost_tenths"), lost_at->second, 100.0 * stats.at("known_id_rejected_fraction"),
-      stats.at("known_id_judged"));
+      stats.at("known_id_judged"), recovered);
 }
 
 /// The calibration as a few lines and its evidence as two tables.
@@ -516,11 +521,13 @@ int run_command(int argc, char** argv) {
   count_setting("--jcbb-max-nodes", "jcbb_max_nodes", "JCBB: search nodes per scan", assoc.jcbb_max_nodes, 1);
   count_setting("--relocalise-min-pairs", "relocalise_min_pairs",
                 "Without identities: recognise landmarks unseen for the window only when this many landmarks "
-                "started since pair jointly with them, and fuse the duplicates (0: off)",
+                "started since pair jointly with them, and fuse the duplicates. With identities (EKF family): "
+                "widen the pose when this many observations the gate rejected fit their landmarks up to one "
+                "rigid motion (0: off)",
                 assoc.relocalise_min_pairs, 0);
   real_setting("--relocalise-window-s", "relocalise_window_s",
                "Relocalisation: how long a landmark must be unseen to count as old, and how far back one "
-               "counts as recently mapped [s]",
+               "counts as recently mapped; with identities, how long a rejected observation is kept [s]",
                assoc.relocalise_window_s);
   real_setting("--detection-probability", "detection_probability",
                "With --clutter-per-scan: the probability that a landmark in view is detected, which a pending "

@@ -67,7 +67,7 @@ TEST(VictoriaParkSlam, FastSlam2WithHundredParticlesOnTheFullRun) {
 // (pose_sample_fraction 1) misses it in all three seeds (ATE 4.10, 3.50, 2.63 m: each run's path is
 // one draw from a posterior metres wide); carrying 99% of it as a Gaussian per particle meets it
 // (1.77, 1.68, 1.70 m). Seeds from the tuning set, not the ones docs/results.md reports; one test each, so
-// that a sanitized build runs them side by side within its time limit (a run takes minutes there).
+// that they run side by side (the sanitized build runs the first only: a run takes minutes there).
 class VictoriaParkFastSlamSeed : public ::testing::TestWithParam<std::uint64_t> {};
 
 TEST_P(VictoriaParkFastSlamSeed, StaysWithinHalfAgainTheEkf) {

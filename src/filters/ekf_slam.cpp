@@ -207,11 +207,14 @@ void EkfSlam::update_known(const ScanEvent& scan) {
       if (!inside_known_gate(index, scan.observations[k].z)) {
         ++rejected;
         if (recover_known_)
-          rejected_.push_back(k);  // discarded, or kept as a copy
+          rejected_.push_back(k);  // discarded; recover_known keeps a copy
         else
           ++discarded_;
         return;
       }
+      // A landmark the gate accepts again has no use for a copy: one misread earlier must not pair
+      // with another outlier later.
+      if (recover_known_) copies_.erase(ids_[index]);
     }
     if (joint_scan_update_) {
       batch_.push_back({index, scan.observations[k].z});
@@ -250,28 +253,50 @@ void EkfSlam::update_known(const ScanEvent& scan) {
     }
   }
   apply_joint_batch();
-  if (recover_known_) recover_known(scan);
+  if (recover_known_) {
+    if (!recent_verdicts_.empty() && recent_verdicts_.back().t == now_) {
+      recent_verdicts_.back().judged += judged;  // scans at one time are one entry
+      recent_verdicts_.back().rejected += rejected;
+    } else {
+      recent_verdicts_.push_back({now_, judged, rejected});
+    }
+    recover_known(scan);
+  }
   gate_tally_.add_scan(scan.t, judged, rejected);
 }
 
 void EkfSlam::recover_known(const ScanEvent& scan) {
   const ObservationModel& model = estimator_->observation_model();
   const Pose2 xv = estimator_->pose();
-  const Matrix3 pose_covariance = estimator_->pose_covariance();
   for (const std::size_t k : rejected_) {
     const Observation& obs = scan.observations[k];
     Matrix23 gx;
     Matrix2 gz;
     model.inverse_jacobians(xv, obs.z, gx, gz);
     ++discarded_;
-    // The latest observation places the copy: the one nearest in time to the others'.
-    copies_[obs.id] = {model.inverse(xv, obs.z),
-                       gx * pose_covariance * gx.transpose() + gz * model.noise() * gz.transpose(), now_};
+    // The latest observation places the copy: the one nearest in time to the others'. Its error
+    // from the pose is what the rigid motion is fitted to, so the fit's residuals carry only the
+    // measurement's.
+    copies_[obs.id] = {static_cast<std::size_t>(find_landmark(obs.id)), model.inverse(xv, obs.z),
+                       gz * model.noise() * gz.transpose(), now_};
   }
   // A copy not seen again for the window is forgotten: most likely a single outlier.
   const double forget_before = now_ - association_.relocalise_window_s;
   std::erase_if(copies_, [&](const auto& entry) { return entry.second.seen < forget_before; });
+  // Dropped from the front of a vector: a window holds a few hundred scans at most, and once its
+  // capacity has grown to one window nothing is allocated again.
+  const auto expired = std::find_if(recent_verdicts_.begin(), recent_verdicts_.end(),
+                                    [&](const GateVerdicts& v) { return v.t >= forget_before; });
+  recent_verdicts_.erase(recent_verdicts_.begin(), expired);
   if (copies_.size() < association_.relocalise_min_pairs) return;
+  // A filter that still accepts most of what it sees is steered by that; only one whose gate rejects
+  // most observations over the window has lost itself.
+  std::size_t judged = 0, rejected = 0;
+  for (const GateVerdicts& v : recent_verdicts_) {
+    judged += v.judged;
+    rejected += v.rejected;
+  }
+  if (2 * rejected <= judged) return;
   const std::optional<Matrix3> missing_noise = drift_the_copies_show();
   if (!missing_noise) return;
   // Once the pose admits its drift, the originals pass the gate again and correct it.
@@ -286,7 +311,7 @@ std::optional<Matrix3> EkfSlam::drift_the_copies_show() const {
   Vector2 copy_centre = Vector2::Zero(), original_centre = Vector2::Zero();
   for (const auto& [id, copy] : copies_) {
     copy_centre += copy.position;
-    original_centre += estimator_->landmark_position(static_cast<std::size_t>(find_landmark(id)));
+    original_centre += estimator_->landmark_position(copy.original);
   }
   const double k = static_cast<double>(copies_.size());
   copy_centre /= k;
@@ -294,7 +319,7 @@ std::optional<Matrix3> EkfSlam::drift_the_copies_show() const {
   double dot = 0.0, cross = 0.0;
   for (const auto& [id, copy] : copies_) {
     const Vector2 c = copy.position - copy_centre;
-    const Vector2 o = estimator_->landmark_position(static_cast<std::size_t>(find_landmark(id))) - original_centre;
+    const Vector2 o = estimator_->landmark_position(copy.original) - original_centre;
     dot += c.dot(o);
     cross += c.x() * o.y() - c.y() * o.x();
   }
@@ -303,19 +328,23 @@ std::optional<Matrix3> EkfSlam::drift_the_copies_show() const {
   r << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
   double d2 = 0.0;
   for (const auto& [id, copy] : copies_) {
-    const auto original = static_cast<std::size_t>(find_landmark(id));
     const Vector2 residual =
-        estimator_->landmark_position(original) - original_centre - r * (copy.position - copy_centre);
-    const Matrix2 covariance = r * copy.covariance * r.transpose() + estimator_->landmark_covariance(original);
+        estimator_->landmark_position(copy.original) - original_centre - r * (copy.position - copy_centre);
+    const Matrix2 covariance = r * copy.covariance * r.transpose() + estimator_->landmark_covariance(copy.original);
     d2 += residual.dot(covariance.ldlt().solve(residual));
   }
-  // 2 coordinates per copy, less the rigid motion's 3.
-  if (d2 > eval::chi_square_quantile(association_.accept_probability, 2.0 * k - 3.0)) return std::nullopt;
-  // Where the same motion carries the vehicle: its error, taken as one standard deviation of the
-  // process noise the filter lacked.
+  // 2 coordinates per copy, less the rigid motion's 3 (written so that a NaN fails).
+  if (!(d2 <= eval::chi_square_quantile(association_.accept_probability, 2.0 * k - 3.0))) return std::nullopt;
+  // Where the same motion carries the vehicle: its error. Only one the filter's pose covariance does
+  // not admit (beyond its new-landmark gate, 3 dof) says the filter is lost; a smaller one is the
+  // gate's own business.
   const Pose2 xv = estimator_->pose();
   const Vector2 shift = original_centre + r * (xv.head<2>() - copy_centre) - xv.head<2>();
-  return Eigen::Vector3d(shift.x() * shift.x(), shift.y() * shift.y(), angle * angle).asDiagonal().toDenseMatrix();
+  const Eigen::Vector3d error(shift.x(), shift.y(), angle);
+  const double admitted = error.dot(estimator_->pose_covariance().ldlt().solve(error));
+  if (!(admitted > eval::chi_square_quantile(association_.new_landmark_probability, 3.0))) return std::nullopt;
+  // Taken as one standard deviation of the process noise the filter lacked.
+  return error.cwiseAbs2().asDiagonal().toDenseMatrix();
 }
 
 void EkfSlam::apply_joint_batch() {

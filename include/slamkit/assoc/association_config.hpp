@@ -84,10 +84,11 @@ struct AssociationConfig {
   ///    the particle's pose takes the correction that best explains the pairs (iterated, as a pose
   ///    update with the drift as prior), the landmarks it saw in the window move with it, and each
   ///    duplicate is fused into the landmark it duplicates.
-  ///  - EKF and UKF with known identities and gate_known: the observations the gate rejects place
-  ///    copies of their landmarks outside the state; when this many fit their originals up to one
-  ///    rigid motion, the pose covariance takes the drift that motion shows, so that the old
-  ///    landmarks pass the gate again (docs/association.md, "Known identities").
+  ///  - The EKF family (UKF included) with known identities and gate_known: observations the gate
+  ///    rejects place copies of their landmarks outside the state; when this many fit their
+  ///    originals up to one rigid motion that the pose covariance does not admit, the pose
+  ///    covariance takes that drift, so that the old landmarks pass the gate again
+  ///    (docs/association.md, "Known identities").
   std::size_t relocalise_min_pairs = 2;
   double relocalise_window_s = 30.0;
   /// The probability that a landmark in view is detected: with clutter_per_scan, how the evidence

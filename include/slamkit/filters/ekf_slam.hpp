@@ -84,7 +84,8 @@ class EkfSlam final : public SlamFilter {
   /// Pairs the scan's observations with landmarks (known ids, NN or JCBB, as configured), applies
   /// the updates, then adds the new landmarks. With known association an observation without an id
   /// is discarded, and so is one beyond the new-landmark gate (AssociationConfig::gate_known, on
-  /// unless set off; its verdicts are tallied, assoc/gate_tally.hpp). With unknown association the map is managed: provisional landmarks are
+  /// unless set off; its verdicts are tallied, assoc/gate_tally.hpp), though a copy of its landmark
+  /// is kept for the recovery (recover_known). With unknown association the map is managed: provisional landmarks are
   /// confirmed after repeated observations, and landmarks expected to be seen but repeatedly unseen
   /// are removed (ExistenceRule).
   void update(const ScanEvent& scan) override;
@@ -183,12 +184,18 @@ class EkfSlam final : public SlamFilter {
   // no longer admits its own drift), and would otherwise run on odometry from then on.
   bool recover_known_;
   struct KnownCopy {
+    std::size_t original = 0;  // its landmark's map index (stable: with identities none is removed)
     Vector2 position;
-    Matrix2 covariance;
+    Matrix2 covariance;        // of the measurement alone
     double seen = 0.0;  // the time of the observation that placed it
   };
   std::map<int, KnownCopy> copies_;    // by landmark id; ordered, so the fit sums in one order
   std::vector<std::size_t> rejected_;  // observations the gate rejected this scan
+  struct GateVerdicts {
+    double t = 0.0;
+    std::size_t judged = 0, rejected = 0;
+  };
+  std::vector<GateVerdicts> recent_verdicts_;  // per scan, over the relocalisation window
   std::size_t known_recoveries_ = 0;
   double now_ = 0.0;  // the time of the scan being processed
   double anchored_until_ = 0.0;
