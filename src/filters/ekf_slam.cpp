@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "slamkit/core/chi_square.hpp"
+#include "slamkit/eval/metrics.hpp"
 #include "slamkit/filters/compressed_joint_gaussian.hpp"
 #include "slamkit/filters/joint_gaussian.hpp"
 #include "slamkit/filters/unscented_joint_gaussian.hpp"
@@ -214,7 +215,7 @@ void EkfSlam::update_known(const ScanEvent& scan) {
       }
       // A landmark the gate accepts again has no use for a copy: one misread earlier must not pair
       // with another outlier later.
-      if (recover_known_) copies_.erase(ids_[index]);
+      if (!copies_.empty()) copies_.erase(ids_[index]);
     }
     if (joint_scan_update_) {
       batch_.push_back({index, scan.observations[k].z});
@@ -305,42 +306,33 @@ void EkfSlam::recover_known(const ScanEvent& scan) {
   ++known_recoveries_;
 }
 
-std::optional<Matrix3> EkfSlam::drift_the_copies_show() const {
-  // The rigid motion that best carries the copies onto their originals (least squares about the
-  // centroids), and the residuals against the copy's and the original's covariances.
-  Vector2 copy_centre = Vector2::Zero(), original_centre = Vector2::Zero();
+std::optional<Matrix3> EkfSlam::drift_the_copies_show() {
+  // The rigid motion that best carries the copies onto their originals, and the residuals against the
+  // copy's and the original's covariances.
+  copy_positions_.clear();
+  original_positions_.clear();
   for (const auto& [id, copy] : copies_) {
-    copy_centre += copy.position;
-    original_centre += estimator_->landmark_position(copy.original);
+    copy_positions_.push_back(copy.position);
+    original_positions_.push_back(estimator_->landmark_position(copy.original));
   }
-  const double k = static_cast<double>(copies_.size());
-  copy_centre /= k;
-  original_centre /= k;
-  double dot = 0.0, cross = 0.0;
-  for (const auto& [id, copy] : copies_) {
-    const Vector2 c = copy.position - copy_centre;
-    const Vector2 o = estimator_->landmark_position(copy.original) - original_centre;
-    dot += c.dot(o);
-    cross += c.x() * o.y() - c.y() * o.x();
-  }
-  const double angle = std::atan2(cross, dot);
+  const eval::Se2Transform motion = eval::align_se2(copy_positions_, original_positions_);
   Matrix2 r;
-  r << std::cos(angle), -std::sin(angle), std::sin(angle), std::cos(angle);
+  r << std::cos(motion.theta), -std::sin(motion.theta), std::sin(motion.theta), std::cos(motion.theta);
   double d2 = 0.0;
   for (const auto& [id, copy] : copies_) {
-    const Vector2 residual =
-        estimator_->landmark_position(copy.original) - original_centre - r * (copy.position - copy_centre);
+    const Vector2 residual = estimator_->landmark_position(copy.original) - motion.apply(copy.position);
     const Matrix2 covariance = r * copy.covariance * r.transpose() + estimator_->landmark_covariance(copy.original);
     d2 += residual.dot(covariance.ldlt().solve(residual));
   }
+  const double k = static_cast<double>(copies_.size());
   // 2 coordinates per copy, less the rigid motion's 3 (written so that a NaN fails).
   if (!(d2 <= eval::chi_square_quantile(association_.accept_probability, 2.0 * k - 3.0))) return std::nullopt;
   // Where the same motion carries the vehicle: its error. Only one the filter's pose covariance does
   // not admit (beyond its new-landmark gate, 3 dof) says the filter is lost; a smaller one is the
   // gate's own business.
   const Pose2 xv = estimator_->pose();
-  const Vector2 shift = original_centre + r * (xv.head<2>() - copy_centre) - xv.head<2>();
-  const Eigen::Vector3d error(shift.x(), shift.y(), angle);
+  const Vector2 shift = motion.apply(Vector2(xv.head<2>())) - xv.head<2>();
+  const Eigen::Vector3d error(shift.x(), shift.y(), motion.theta);
   const double admitted = error.dot(estimator_->pose_covariance().ldlt().solve(error));
   if (!(admitted > eval::chi_square_quantile(association_.new_landmark_probability, 3.0))) return std::nullopt;
   // Taken as one standard deviation of the process noise the filter lacked.

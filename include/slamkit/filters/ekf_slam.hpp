@@ -126,7 +126,7 @@ class EkfSlam final : public SlamFilter {
   /// If the copies sit where their originals do up to one rigid motion (within the chi-square gate of
   /// accept_probability), the vehicle's error that motion implies, as a diagonal covariance;
   /// otherwise nothing.
-  std::optional<Matrix3> drift_the_copies_show() const;
+  std::optional<Matrix3> drift_the_copies_show();
   /// Applies the scan's collected updates jointly (joint_scan_update).
   void apply_joint_batch();
   void update_unknown(const ScanEvent& scan);
@@ -190,6 +190,7 @@ class EkfSlam final : public SlamFilter {
     double seen = 0.0;  // the time of the observation that placed it
   };
   std::map<int, KnownCopy> copies_;    // by landmark id; ordered, so the fit sums in one order
+  std::vector<Vector2> copy_positions_, original_positions_;  // the fit's points, reused
   std::vector<std::size_t> rejected_;  // observations the gate rejected this scan
   struct GateVerdicts {
     double t = 0.0;
