@@ -361,7 +361,7 @@ int run_command(int argc, char** argv) {
 
   // ---- simulate ----
   auto* simulate_cmd = app.add_subcommand("simulate", "Simulate a vehicle driving through a landmark world");
-  std::string world_path, config_path, sim_out, scenario_name = "default", family_name;
+  std::string world_path, config_path, sim_out, scenario_name = "default", family_name, sensor_name;
   std::uint64_t sim_seed = 1, world_seed = 1;
   int loops = 0;
   double clutter = -1.0, detection = -1.0;
@@ -385,6 +385,12 @@ int run_command(int argc, char** argv) {
   simulate_cmd->add_option("--detection-prob", detection, "Probability of detecting a landmark in view")
       ->check(number_where("in (0, 1]", [](double v) { return v > 0.0 && v <= 1.0; }));
   simulate_cmd->add_flag("--no-ids", no_ids, "Withhold landmark identities from the log (kept in the truth)");
+  simulate_cmd
+      ->add_option("--sensor", sensor_name,
+                   "What the sensor measures of each landmark: range-bearing (the scenario's), range-only (a radio "
+                   "ranging to beacons) or bearing-only (a camera's azimuth); its noise is the config's sigma_range "
+                   "or sigma_bearing")
+      ->check(parsed_by(parse_sensor_kind));
   simulate_cmd->add_option("--out", sim_out, "Output folder for the log and ground truth")->required();
 
   // ---- make-world ----
@@ -472,6 +478,20 @@ int run_command(int argc, char** argv) {
                     "too) or additive (over the vehicle; the control noise's spread added as zero-mean process "
                     "noise, for noise that is an allowance for model error)",
                     defaults.ukf_noise);
+  add_named_setting(run_cmd, "--landmark-init", flag_settings, "/landmark_init", parse_landmark_init,
+                    "EKF and UKF: how a landmark starts: immediate (from one measurement's inverse), delayed "
+                    "(triangulated from several observations at well-spread poses; known ids only) or auto "
+                    "(immediate where one measurement places a landmark, delayed for range-only and bearing-only "
+                    "sensors)",
+                    defaults.landmark_init);
+  add_setting<double>(run_cmd, "--init-max-std", flag_settings, "/delayed_init/max_std_m",
+                      "Delayed start: the largest standard deviation a triangulated landmark may start with [m]",
+                      fmt::format("{}", defaults.delayed_init.max_std_m))
+      ->check(finite_number());
+  add_setting<double>(run_cmd, "--init-window", flag_settings, "/delayed_init/window_s",
+                      "Delayed start: how long a landmark's observations are kept while it waits [s]",
+                      fmt::format("{}", defaults.delayed_init.window_s))
+      ->check(finite_number());
   // Association and map management: a file holding the keys run.json records under
   // settings.association, and a flag for each setting, which overrides the file. Their ranges are
   // validate(AssociationConfig)'s, checked with the other settings before any data is read.
@@ -713,6 +733,7 @@ int run_command(int argc, char** argv) {
         flag("--loops", [&](SimulatorConfig& c) { c.loops = loops; });
         flag("--clutter", [&](SimulatorConfig& c) { c.clutter_rate = clutter; });
         flag("--detection-prob", [&](SimulatorConfig& c) { c.detection_probability = detection; });
+        flag("--sensor", [&](SimulatorConfig& c) { c.sensor = parse_sensor_kind(sensor_name); });
       } catch (const InputError& e) {
         return usage_error(e.what());
       }

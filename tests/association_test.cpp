@@ -48,14 +48,19 @@ AssociationConfig config_for(AssociationMethod method) {
 
 }  // namespace
 
-TEST(Gates, AreChiSquareQuantilesWithTwoDegreesOfFreedom) {
-  const Gates g = Gates::from(AssociationConfig{});
+TEST(Gates, AreChiSquareQuantilesWithTheMeasurementsDegreesOfFreedom) {
+  const Gates g = Gates::from(AssociationConfig{}, 2);
   EXPECT_NEAR(g.accept, 9.2103, 1e-3);
   EXPECT_NEAR(g.new_landmark, 18.4207, 1e-3);
+  // A range or a bearing alone: one degree of freedom (chi-square quantiles 6.635 at 0.99 and
+  // 15.137 at 0.9999).
+  const Gates one = Gates::from(AssociationConfig{}, 1);
+  EXPECT_NEAR(one.accept, 6.6349, 1e-3);
+  EXPECT_NEAR(one.new_landmark, 15.1367, 1e-3);
   AssociationConfig bad;
   bad.accept_probability = 0.9999;
   bad.new_landmark_probability = 0.99;
-  EXPECT_THROW(Gates::from(bad), std::invalid_argument);
+  EXPECT_THROW(Gates::from(bad, 2), std::invalid_argument);
   EXPECT_THROW(parse_association_method("fuzzy"), std::invalid_argument);
   EXPECT_EQ(parse_association_method("jcbb"), AssociationMethod::kJcbb);
   EXPECT_EQ(to_string(AssociationMethod::kNearestNeighbour), "nn");
@@ -110,17 +115,38 @@ TEST(SensorView, WidensAndNarrowsTheViewByItsMargins) {
   const SensorLimits forward{20.0, kPi};  // 180 degrees ahead
   const SensorView exact(forward, 0.0, 0.0), wide(forward, 2.0, 0.1), narrow(forward, -2.0, -0.1);
   const Vector2 at_edge(20.0, 0.5 * kPi), beyond(21.0, 0.5 * kPi + 0.05), inside(17.0, 0.5 * kPi - 0.2);
-  EXPECT_TRUE(exact.contains(at_edge));
-  EXPECT_FALSE(exact.contains(beyond));
-  EXPECT_TRUE(wide.contains(beyond));
-  EXPECT_FALSE(narrow.contains(at_edge));
-  EXPECT_TRUE(narrow.contains(inside));
-  EXPECT_FALSE(exact.contains(Vector2(5.0, -0.5 * kPi - 0.01)));
-  EXPECT_FALSE(wide.contains(Vector2(std::nan(""), 0.0)));
+  const auto polar = [](const SensorView& view, const Vector2& p) { return view.contains_polar(p[0], p[1]); };
+  EXPECT_TRUE(polar(exact, at_edge));
+  EXPECT_FALSE(polar(exact, beyond));
+  EXPECT_TRUE(polar(wide, beyond));
+  EXPECT_FALSE(polar(narrow, at_edge));
+  EXPECT_TRUE(polar(narrow, inside));
+  EXPECT_FALSE(polar(exact, Vector2(5.0, -0.5 * kPi - 0.01)));
+  EXPECT_FALSE(polar(wide, Vector2(std::nan(""), 0.0)));
   EXPECT_DOUBLE_EQ(narrow.reach(), 18.0);
   // A full circle, also when 360 degrees comes out a rounding error short of 2 pi, sees behind.
   const SensorView all_round(SensorLimits{20.0, 2.0 * kPi * (1.0 - 1e-15)}, -2.0, -0.1);
-  EXPECT_TRUE(all_round.contains(Vector2(5.0, kPi)));
+  EXPECT_TRUE(polar(all_round, Vector2(5.0, kPi)));
+}
+
+TEST(SensorView, JudgesALandmarkByWhereItIsWhateverTheSensorMeasures) {
+  // The vehicle at (1, 2) heading north, its sensor 1 m ahead of the pose origin: at (1, 3).
+  const SensorView ahead(SensorLimits{10.0, kPi}, 0.0, 0.0);
+  const Pose2 x(1.0, 2.0, 0.5 * kPi);
+  const RangeBearingModel range_bearing({.offset_x = 1.0});
+  const RangeOnlyModel range_only({.offset_x = 1.0});
+  const BearingOnlyModel bearing_only({.offset_x = 1.0});
+  for (const ObservationModel* model : std::initializer_list<const ObservationModel*>{&range_bearing, &range_only, &bearing_only}) {
+    EXPECT_TRUE(ahead.contains(*model, x, Vector2(1.0, 12.9))) << model->name() << ": 9.9 m straight ahead";
+    EXPECT_FALSE(ahead.contains(*model, x, Vector2(1.0, 13.1))) << model->name() << ": 10.1 m ahead";
+    EXPECT_FALSE(ahead.contains(*model, x, Vector2(1.0, 2.9))) << model->name() << ": behind the sensor";
+    EXPECT_TRUE(ahead.contains(*model, x, Vector2(-5.0, 3.1))) << model->name() << ": to the left, just ahead";
+  }
+  // The same test as the range-bearing prediction's, bit for bit: map management's decisions are
+  // the same as before the test went geometric.
+  const Vector2 m(4.0, 9.0);
+  const Measurement z = range_bearing.predict(x, m);
+  EXPECT_EQ(ahead.contains(range_bearing, x, m), ahead.contains_polar(z[0], z[1]));
   EXPECT_THROW(validate(SensorLimits{0.0, kPi}), std::invalid_argument);
   EXPECT_THROW(validate(SensorLimits{10.0, std::nan("")}), std::invalid_argument);
 }
@@ -251,10 +277,10 @@ TEST(Association, MinPairingProbabilityLeavesAmbiguousObservationsUnpaired) {
     EXPECT_EQ(unique[1].landmark, 2u);
 
     config.clutter_per_scan = 1.0;
-    const auto sparse_clutter = associate(scan, candidates, belief, model, config, nullptr, clutter_density(config, sensor));
+    const auto sparse_clutter = associate(scan, candidates, belief, model, config, nullptr, clutter_density(config, sensor, model));
     EXPECT_EQ(sparse_clutter[1].decision, AssociationDecision::kUpdate) << "one false detection per scan is rare here";
     config.clutter_per_scan = 1e4;
-    const auto dense_clutter = associate(scan, candidates, belief, model, config, nullptr, clutter_density(config, sensor));
+    const auto dense_clutter = associate(scan, candidates, belief, model, config, nullptr, clutter_density(config, sensor, model));
     EXPECT_EQ(dense_clutter[1].decision, AssociationDecision::kDiscard) << "clutter explains it as well";
   }
 }

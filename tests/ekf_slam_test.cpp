@@ -194,7 +194,7 @@ TEST(EkfSlam, RemovedLandmarkLeavesTheOthersUnderTheirIds) {
   EXPECT_EQ(ekf.find_landmark(1), -1);
   ASSERT_EQ(ekf.find_landmark(2), 1);
   const RangeBearingModel model;
-  EXPECT_LT((ekf.estimator().landmark_position(1) - model.inverse(Pose2::Zero(), c)).norm(), 1e-6);
+  EXPECT_LT((ekf.estimator().landmark_position(1) - model.invert(Pose2::Zero(), c)->position).norm(), 1e-6);
   // a and c were seen four times: confirmed, and the map under their ids.
   const std::vector<Landmark> map = ekf.landmarks();
   ASSERT_EQ(map.size(), 2u);

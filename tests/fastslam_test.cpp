@@ -69,17 +69,24 @@ double ate(const FastSlam& filter, const Dataset& d) {
 class BrokenSensor final : public ObservationModel {
  public:
   std::string name() const override { return "broken"; }
-  Vector2 predict(const Pose2&, const Vector2&) const override {
-    return Vector2::Constant(std::numeric_limits<double>::quiet_NaN());
+  int dim() const override { return 2; }
+  Measurement predict(const Pose2&, const Vector2&) const override {
+    return Measurement::Constant(2, std::numeric_limits<double>::quiet_NaN());
   }
-  void jacobians(const Pose2& x, const Vector2& m, Matrix23& hx, Matrix2& hm) const override {
+  void jacobians(const Pose2& x, const Vector2& m, PoseJacobian& hx, LandmarkJacobian& hm) const override {
     inner_.jacobians(x, m, hx, hm);
   }
-  Matrix2 noise() const override { return inner_.noise(); }
-  Vector2 residual(const Vector2& z, const Vector2& zhat) const override { return inner_.residual(z, zhat); }
-  Vector2 inverse(const Pose2& x, const Vector2& z) const override { return inner_.inverse(x, z); }
-  void inverse_jacobians(const Pose2& x, const Vector2& z, Matrix23& gx, Matrix2& gz) const override {
-    inner_.inverse_jacobians(x, z, gx, gz);
+  MeasurementCovariance noise() const override { return inner_.noise(); }
+  Measurement residual(const Measurement& z, const Measurement& zhat) const override { return inner_.residual(z, zhat); }
+  Vector2 sensor_position(const Pose2& x) const override { return inner_.sensor_position(x); }
+  double measurement_volume(const SensorLimits& sensor) const override { return inner_.measurement_volume(sensor); }
+  MeasurementShape shape(const Pose2& x, const Measurement& z, double reach) const override {
+    return inner_.shape(x, z, reach);
+  }
+  MeasuredRows rows() const override { return inner_.rows(); }
+  bool invertible() const override { return true; }
+  std::optional<InverseObservation> invert(const Pose2& x, const Measurement& z) const override {
+    return inner_.invert(x, z);
   }
 
  private:
@@ -116,15 +123,13 @@ TEST(FastSlam, OneParticleWithoutControlNoiseIsIndependentEkfsOnTheTruePath) {
     for (const Observation& o : scan.observations) {
       const auto it = reference.find(o.id);
       if (it == reference.end()) {
-        Matrix23 gx;
-        Matrix2 gz;
-        h.inverse_jacobians(x, o.z, gx, gz);
-        reference[o.id] = {h.inverse(x, o.z), gz * r * gz.transpose()};
+        const InitialLandmark placed = *inverted_landmark(h, x, o.z);
+        reference[o.id] = {placed.mean, placed.covariance};
         continue;
       }
       Ekf& f = it->second;
-      Matrix23 hx;
-      Matrix2 hm;
+      PoseJacobian hx;
+      LandmarkJacobian hm;
       h.jacobians(x, f.m, hx, hm);
       const Matrix2 s = hm * f.p * hm.transpose() + r;
       const Matrix2 k = f.p * hm.transpose() * s.inverse();

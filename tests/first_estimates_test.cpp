@@ -33,8 +33,8 @@ Eigen::VectorXd turn_at(const Eigen::VectorXd& points) {
 struct Update {
   Eigen::MatrixXd h, s, gain;
   Update(const RangeBearingModel& model, const Eigen::MatrixXd& p, const Pose2& pose, const Vector2& m) {
-    Matrix23 hx;
-    Matrix2 hm;
+    PoseJacobian hx;
+    LandmarkJacobian hm;
     model.jacobians(pose, m, hx, hm);
     h = Eigen::MatrixXd::Zero(2, 7);
     h.leftCols<3>() = hx;

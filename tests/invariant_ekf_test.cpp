@@ -270,8 +270,8 @@ TEST(InvariantEkf, GateInnovationCovarianceIsTheInvariantErrors) {
           return f.observation->residual(f.observation->predict(moved.head<3>(), moved.segment<2>(at)), zhat);
         },
         2, x.size());
-    Vector2 gate_zhat;
-    Matrix2 gate_s;
+    Measurement gate_zhat;
+    MeasurementCovariance gate_s;
     f.filter.innovation(i, gate_zhat, gate_s);
     const Matrix2 expected = h * p_xi * h.transpose() + f.observation->noise();
     EXPECT_LT((gate_s - expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff()) << "landmark " << i;
@@ -294,7 +294,7 @@ TEST(InvariantEkf, NewLandmarkAndRemovalAreTheInvariantErrorsAugmentationAndMarg
   const auto augmented_error = [&](const Eigen::VectorXd& xi, const Vector2& v) -> Eigen::VectorXd {
     const Eigen::VectorXd moved = retract(x, xi);
     Eigen::VectorXd y(n + 2);
-    y << moved, f.observation->inverse(moved.head<3>(), z + v);
+    y << moved, f.observation->invert(moved.head<3>(), z + v)->position;
     return unretract(x_aug, y);
   };
   const Eigen::MatrixXd a = central_differences(

@@ -76,8 +76,8 @@ TEST(IteratedEkfUpdate, ReachesTheMaximumAPosterioriEstimateAtALoopClosure) {
     const Eigen::MatrixXd p0 = g->covariance();
     EXPECT_TRUE(g->update_landmark(0, z));
     const Eigen::VectorXd x = g->state();
-    Matrix23 hx;
-    Matrix2 hm;
+    PoseJacobian hx;
+    LandmarkJacobian hm;
     observation->jacobians(x.head<3>(), x.tail<2>(), hx, hm);
     Eigen::Matrix<double, 2, 5> h;
     h << hx, hm;

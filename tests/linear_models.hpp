@@ -27,17 +27,29 @@ class LinearMotion final : public MotionModel {
 class LinearOffset final : public ObservationModel {
  public:
   std::string name() const override { return "offset"; }
-  Vector2 predict(const Pose2& x, const Vector2& m) const override { return m - x.head<2>(); }
-  void jacobians(const Pose2&, const Vector2&, Matrix23& hx, Matrix2& hm) const override {
+  int dim() const override { return 2; }
+  Measurement predict(const Pose2& x, const Vector2& m) const override { return m - x.head<2>(); }
+  void jacobians(const Pose2&, const Vector2&, PoseJacobian& hx, LandmarkJacobian& hm) const override {
+    hx.resize(2, 3);
     hx << -1, 0, 0, 0, -1, 0;
-    hm.setIdentity();
+    hm = Matrix2::Identity();
   }
-  Matrix2 noise() const override { return (Matrix2() << 0.02, 0.005, 0.005, 0.03).finished(); }
-  Vector2 residual(const Vector2& z, const Vector2& zhat) const override { return z - zhat; }
-  Vector2 inverse(const Pose2& x, const Vector2& z) const override { return x.head<2>() + z; }
-  void inverse_jacobians(const Pose2&, const Vector2&, Matrix23& gx, Matrix2& gz) const override {
-    gx << 1, 0, 0, 0, 1, 0;
-    gz.setIdentity();
+  MeasurementCovariance noise() const override { return (Matrix2() << 0.02, 0.005, 0.005, 0.03).finished(); }
+  Measurement residual(const Measurement& z, const Measurement& zhat) const override { return z - zhat; }
+  Vector2 sensor_position(const Pose2& x) const override { return x.head<2>(); }
+  // The range-bearing sensor's, which the tests' clutter settings were written against.
+  double measurement_volume(const SensorLimits& sensor) const override { return sensor.max_range * sensor.fov; }
+  MeasurementShape shape(const Pose2& x, const Measurement& z, double) const override {
+    return {x.head<2>(), x.head<2>() + z, 0.0};
+  }
+  MeasuredRows rows() const override { return {}; }
+  bool invertible() const override { return true; }
+  std::optional<InverseObservation> invert(const Pose2& x, const Measurement& z) const override {
+    InverseObservation g;
+    g.position = x.head<2>() + z;
+    g.gx << 1, 0, 0, 0, 1, 0;
+    g.gz = Matrix2::Identity();
+    return g;
   }
 };
 

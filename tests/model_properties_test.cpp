@@ -281,6 +281,32 @@ struct NoiseDraws {
   Eigen::MatrixXd stated;
 };
 
+/// Every simulated observation's residual against the noise-free measurement from the true pose, for
+/// the default scenario with the given sensor.
+NoiseDraws simulated_noise_of(SensorKind sensor) {
+  Scenario s = scenario("default");
+  s.config.sensor = sensor;
+  const Dataset data = simulate(s.world, s.config);
+  std::map<double, Pose2> pose_at;
+  for (const StampedPose& p : data.truth.poses) pose_at[p.t] = p.pose;
+  std::map<int, Vector2> landmark;
+  for (const Landmark& l : data.truth.landmarks) landmark[l.id] = l.position;
+  const ObservationModel& model = *data.observation;
+  NoiseDraws noise{{}, model.noise()};
+  std::size_t k = 0;
+  for (const Event& event : data.events) {
+    const auto* scan = std::get_if<ScanEvent>(&event);
+    if (scan == nullptr) continue;
+    const Pose2& x = pose_at.at(scan->t);
+    for (std::size_t i = 0; i < scan->observations.size(); ++i) {
+      const Measurement zhat = model.predict(x, landmark.at(data.truth.observation_ids[k][i]));
+      noise.draws.emplace_back(model.residual(scan->observations[i].z, zhat));
+    }
+    ++k;
+  }
+  return noise;
+}
+
 /// For each observation model: `models()` its instances, `landmarks()` the points seen from every
 /// sample pose, `angular_rows()` the measurement's angles, and `simulated_noise()`.
 template <typename Model>
@@ -297,29 +323,31 @@ struct ObservationTraits<RangeBearingModel> {
     return {Vector2(5, 1), Vector2(-3, -7), Vector2(0.5, 12), Vector2(-20, 0.1), Vector2(-20, -0.1)};
   }
   static std::vector<int> angular_rows() { return {1}; }
-  static NoiseDraws simulated_noise() {
-    const Scenario s = scenario("default");
-    const Dataset data = simulate(s.world, s.config);
-    std::map<double, Pose2> pose_at;
-    for (const StampedPose& p : data.truth.poses) pose_at[p.t] = p.pose;
-    std::map<int, Vector2> landmark;
-    for (const Landmark& l : data.truth.landmarks) landmark[l.id] = l.position;
-    const ObservationModel& model = *data.observation;
-    NoiseDraws noise{{}, model.noise()};
-    std::size_t k = 0;
-    for (const Event& event : data.events) {
-      const auto* scan = std::get_if<ScanEvent>(&event);
-      if (scan == nullptr) continue;
-      const Pose2& x = pose_at.at(scan->t);
-      for (std::size_t i = 0; i < scan->observations.size(); ++i) {
-        const Vector2 zhat = model.predict(x, landmark.at(data.truth.observation_ids[k][i]));
-        noise.draws.emplace_back(model.residual(scan->observations[i].z, zhat));
-      }
-      ++k;
-    }
-    return noise;
-  }
+  static NoiseDraws simulated_noise() { return simulated_noise_of(SensorKind::kRangeBearing); }
 };
+
+template <>
+struct ObservationTraits<RangeOnlyModel> {
+  static constexpr const char* kName = "RangeOnly";
+  static std::vector<RangeOnlyModel> models() {
+    return {RangeOnlyModel{}, RangeOnlyModel({.sigma_range = 0.5, .offset_x = 3.78, .offset_y = 0.5})};
+  }
+  static std::vector<Vector2> landmarks() { return ObservationTraits<RangeBearingModel>::landmarks(); }
+  static std::vector<int> angular_rows() { return {}; }
+  static NoiseDraws simulated_noise() { return simulated_noise_of(SensorKind::kRangeOnly); }
+};
+
+template <>
+struct ObservationTraits<BearingOnlyModel> {
+  static constexpr const char* kName = "BearingOnly";
+  static std::vector<BearingOnlyModel> models() {
+    return {BearingOnlyModel{}, BearingOnlyModel({.sigma_bearing = 0.01, .offset_x = 3.78, .offset_y = 0.5})};
+  }
+  static std::vector<Vector2> landmarks() { return ObservationTraits<RangeBearingModel>::landmarks(); }
+  static std::vector<int> angular_rows() { return {0}; }
+  static NoiseDraws simulated_noise() { return simulated_noise_of(SensorKind::kBearingOnly); }
+};
+
 
 template <typename Model>
 class ObservationModelProperties : public ::testing::Test {
@@ -338,19 +366,20 @@ class ObservationModelProperties : public ::testing::Test {
   }
 };
 
-using ObservationModels = ::testing::Types<RangeBearingModel>;
+using ObservationModels = ::testing::Types<RangeBearingModel, RangeOnlyModel, BearingOnlyModel>;
 TYPED_TEST_SUITE(ObservationModelProperties, ObservationModels, TraitsName<ObservationTraits>);
 
 TYPED_TEST(ObservationModelProperties, MeasurementJacobiansMatchCentralDifferences) {
   const std::vector<int> angles = ObservationTraits<TypeParam>::angular_rows();
   this->for_each_case([&](const TypeParam& model, const Pose2& x, const Vector2& m) {
-    Matrix23 hx;
-    Matrix2 hm;
+    PoseJacobian hx;
+    LandmarkJacobian hm;
     model.jacobians(x, m, hx, hm);
-    EXPECT_TRUE(jacobian_matches(
-        hx, numeric_jacobian<2>([&](const Eigen::VectorXd& s) { return model.predict(s, m); }, x, angles)));
-    EXPECT_TRUE(jacobian_matches(
-        hm, numeric_jacobian<2>([&](const Eigen::VectorXd& l) { return model.predict(x, l); }, m, angles)));
+    EXPECT_EQ(model.predict(x, m).size(), model.dim());
+    EXPECT_TRUE(jacobian_matches(hx, numeric_jacobian<Eigen::Dynamic>(
+                                         [&](const Eigen::VectorXd& s) { return model.predict(s, m); }, x, angles)));
+    EXPECT_TRUE(jacobian_matches(hm, numeric_jacobian<Eigen::Dynamic>(
+                                         [&](const Eigen::VectorXd& l) { return model.predict(x, l); }, m, angles)));
   });
 }
 
@@ -362,17 +391,17 @@ TYPED_TEST(ObservationModelProperties, InvariantErrorJacobianHasNoHeadingColumn)
   this->for_each_case([](const TypeParam& model, const Pose2& x, const Vector2& m) {
     Eigen::VectorXd state(5);
     state << x, m;
-    const Eigen::MatrixXd numeric = numeric_jacobian<2>(
-        [&](const Eigen::VectorXd& xi) {
+    const Eigen::MatrixXd numeric = numeric_jacobian<Eigen::Dynamic>(
+        [&](const Eigen::VectorXd& xi) -> Eigen::VectorXd {
           const Eigen::VectorXd moved = group_retract(state, xi);
           return model.predict(moved.head<3>(), moved.tail<2>());
         },
         Eigen::VectorXd::Zero(5), ObservationTraits<TypeParam>::angular_rows());
     EXPECT_LT(numeric.col(2).cwiseAbs().maxCoeff(), 1e-7) << numeric;
-    Matrix23 hx;
-    Matrix2 hm;
+    PoseJacobian hx;
+    LandmarkJacobian hm;
     model.jacobians(x, m, hx, hm);
-    Eigen::Matrix<double, 2, 5> h;
+    Eigen::MatrixXd h(model.dim(), 5);
     h << hx, hm;
     Eigen::Matrix<double, 5, 5> t = Eigen::Matrix<double, 5, 5>::Identity();
     t.topLeftCorner<3, 3>() = to_invariant(x);
@@ -385,7 +414,7 @@ TYPED_TEST(ObservationModelProperties, InvariantErrorJacobianHasNoHeadingColumn)
 // The UKF predicts a sigma point's landmarks together and relies on getting predict's values exactly.
 TYPED_TEST(ObservationModelProperties, PredictManyEqualsPredictBitForBit) {
   const std::vector<Vector2> landmarks = ObservationTraits<TypeParam>::landmarks();
-  std::vector<Vector2> z(landmarks.size());
+  std::vector<Measurement> z(landmarks.size());
   for (const TypeParam& model : ObservationTraits<TypeParam>::models())
     for (const Pose2& x : sample_poses()) {
       model.predict_many(x, landmarks, z);
@@ -394,32 +423,35 @@ TYPED_TEST(ObservationModelProperties, PredictManyEqualsPredictBitForBit) {
     }
 }
 
+// The inverse where a model has one: a range alone or a bearing alone places no landmark, and such
+// a model must say so rather than answer.
 TYPED_TEST(ObservationModelProperties, InverseJacobiansMatchCentralDifferences) {
   this->for_each_case([](const TypeParam& model, const Pose2& x, const Vector2& m) {
-    const Vector2 z = model.predict(x, m);
-    Matrix23 gx;
-    Matrix2 gz;
-    model.inverse_jacobians(x, z, gx, gz);
-    EXPECT_TRUE(jacobian_matches(
-        gx, numeric_jacobian<2>([&](const Eigen::VectorXd& s) { return model.inverse(s, z); }, x, {})));
-    EXPECT_TRUE(jacobian_matches(
-        gz, numeric_jacobian<2>([&](const Eigen::VectorXd& c) { return model.inverse(x, c); }, z, {})));
+    const Measurement z = model.predict(x, m);
+    const std::optional<InverseObservation> g = model.invert(x, z);
+    ASSERT_EQ(g.has_value(), model.invertible());
+    if (!g) return;
+    const auto at = [&](const Eigen::VectorXd& s, const Eigen::VectorXd& c) -> Vector2 {
+      return model.invert(s, c)->position;
+    };
+    EXPECT_TRUE(jacobian_matches(g->gx, numeric_jacobian<2>([&](const Eigen::VectorXd& s) { return at(s, z); }, x, {})));
+    EXPECT_TRUE(jacobian_matches(g->gz, numeric_jacobian<2>([&](const Eigen::VectorXd& c) { return at(x, c); }, z, {})));
   });
 }
 
 TYPED_TEST(ObservationModelProperties, BearingsAndResidualsAreWrapped) {
   const std::vector<int> angles = ObservationTraits<TypeParam>::angular_rows();
-  std::vector<Vector2> measurements;
+  std::vector<Measurement> measurements;
   for (const TypeParam& model : ObservationTraits<TypeParam>::models())
     for (const Pose2& x : sample_poses())
       for (const Vector2& m : ObservationTraits<TypeParam>::landmarks()) measurements.push_back(model.predict(x, m));
   const TypeParam model;
   bool straddles = false;
-  for (const Vector2& z : measurements) {
+  for (const Measurement& z : measurements) {
     for (const int r : angles) EXPECT_TRUE(wrapped(z[r])) << z.transpose();
-    for (const Vector2& zhat : measurements) {
-      const Vector2 e = model.residual(z, zhat);
-      for (int r = 0; r < 2; ++r) {
+    for (const Measurement& zhat : measurements) {
+      const Measurement e = model.residual(z, zhat);
+      for (int r = 0; r < model.dim(); ++r) {
         if (std::find(angles.begin(), angles.end(), r) == angles.end()) {
           EXPECT_EQ(e[r], z[r] - zhat[r]);
           continue;
@@ -431,21 +463,22 @@ TYPED_TEST(ObservationModelProperties, BearingsAndResidualsAreWrapped) {
       }
     }
   }
-  EXPECT_TRUE(straddles) << "no sample pair of measurements straddles +-pi";
+  EXPECT_TRUE(straddles || angles.empty()) << "no sample pair of measurements straddles +-pi";
 }
 
 TYPED_TEST(ObservationModelProperties, InverseIsConsistentWithTheForwardModel) {
   this->for_each_case([](const TypeParam& model, const Pose2& x, const Vector2& m) {
-    const Vector2 z = model.predict(x, m);
-    EXPECT_LT((model.inverse(x, z) - m).norm(), 1e-10 * (1.0 + m.norm()));
-    EXPECT_LT(model.residual(model.predict(x, model.inverse(x, z)), z).norm(), 1e-10 * (1.0 + z.norm()));
+    const Measurement z = model.predict(x, m);
+    const std::optional<InverseObservation> g = model.invert(x, z);
+    if (!g) return;
+    EXPECT_LT((g->position - m).norm(), 1e-10 * (1.0 + m.norm()));
+    EXPECT_LT(model.residual(model.predict(x, g->position), z).norm(), 1e-10 * (1.0 + z.norm()));
     // h(x, g(x, z)) = z for all x and z: differentiated, hm gz = I and hx + hm gx = 0.
-    Matrix23 hx, gx;
-    Matrix2 hm, gz;
+    PoseJacobian hx;
+    LandmarkJacobian hm;
     model.jacobians(x, m, hx, hm);
-    model.inverse_jacobians(x, z, gx, gz);
-    EXPECT_LT((hm * gz - Matrix2::Identity()).norm(), 1e-10);
-    EXPECT_LT((hx + hm * gx).norm(), 1e-10);
+    EXPECT_LT((hm * g->gz - Eigen::MatrixXd::Identity(model.dim(), model.dim())).norm(), 1e-10);
+    EXPECT_LT((hx + hm * g->gx).norm(), 1e-10);
   });
 }
 

@@ -28,7 +28,8 @@ AssociationConfig cluttered(double clutter_per_scan) {
 }
 
 struct Pending {
-  explicit Pending(double clutter_per_scan) : pending(cluttered(clutter_per_scan), SensorLimits{kRange, kFov}) {}
+  explicit Pending(double clutter_per_scan)
+      : pending(cluttered(clutter_per_scan), SensorLimits{kRange, kFov}, RangeBearingModel{}) {}
   /// One scan at time t from the origin: offers z, ends the scan, returns what offer said.
   int scan(double t, const Vector2& z, std::size_t started = 0, std::size_t scans = 0) {
     pending.begin_scan(t, Pose2::Zero());

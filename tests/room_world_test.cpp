@@ -123,7 +123,7 @@ class KnownIdentityRecoveryByHand : public ::testing::Test {
     auto map = std::make_unique<JointGaussian>(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>(),
                                                Pose2::Zero(), Matrix3::Identity() * 1e-6);
     for (const Vector2& z : {Vector2(10.0, 0.3), Vector2(15.0, -0.4), Vector2(20.0, 0.1)}) {
-      landmarks_.push_back(model.inverse(Pose2::Zero(), z));
+      landmarks_.push_back(model.invert(Pose2::Zero(), z)->position);
       map->add_landmark(z);
     }
     EkfSlamOptions options;

@@ -189,7 +189,7 @@ TEST(CheckEvents, RefusesWhatNoFilterCanBeFed) {
   std::size_t scan = 0;
   while (!std::holds_alternative<ScanEvent>(one_lap().events.at(scan))) ++scan;
   expect_refused(scan, [](Event& e) { std::get<ScanEvent>(e).observations.at(0).z.y() = -INFINITY; },
-                 "observations within +-1e+06");
+                 "measurement values within +-1e+06");
 }
 
 // A dataset built in code is not checked by a reader: a start 1e20 m out was scored as a map error

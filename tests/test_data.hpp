@@ -39,12 +39,13 @@ std::string input_error_at(F&& read, const std::string& file, std::size_t line) 
 }
 
 /// Central-difference Jacobian of f at x; the `angular_rows` of f are differenced the short way
-/// round. What every model's analytic Jacobians are tested against.
+/// round. What every model's analytic Jacobians are tested against. Rows may be Eigen::Dynamic (a
+/// measurement of the model's dimension).
 template <int Rows>
 Eigen::MatrixXd numeric_jacobian(const std::function<Eigen::Matrix<double, Rows, 1>(const Eigen::VectorXd&)>& f,
                                  const Eigen::VectorXd& x, const std::vector<int>& angular_rows) {
   const double h = 1e-6;
-  Eigen::MatrixXd j(Rows, x.size());
+  Eigen::MatrixXd j(f(x).size(), x.size());
   for (int i = 0; i < x.size(); ++i) {
     Eigen::VectorXd a = x, b = x;
     a[i] += h;

@@ -249,7 +249,7 @@ TEST_F(VictoriaParkData, PlatformIsTheLaserPoseWithTheAcfrCar) {
   EXPECT_EQ(data.observation->name(), "range-bearing");
   const Pose2 x(1, 2, 0.3);
   // No sensor offset: the state is the laser.
-  EXPECT_LT((data.observation->inverse(x, Vector2(5.0, 0.0)) -
+  EXPECT_LT((data.observation->invert(x, Vector2(5.0, 0.0))->position -
              Vector2(1 + 5 * std::cos(0.3), 2 + 5 * std::sin(0.3)))
                 .norm(),
             1e-12);

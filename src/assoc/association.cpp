@@ -6,63 +6,81 @@
 #include <limits>
 #include <numbers>
 #include <stdexcept>
+#include <string>
 
 #include "slamkit/assoc/sensor_view.hpp"
 #include "slamkit/core/chi_square.hpp"
 
 namespace slamkit {
 
-Gates Gates::from(const AssociationConfig& config) {
+Gates Gates::from(const AssociationConfig& config, int dof) {
   validate(config);
-  return Gates{eval::chi_square_quantile(config.accept_probability, 2.0),
-               eval::chi_square_quantile(config.new_landmark_probability, 2.0)};
+  return Gates{eval::chi_square_quantile(config.accept_probability, double(dof)),
+               eval::chi_square_quantile(config.new_landmark_probability, double(dof))};
 }
 
 namespace {
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
-/// One observation-landmark pair with everything the individual and joint tests need.
+/// One observation-landmark pair with everything the individual and joint tests need, for a
+/// measurement of dimension D.
+template <int D>
 struct PairTerms {
+  using Vector = MeasurementVector<D>;
+  using Square = MeasurementSquare<D>;
+  using PoseRows = slamkit::PoseRows<D>;
+  using LandmarkRows = slamkit::LandmarkRows<D>;
   std::size_t observation = 0;
   std::size_t landmark = 0;
-  Vector2 innovation = Vector2::Zero();
-  Matrix2 s = Matrix2::Zero();  // individual innovation covariance
+  Vector innovation = Vector::Zero();
+  Square s = Square::Zero();  // individual innovation covariance
   double d2 = kInfinity;
   double likelihood = 0.0;  // of the innovation, N(innovation; 0, s)
-  Matrix23 hx = Matrix23::Zero();
-  Matrix2 hm = Matrix2::Zero();
-  Matrix23 a = Matrix23::Zero();  // hx Pvv + hm P(m, v): the vehicle part of this pair's row of H P
+  PoseRows hx = PoseRows::Zero();
+  LandmarkRows hm = LandmarkRows::Zero();
+  PoseRows a = PoseRows::Zero();  // hx Pvv + hm P(m, v): the vehicle part of this pair's row of H P
+};
+
+/// The tables and search state of measurements of dimension D.
+template <int D>
+struct Tables {
+  std::vector<PairTerms<D>> pairs;
+  // Pairs inside the acceptance gate: by distance (NN), or by observation then distance (JCBB).
+  std::vector<const PairTerms<D>*> accepted;
+  std::vector<const PairTerms<D>*> current, best;  // JCBB's hypothesis stacks
+  Eigen::Matrix<double, Eigen::Dynamic, D> w;     // the new pair's rows of the factor, transposed
 };
 
 }  // namespace
 
 struct AssociationWorkspace::Impl {
-  // The compatibility table.
-  std::vector<PairTerms> pairs;
+  PerMeasurementDim<Tables> per_dim;
+  template <int D>
+  Tables<D>& tables() {
+    return per_dim.get<D>();
+  }
   std::vector<double> min_d2;  // per observation, the smallest distance to any candidate
   std::vector<double> explained;  // per observation, the sum of every candidate's likelihood
-  // Pairs inside the acceptance gate: by distance (NN), or by observation then distance (JCBB).
-  std::vector<const PairTerms*> accepted;
   std::vector<std::size_t> used_landmarks;
   // JCBB: observation i's options are accepted[option_begin[i], option_begin[i + 1]).
   std::vector<std::size_t> option_begin, order;
-  std::vector<const PairTerms*> current, best;  // the search's hypothesis stacks
-  Eigen::MatrixXd l;                             // Cholesky factor of the current hypothesis
+  Eigen::MatrixXd l;  // Cholesky factor of the current hypothesis
   Eigen::VectorXd y;
-  Eigen::Matrix<double, Eigen::Dynamic, 2> w;  // the new pair's rows of the factor, transposed
-  // Gates, recomputed only when the configured probabilities change.
+  // Gates, recomputed only when the configured probabilities or the dimension change.
   double accept_probability = std::numeric_limits<double>::quiet_NaN();
   double new_landmark_probability = std::numeric_limits<double>::quiet_NaN();
+  int dof = 0;
   Gates gates;
   std::vector<double> joint_gate;  // for k pairings, k >= 1 (index 0 unused)
 
-  const Gates& gates_for(const AssociationConfig& config) {
+  const Gates& gates_for(const AssociationConfig& config, int measurement_dim) {
     if (config.accept_probability != accept_probability ||
-        config.new_landmark_probability != new_landmark_probability) {
-      gates = Gates::from(config);
+        config.new_landmark_probability != new_landmark_probability || measurement_dim != dof) {
+      gates = Gates::from(config, measurement_dim);
       accept_probability = config.accept_probability;
       new_landmark_probability = config.new_landmark_probability;
+      dof = measurement_dim;
       joint_gate.assign(1, 0.0);
     }
     return gates;
@@ -71,7 +89,7 @@ struct AssociationWorkspace::Impl {
   /// The joint gates up to k_max pairings (after gates_for).
   void extend_joint_gates(std::size_t k_max) {
     for (std::size_t k = joint_gate.size(); k <= k_max; ++k)
-      joint_gate.push_back(eval::chi_square_quantile(accept_probability, 2.0 * double(k)));
+      joint_gate.push_back(eval::chi_square_quantile(accept_probability, double(dof) * double(k)));
   }
 };
 
@@ -89,30 +107,39 @@ using Workspace = AssociationWorkspace::Impl;
 /// Individual compatibility of every observation with every candidate, into ws.pairs and ws.min_d2;
 /// with weigh_pairings also each pair's likelihood and ws.explained (one exp per pair, which the
 /// default min_pairing_probability of 0 does not need).
+template <int D>
 void build_compatibility(std::span<const Observation> observations, std::span<const std::size_t> candidates,
                          const GaussianMapView& belief, const ObservationModel& model, bool weigh_pairings,
                          Workspace& ws) {
-  ws.pairs.clear();
+  using Terms = PairTerms<D>;
+  using Square = typename Terms::Square;
+  std::vector<Terms>& pairs = ws.tables<D>().pairs;
+  pairs.clear();
   ws.min_d2.assign(observations.size(), kInfinity);
   ws.explained.assign(observations.size(), 0.0);
   const Pose2 x = belief.pose();
   const Matrix3 pvv = belief.pose_covariance();
-  const Matrix2 r = model.noise();
+  const Square r = model.noise();
+  PoseJacobian hx;
+  LandmarkJacobian hm;
   for (const std::size_t j : candidates) {
     const Vector2 m = belief.landmark_position(j);
-    const Vector2 zhat = model.predict(x, m);
-    PairTerms t;
+    const Measurement zhat = model.predict(x, m);
+    Terms t;
     t.landmark = j;
-    model.jacobians(x, m, t.hx, t.hm);
+    model.jacobians(x, m, hx, hm);
+    t.hx = hx;
+    t.hm = hm;
     const Matrix23 pmv = belief.landmark_pose_covariance(j);
     t.a = t.hx * pvv + t.hm * pmv;
     // S = H P H^T + R over the vehicle and landmark blocks.
-    const Matrix2 hm_pmm = t.hm * belief.landmark_cross_covariance(j, j);
-    const Matrix2 s = t.a * t.hx.transpose() + (t.hx * pmv.transpose() + hm_pmm) * t.hm.transpose() + r;
-    const Matrix2 s_sym = 0.5 * (s + s.transpose());
-    const Eigen::LLT<Matrix2> llt(s_sym);
+    const typename Terms::LandmarkRows hm_pmm = t.hm * belief.landmark_cross_covariance(j, j);
+    const Square s = t.a * t.hx.transpose() + (t.hx * pmv.transpose() + hm_pmm) * t.hm.transpose() + r;
+    const Square s_sym = 0.5 * (s + s.transpose());
+    const Eigen::LLT<Square> llt(s_sym);
     if (llt.info() != Eigen::Success) continue;
-    const double normaliser = 2.0 * std::numbers::pi * llt.matrixL().determinant();  // 2 pi sqrt(det S)
+    // (2 pi)^(D/2) sqrt(det S)
+    const double normaliser = std::pow(2.0 * std::numbers::pi, 0.5 * D) * llt.matrixL().determinant();
     for (std::size_t i = 0; i < observations.size(); ++i) {
       t.observation = i;
       t.innovation = model.residual(observations[i].z, zhat);
@@ -123,18 +150,20 @@ void build_compatibility(std::span<const Observation> observations, std::span<co
         t.likelihood = std::exp(-0.5 * t.d2) / normaliser;
         ws.explained[i] += t.likelihood;
       }
-      ws.pairs.push_back(t);
+      pairs.push_back(t);
     }
   }
 }
 
 /// The pairs inside the acceptance gate that are probable enough (see
-/// AssociationConfig::min_pairing_probability), into ws.accepted, in table order.
+/// AssociationConfig::min_pairing_probability), into the tables' accepted, in table order.
+template <int D>
 void collect_accepted(Workspace& ws, const Gates& gates, double min_probability, double clutter) {
-  ws.accepted.clear();
-  for (const PairTerms& p : ws.pairs)
+  Tables<D>& tables = ws.tables<D>();
+  tables.accepted.clear();
+  for (const PairTerms<D>& p : tables.pairs)
     if (p.d2 < gates.accept && p.likelihood >= min_probability * (clutter + ws.explained[p.observation]))
-      ws.accepted.push_back(&p);
+      tables.accepted.push_back(&p);
 }
 
 /// Observations left unpaired are new if far from every candidate, else ambiguous.
@@ -145,13 +174,15 @@ void decide_unpaired(std::vector<Pairing>& out, const Workspace& ws, const Gates
           ws.min_d2[i] > gates.new_landmark ? AssociationDecision::kNew : AssociationDecision::kDiscard;
 }
 
+template <int D>
 void nearest_neighbour(Workspace& ws, const Gates& gates, double min_probability, double clutter,
                        std::vector<Pairing>& out) {
-  collect_accepted(ws, gates, min_probability, clutter);
-  std::sort(ws.accepted.begin(), ws.accepted.end(),
-            [](const PairTerms* a, const PairTerms* b) { return a->d2 < b->d2; });
+  collect_accepted<D>(ws, gates, min_probability, clutter);
+  auto& accepted = ws.tables<D>().accepted;
+  std::sort(accepted.begin(), accepted.end(),
+            [](const PairTerms<D>* a, const PairTerms<D>* b) { return a->d2 < b->d2; });
   ws.used_landmarks.clear();
-  for (const PairTerms* p : ws.accepted) {
+  for (const PairTerms<D>* p : accepted) {
     if (out[p->observation].decision == AssociationDecision::kUpdate) continue;
     if (std::find(ws.used_landmarks.begin(), ws.used_landmarks.end(), p->landmark) != ws.used_landmarks.end()) continue;
     out[p->observation] = {AssociationDecision::kUpdate, p->landmark};
@@ -162,18 +193,23 @@ void nearest_neighbour(Workspace& ws, const Gates& gates, double min_probability
 
 /// Depth-first joint compatibility search with an incrementally extended Cholesky factor. Its stacks
 /// and factor live in the workspace, sized for the largest scan so far.
+template <int D>
 class Jcbb {
  public:
+  using Terms = PairTerms<D>;
+  using Square = typename Terms::Square;
+  using Vector = typename Terms::Vector;
+
   Jcbb(std::size_t n_obs, Workspace& ws, const GaussianMapView& belief, std::size_t max_nodes,
        double min_probability, double clutter)
-      : ws_(ws), belief_(belief), max_nodes_(max_nodes) {
-    collect_accepted(ws, ws.gates, min_probability, clutter);
+      : ws_(ws), tables_(ws.tables<D>()), belief_(belief), max_nodes_(max_nodes) {
+    collect_accepted<D>(ws, ws.gates, min_probability, clutter);
     // Grouped by observation, each group by distance: the nearest options are tried first.
-    std::sort(ws.accepted.begin(), ws.accepted.end(), [](const PairTerms* a, const PairTerms* b) {
+    std::sort(tables_.accepted.begin(), tables_.accepted.end(), [](const Terms* a, const Terms* b) {
       return a->observation != b->observation ? a->observation < b->observation : a->d2 < b->d2;
     });
     ws.option_begin.assign(n_obs + 1, 0);
-    for (const PairTerms* p : ws.accepted) ++ws.option_begin[p->observation + 1];
+    for (const Terms* p : tables_.accepted) ++ws.option_begin[p->observation + 1];
     for (std::size_t i = 0; i < n_obs; ++i) ws.option_begin[i + 1] += ws.option_begin[i];
     // Observations with fewer options first: their branches are decided early and prune the most.
     // Ties keep the observations' order (what a stable sort by option count would give).
@@ -185,14 +221,14 @@ class Jcbb {
     });
     const std::size_t k_max = ws.order.size();
     ws.extend_joint_gates(k_max);
-    const auto rows = 2 * static_cast<Eigen::Index>(k_max);
+    const auto rows = D * static_cast<Eigen::Index>(k_max);
     if (ws.l.rows() < rows) {
       ws.l.resize(rows, rows);
       ws.y.resize(rows);
-      ws.w.resize(rows, 2);
     }
-    ws.current.clear();
-    ws.best.clear();
+    if (tables_.w.rows() < rows) tables_.w.resize(rows, D);
+    tables_.current.clear();
+    tables_.best.clear();
   }
 
   void solve(AssociationStats* stats, std::vector<Pairing>& out) {
@@ -201,29 +237,29 @@ class Jcbb {
       stats->jcbb_nodes += nodes_;
       stats->jcbb_budget_exhausted = stats->jcbb_budget_exhausted || nodes_ >= max_nodes_;
     }
-    for (const PairTerms* p : ws_.best) out[p->observation] = {AssociationDecision::kUpdate, p->landmark};
+    for (const Terms* p : tables_.best) out[p->observation] = {AssociationDecision::kUpdate, p->landmark};
   }
 
  private:
-  std::span<const PairTerms* const> options(std::size_t observation) const {
-    return std::span(ws_.accepted).subspan(ws_.option_begin[observation],
+  std::span<const Terms* const> options(std::size_t observation) const {
+    return std::span(tables_.accepted).subspan(ws_.option_begin[observation],
                                            ws_.option_begin[observation + 1] - ws_.option_begin[observation]);
   }
 
   void search(std::size_t depth, double d2) {
     if (nodes_ >= max_nodes_) return;
     ++nodes_;
-    std::vector<const PairTerms*>& current = ws_.current;
+    std::vector<const Terms*>& current = tables_.current;
     const std::size_t k = current.size();
     if (depth == ws_.order.size()) {
-      if (k > ws_.best.size() || (k == ws_.best.size() && k > 0 && d2 < best_d2_)) {
-        ws_.best = current;
+      if (k > tables_.best.size() || (k == tables_.best.size() && k > 0 && d2 < best_d2_)) {
+        tables_.best = current;
         best_d2_ = d2;
       }
       return;
     }
     const std::size_t remaining = ws_.order.size() - depth - 1;
-    for (const PairTerms* p : options(ws_.order[depth])) {
+    for (const Terms* p : options(ws_.order[depth])) {
       if (!can_improve(k + 1 + remaining, d2)) break;
       if (uses(p->landmark)) continue;
       double extended = 0.0;
@@ -237,45 +273,46 @@ class Jcbb {
 
   /// Whether a branch that can reach `potential` pairings at distance >= d2 may beat the best.
   bool can_improve(std::size_t potential, double d2) const {
-    return potential > ws_.best.size() || (potential == ws_.best.size() && potential > 0 && d2 < best_d2_);
+    return potential > tables_.best.size() || (potential == tables_.best.size() && potential > 0 && d2 < best_d2_);
   }
 
   bool uses(std::size_t landmark) const {
-    return std::any_of(ws_.current.begin(), ws_.current.end(),
-                       [&](const PairTerms* q) { return q->landmark == landmark; });
+    return std::any_of(tables_.current.begin(), tables_.current.end(),
+                       [&](const Terms* q) { return q->landmark == landmark; });
   }
 
   /// Appends pair p to the factor of the current hypothesis' joint innovation covariance and
   /// returns the increase of the joint Mahalanobis distance.
-  bool extend(const PairTerms& p, double& increase) {
-    const auto k = static_cast<Eigen::Index>(ws_.current.size());
-    Matrix2 c = p.s;
-    Vector2 v = p.innovation;
+  bool extend(const Terms& p, double& increase) {
+    const auto k = static_cast<Eigen::Index>(tables_.current.size());
+    Square c = p.s;
+    Vector v = p.innovation;
     if (k > 0) {
-      auto wt = ws_.w.topRows(2 * k);
-      for (Eigen::Index a = 0; a < k; ++a) wt.middleRows<2>(2 * a) = cross(*ws_.current[a], p);
-      ws_.l.topLeftCorner(2 * k, 2 * k).triangularView<Eigen::Lower>().solveInPlace(wt);  // W^T = L^-1 B
+      auto wt = tables_.w.topRows(D * k);
+      for (Eigen::Index a = 0; a < k; ++a) wt.template middleRows<D>(D * a) = cross(*tables_.current[a], p);
+      ws_.l.topLeftCorner(D * k, D * k).triangularView<Eigen::Lower>().solveInPlace(wt);  // W^T = L^-1 B
       c -= wt.transpose() * wt;
-      v -= wt.transpose() * ws_.y.head(2 * k);
-      ws_.l.block(2 * k, 0, 2, 2 * k) = wt.transpose();
+      v -= wt.transpose() * ws_.y.head(D * k);
+      ws_.l.block(D * k, 0, D, D * k) = wt.transpose();
     }
-    const Eigen::LLT<Matrix2> llt(0.5 * (c + c.transpose()));
+    const Eigen::LLT<Square> llt(0.5 * (c + c.transpose()));
     if (llt.info() != Eigen::Success) return false;
-    ws_.l.block<2, 2>(2 * k, 2 * k) = llt.matrixL();
-    const Vector2 y_new = llt.matrixL().solve(v);
-    ws_.y.segment<2>(2 * k) = y_new;
+    ws_.l.template block<D, D>(D * k, D * k) = llt.matrixL();
+    const Vector y_new = llt.matrixL().solve(v);
+    ws_.y.template segment<D>(D * k) = y_new;
     increase = y_new.squaredNorm();
     return true;
   }
 
   /// cov(innovation of a, innovation of b) = H_a P H_b^T (different observations: no R term).
-  Matrix2 cross(const PairTerms& a, const PairTerms& b) const {
+  Square cross(const Terms& a, const Terms& b) const {
     const Matrix23 pbv = belief_.landmark_pose_covariance(b.landmark);
     const Matrix2 pab = belief_.landmark_cross_covariance(a.landmark, b.landmark);
     return a.a * b.hx.transpose() + (a.hx * pbv.transpose() + a.hm * pab) * b.hm.transpose();
   }
 
   Workspace& ws_;
+  Tables<D>& tables_;
   const GaussianMapView& belief_;
   std::size_t max_nodes_;
   std::size_t nodes_ = 0;
@@ -284,9 +321,17 @@ class Jcbb {
 
 }  // namespace
 
-double clutter_density(const AssociationConfig& config, const SensorLimits& sensor) {
+double clutter_density(const AssociationConfig& config, const SensorLimits& sensor, const ObservationModel& model) {
   validate(sensor);
-  return config.clutter_per_scan / (sensor.max_range * sensor.fov);
+  return config.clutter_per_scan / model.measurement_volume(sensor);
+}
+
+void require_searchable(const AssociationConfig& config, const ObservationModel& model) {
+  if (config.method == AssociationMethod::kKnown || model.invertible()) return;
+  throw std::invalid_argument(
+      "association '" + to_string(config.method) + "' needs a " +
+      "measurement that places a landmark, and a " + model.name() + " measurement does not: its landmarks start " +
+      "from several observations of one landmark, which only known identities gather; use association 'known'");
 }
 
 void associate(std::span<const Observation> observations, std::span<const std::size_t> candidates,
@@ -295,17 +340,19 @@ void associate(std::span<const Observation> observations, std::span<const std::s
   if (config.method != AssociationMethod::kNearestNeighbour && config.method != AssociationMethod::kJcbb)
     throw std::invalid_argument("associate() needs the nn or jcbb method; known identities need no search");
   Workspace& ws = workspace.impl();
-  const Gates& gates = ws.gates_for(config);
-  build_compatibility(observations, candidates, belief, model, config.min_pairing_probability > 0.0, ws);
-  if (stats) stats->candidate_pairs += ws.pairs.size();
-  out.assign(observations.size(), Pairing{});
-  if (config.method == AssociationMethod::kNearestNeighbour) {
-    nearest_neighbour(ws, gates, config.min_pairing_probability, clutter, out);
-    return;
-  }
-  Jcbb(observations.size(), ws, belief, config.jcbb_max_nodes, config.min_pairing_probability, clutter)
-      .solve(stats, out);
-  decide_unpaired(out, ws, gates);
+  const Gates& gates = ws.gates_for(config, model.dim());
+  with_measurement_dim(model.dim(), [&]<int D>(std::integral_constant<int, D>) {
+    build_compatibility<D>(observations, candidates, belief, model, config.min_pairing_probability > 0.0, ws);
+    if (stats) stats->candidate_pairs += ws.tables<D>().pairs.size();
+    out.assign(observations.size(), Pairing{});
+    if (config.method == AssociationMethod::kNearestNeighbour) {
+      nearest_neighbour<D>(ws, gates, config.min_pairing_probability, clutter, out);
+      return;
+    }
+    Jcbb<D>(observations.size(), ws, belief, config.jcbb_max_nodes, config.min_pairing_probability, clutter)
+        .solve(stats, out);
+    decide_unpaired(out, ws, gates);
+  });
 }
 
 std::vector<Pairing> associate(std::span<const Observation> observations, std::span<const std::size_t> candidates,

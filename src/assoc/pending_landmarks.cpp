@@ -4,13 +4,15 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 
 #include "slamkit/core/chi_square.hpp"
 
 namespace slamkit {
 
-PendingLandmarks::PendingLandmarks(const AssociationConfig& config, const SensorLimits& sensor)
-    : clutter_density_(clutter_density(config, sensor)),
+PendingLandmarks::PendingLandmarks(const AssociationConfig& config, const SensorLimits& sensor,
+                                   const ObservationModel& model)
+    : clutter_density_(clutter_density(config, sensor, model)),
       view_area_(sensor.max_range * std::min(sensor.fov, 2.0 * std::numbers::pi)),
       log_miss_(std::log1p(-config.detection_probability)),
       log_detection_(std::log(config.detection_probability)),
@@ -24,18 +26,21 @@ void PendingLandmarks::begin_scan(double t, const Pose2& x) {
   for (Hypothesis& h : hypotheses_) h.detected_now = false;
 }
 
-int PendingLandmarks::offer(const Vector2& z, const ObservationModel& model, std::size_t landmarks_started,
+int PendingLandmarks::offer(const Measurement& z, const ObservationModel& model, std::size_t landmarks_started,
                             std::size_t scans) {
   if (!active()) return 1;
+  if (!model.invertible() || model.dim() != 2)
+    throw std::logic_error("pending landmarks place hypotheses by inverting a range-bearing measurement");
   const Matrix2 r = model.noise();
+  PoseJacobian pose_rows;
+  LandmarkJacobian landmark_rows;
   // The nearest hypothesis inside the acceptance gate, by Mahalanobis distance.
   Hypothesis* nearest = nullptr;
   double nearest_d2 = accept_d2_, nearest_log_likelihood = 0.0;
   for (Hypothesis& h : hypotheses_) {
     if (h.detected_now) continue;
-    Matrix23 hx;
-    Matrix2 hm;
-    model.jacobians(pose_, h.position, hx, hm);
+    model.jacobians(pose_, h.position, pose_rows, landmark_rows);
+    const Matrix2 hm = landmark_rows;
     const Matrix2 s = hm * h.covariance * hm.transpose() + r;
     const Eigen::LLT<Matrix2> llt(0.5 * (s + s.transpose()));
     if (llt.info() != Eigen::Success) continue;
@@ -47,11 +52,9 @@ int PendingLandmarks::offer(const Vector2& z, const ObservationModel& model, std
     const double log_det = 2.0 * std::log(llt.matrixL().determinant());
     nearest_log_likelihood = -0.5 * d2 - std::log(2.0 * std::numbers::pi) - 0.5 * log_det;
   }
-  Matrix23 gx;
-  Matrix2 gz;
-  model.inverse_jacobians(pose_, z, gx, gz);
-  const Vector2 position = model.inverse(pose_, z);
-  const Matrix2 covariance = gz * r * gz.transpose();
+  const InitialLandmark placed = *inverted_landmark(model, pose_, z);
+  const Vector2& position = placed.mean;
+  const Matrix2& covariance = placed.covariance;
   if (nearest == nullptr) {
     const double birth_rate = (static_cast<double>(landmarks_started) + 1.0) / (static_cast<double>(scans) + 1.0);
     const double log_odds = std::log(birth_rate / view_area_) - std::log(clutter_density_);
@@ -75,7 +78,7 @@ int PendingLandmarks::offer(const Vector2& z, const ObservationModel& model, std
 
 void PendingLandmarks::end_scan(const ObservationModel& model, const SensorView& detection_view) {
   for (Hypothesis& h : hypotheses_)
-    if (!h.detected_now && detection_view.contains(model.predict(pose_, h.position))) h.log_odds += log_miss_;
+    if (!h.detected_now && detection_view.contains(model, pose_, h.position)) h.log_odds += log_miss_;
 }
 
 }  // namespace slamkit

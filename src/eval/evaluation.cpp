@@ -84,6 +84,9 @@ std::optional<OriginTable> score_associations(const RunResult& run, const Ground
           if (true_id == kUnknownId) ++m.clutter_discarded;
           else if (mapped.count(true_id)) ++m.missed;
           break;
+        case AssociationDecision::kPending:
+          // Kept towards a landmark's start: neither used nor lost.
+          break;
       }
     }
   }

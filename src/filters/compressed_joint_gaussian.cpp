@@ -170,7 +170,7 @@ void CompressedJointGaussian::inflate_pose(const Matrix3& q) {
   predict_local(Matrix3::Identity(), q);
 }
 
-bool CompressedJointGaussian::update_landmark(std::size_t index, const Vector2& z) {
+bool CompressedJointGaussian::update_landmark(std::size_t index, const Measurement& z) {
   const LandmarkObservation one{index, z};
   return update_landmarks({&one, 1});
 }
@@ -185,15 +185,15 @@ bool CompressedJointGaussian::update_landmarks(std::span<const LandmarkObservati
     flush_local_area();
     begin_area(batch);
   }
-  return update_local(batch);
+  return with_measurement_dim(observation_->dim(),
+                              [&]<int D>(std::integral_constant<int, D>) { return update_local<D>(batch); });
 }
 
-std::size_t CompressedJointGaussian::add_landmark(const Vector2& z) {
+std::size_t CompressedJointGaussian::add_landmark(const InitialLandmark& landmark) {
   reserve(dim_ + 2);
   if (!in_area()) begin_area();
-  Matrix23 gx;
-  const Matrix2 added = place_new_landmark(z, gx);
-  add_local(gx, added);
+  x_.segment<2>(static_cast<Eigen::Index>(dim_)) = landmark.mean;
+  add_local(landmark.gx, landmark.covariance);
   dim_ += 2;
   return num_landmarks() - 1;
 }
@@ -319,34 +319,46 @@ void CompressedJointGaussian::predict_local(const Matrix3& f, const Matrix3& q) 
   phi().topRows<3>() = phi_v.transpose();
 }
 
+template <int D>
 bool CompressedJointGaussian::update_local(std::span<const LandmarkObservation> batch) {
-  const Eigen::Index d = d_, k = 2 * static_cast<Eigen::Index>(batch.size());
+  const Eigen::Index d = d_, k = D * static_cast<Eigen::Index>(batch.size());
   reserve_update(k);
+  std::vector<PoseRows<D>>& hx = jacobians_.get<D>().hx;
+  std::vector<LandmarkRows<D>>& hm = jacobians_.get<D>().hm;
+  if (hx.size() < batch.size()) {
+    hx.resize(batch.size());
+    hm.resize(batch.size());
+  }
+  PoseJacobian pose_rows;
+  LandmarkJacobian landmark_rows;
   auto pa = this->pa();
   auto phi = this->phi();
   const Pose2 xv = x_.head<3>();
-  // P_AA H_A^T, two columns per observation from the vehicle's and the landmark's columns, and the
+  // P_AA H_A^T, D columns per observation from the vehicle's and the landmark's columns, and the
   // stacked innovation; then S = H_A P_AA H_A^T + R block by block, and H_A phi.
   auto pht = pht_.topLeftCorner(d, k);
   auto nu = nu_.head(k);
   for (std::size_t i = 0; i < batch.size(); ++i) {
     const auto l = static_cast<Eigen::Index>(local_of_[batch[i].index]);
-    const auto r = 2 * static_cast<Eigen::Index>(i);
+    const auto r = D * static_cast<Eigen::Index>(i);
     const Vector2 m = x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(batch[i].index)));
-    observation_->jacobians(xv, m, hx_[i], hm_[i]);
-    nu.segment<2>(r) = observation_->residual(batch[i].z, observation_->predict(xv, m));
-    pht.middleCols<2>(r).noalias() = pa.leftCols<3>() * hx_[i].transpose();
-    pht.middleCols<2>(r).noalias() += pa.middleCols<2>(l) * hm_[i].transpose();
+    observation_->jacobians(xv, m, pose_rows, landmark_rows);
+    hx[i] = pose_rows;
+    hm[i] = landmark_rows;
+    nu.template segment<D>(r) = observation_->residual(batch[i].z, observation_->predict(xv, m));
+    pht.template middleCols<D>(r).noalias() = pa.template leftCols<3>() * hx[i].transpose();
+    pht.template middleCols<D>(r).noalias() += pa.template middleCols<2>(l) * hm[i].transpose();
   }
   auto s = s_.topLeftCorner(k, k);
   auto g = h_phi_.topLeftCorner(k, a0_);
+  const MeasurementSquare<D> noise = observation_->noise();
   for (std::size_t i = 0; i < batch.size(); ++i) {
     const auto l = static_cast<Eigen::Index>(local_of_[batch[i].index]);
-    const auto r = 2 * static_cast<Eigen::Index>(i);
-    s.middleRows<2>(r).noalias() = hx_[i] * pht.topRows<3>() + hm_[i] * pht.middleRows<2>(l);
-    s.block<2, 2>(r, r) += observation_->noise();
-    g.middleRows<2>(r).noalias() = hx_[i] * phi.topRows<3>();
-    g.middleRows<2>(r).noalias() += hm_[i] * phi.middleRows<2>(l);
+    const auto r = D * static_cast<Eigen::Index>(i);
+    s.template middleRows<D>(r).noalias() = hx[i] * pht.template topRows<3>() + hm[i] * pht.template middleRows<2>(l);
+    s.template block<D, D>(r, r) += noise;
+    g.template middleRows<D>(r).noalias() = hx[i] * phi.template topRows<3>();
+    g.template middleRows<D>(r).noalias() += hm[i] * phi.template middleRows<2>(l);
   }
   return apply_local_update(k);
 }
@@ -424,11 +436,6 @@ void CompressedJointGaussian::reserve_update(Eigen::Index k) {
     nu_.resize(pht_.cols());
   }
   if (h_phi_.rows() < k || h_phi_.cols() < pa_.cols()) h_phi_.resize(std::max(k, h_phi_.rows()), pa_.cols());
-  const auto observations = static_cast<std::size_t>(k / 2);
-  if (hx_.size() < observations) {
-    hx_.resize(observations);
-    hm_.resize(observations);
-  }
 }
 
 void CompressedJointGaussian::add_local(const Matrix23& gx, const Matrix2& pnew) {

@@ -61,27 +61,30 @@ void EkfEstimator::landmark_marginals(std::vector<Vector2>& means, std::vector<M
   }
 }
 
-void EkfEstimator::innovation(std::size_t index, Vector2& zhat, Matrix2& s) const {
+void EkfEstimator::innovation(std::size_t index, Measurement& zhat, MeasurementCovariance& s) const {
   const Pose2 xv = pose();
   const Vector2 m = landmark_position(index);
-  Matrix23 hx;
-  Matrix2 hm;
-  observation_->jacobians(xv, m, hx, hm);
   zhat = observation_->predict(xv, m);
-  // S = hx Pvv hx^T + hx Pvm hm^T + hm Pmv hx^T + hm Pmm hm^T + R: only the 5x5 block is needed.
-  const Matrix23 pvm_t = landmark_pose_covariance(index);  // P(m, v)
-  const Matrix2 cross = hm * pvm_t * hx.transpose();
-  s = hx * pose_covariance() * hx.transpose() + cross + cross.transpose() +
-      hm * landmark_covariance(index) * hm.transpose() + observation_->noise();
+  with_measurement_dim(observation_->dim(), [&]<int D>(std::integral_constant<int, D>) {
+    PoseJacobian pose_rows;
+    LandmarkJacobian landmark_rows;
+    observation_->jacobians(xv, m, pose_rows, landmark_rows);
+    const PoseRows<D> hx = pose_rows;
+    const LandmarkRows<D> hm = landmark_rows;
+    // S = hx Pvv hx^T + hx Pvm hm^T + hm Pmv hx^T + hm Pmm hm^T + R: only the 5x5 block is needed.
+    const Matrix23 pvm_t = landmark_pose_covariance(index);  // P(m, v)
+    const MeasurementSquare<D> cross = hm * pvm_t * hx.transpose();
+    s = hx * pose_covariance() * hx.transpose() + cross + cross.transpose() +
+        hm * landmark_covariance(index) * hm.transpose() + MeasurementSquare<D>(observation_->noise());
+  });
 }
 
-Matrix2 EkfEstimator::place_new_landmark(const Vector2& z, Matrix23& gx) {
-  const auto l = static_cast<Eigen::Index>(dim_);
-  const Pose2 xv = x_.head<3>();
-  Matrix2 gz;
-  observation_->inverse_jacobians(xv, z, gx, gz);
-  x_.segment<2>(l) = observation_->inverse(xv, z);
-  return gz * observation_->noise() * gz.transpose();
+std::size_t EkfEstimator::add_landmark(const Measurement& z) {
+  const std::optional<InitialLandmark> landmark = inverted_landmark(*observation_, pose(), z);
+  if (!landmark)
+    throw std::logic_error("a " + observation_->name() +
+                           " measurement does not determine a landmark; start it through a landmark initialiser");
+  return add_landmark(*landmark);
 }
 
 void EkfEstimator::use_threads(unsigned threads) {

@@ -48,23 +48,37 @@ EkfSlam::EkfSlam(std::shared_ptr<const MotionModel> motion, std::shared_ptr<cons
 }
 
 EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> ids, const EkfSlamOptions& options)
-    : estimator_(std::move(estimator)),
+    : estimator_(estimator ? std::move(estimator) : throw std::invalid_argument("EkfSlam needs an estimator")),
       association_((validate(options.association), options.association)),
-      gates_(Gates::from(options.association)),
+      gates_(Gates::from(options.association, estimator_->observation_model().dim())),
       gate_known_(options.association.gate_known.value_or(true)),
       association_view_((validate(options.sensor), association_view(options.sensor, options.association))),
-      clutter_density_(clutter_density(options.association, options.sensor)),
+      clutter_density_(clutter_density(options.association, options.sensor, estimator_->observation_model())),
       existence_rule_(options.association, options.sensor),
-      pending_(options.association, options.sensor),
+      pending_(options.association, options.sensor, estimator_->observation_model()),
       // Cells of a third of the sensor range: a query touches a few dozen cells at most.
       grid_(std::max(5.0, options.sensor.max_range / 3.0)),
       relocalise_(options.association.method != AssociationMethod::kKnown &&
                   options.association.relocalise_min_pairs >= 2),
+      // The copies are placed by inverting a measurement.
       recover_known_(options.association.method == AssociationMethod::kKnown && gate_known_ &&
-                     options.association.relocalise_min_pairs >= 2),
+                     options.association.relocalise_min_pairs >= 2 && estimator_->observation_model().invertible()),
       joint_scan_update_(options.joint_scan_update),
       unscented_(options.variant == EkfVariant::kUnscented) {
-  if (!estimator_) throw std::invalid_argument("EkfSlam needs an estimator");
+  require_searchable(association_, estimator_->observation_model());
+  const LandmarkInitialisation initialisation = options.initialisation.value_or(
+      estimator_->observation_model().invertible() ? LandmarkInitialisation::kImmediate
+                                                   : LandmarkInitialisation::kDelayed);
+  if (initialisation == LandmarkInitialisation::kDelayed) {
+    if (association_.method != AssociationMethod::kKnown)
+      throw std::invalid_argument(
+          "delayed landmark initialisation gathers the observations of one landmark by its identity; it needs "
+          "association 'known'");
+    initialiser_ = make_initialiser(initialisation, estimator_->shared_observation_model(), options.delayed_initialisation);
+  } else if (!estimator_->observation_model().invertible()) {
+    throw std::invalid_argument("immediate landmark initialisation needs a measurement that places a landmark, which "
+                                "a " + estimator_->observation_model().name() + " measurement does not; use delayed");
+  }
   if (ids.size() != estimator_->num_landmarks())
     throw std::invalid_argument("EkfSlam: one id per landmark of the estimator");
   for (const int id : ids) {
@@ -74,6 +88,7 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
     next_id_ = std::max(next_id_, id + 1);
   }
   first_started_id_ = next_id_;
+  dead_reckoned_pose_ = estimator_->pose();
 }
 
 std::vector<Landmark> EkfSlam::landmarks() const {
@@ -101,6 +116,10 @@ std::map<std::string, double> EkfSlam::statistics() const {
   estimator_->add_statistics(s);
   if (association_.method == AssociationMethod::kKnown && gate_known_) gate_tally_.add_statistics(s);
   if (recover_known_) s["known_id_recoveries"] = static_cast<double>(known_recoveries_);
+  if (initialiser_) {
+    s["observations_pending"] = static_cast<double>(observations_waiting_);
+    s["landmarks_pending"] = static_cast<double>(initialiser_->waiting());
+  }
   if (association_.method != AssociationMethod::kKnown)
     s["association_pairs_evaluated"] = static_cast<double>(association_stats_.candidate_pairs);
   if (association_.method != AssociationMethod::kKnown && pending_.active()) {
@@ -124,12 +143,39 @@ long EkfSlam::find_landmark(int id) const {
   return it == index_of_id_.end() ? -1 : static_cast<long>(it->second);
 }
 
-void EkfSlam::predict(const ControlEvent& control) { estimator_->predict(control.u, control.dt); }
+void EkfSlam::predict(const ControlEvent& control) {
+  if (initialiser_) {
+    // Dead reckoning, which no update corrects: the delayed start triangulates in its frame, where
+    // the poses of a landmark's observations are consistent with each other (the estimate's jump at
+    // a correction would bend their geometry), and its covariance's growth between two observations
+    // stands for how uncertain one pose is relative to the other.
+    const MotionModel& motion = estimator_->motion_model();
+    const Matrix3 f = motion.jacobian_state(dead_reckoned_pose_, control.u, control.dt);
+    dead_reckoned_ = f * dead_reckoned_ * f.transpose() +
+                     motion.process_noise(dead_reckoned_pose_, control.u, control.dt);
+    dead_reckoned_pose_ = motion.predict(dead_reckoned_pose_, control.u, control.dt);
+  }
+  estimator_->predict(control.u, control.dt);
+}
 
-void EkfSlam::add_landmark(const Vector2& z, int id) {
+void EkfSlam::add_landmark(const Measurement& z, int id) {
   estimator_->add_landmark(z);
   register_landmark(id, association_.method == AssociationMethod::kKnown ? existence_rule_.given()
                                                                          : existence_rule_.first_observed());
+}
+
+InitialLandmark EkfSlam::in_estimate_frame(const InitialLandmark& placed) const {
+  // Where the landmark is relative to the dead-reckoned pose, it is relative to the estimate.
+  const Pose2 x = estimator_->pose();
+  const double turn = x[2] - dead_reckoned_pose_[2];
+  Matrix2 r;
+  r << std::cos(turn), -std::sin(turn), std::sin(turn), std::cos(turn);
+  InitialLandmark landmark;
+  landmark.mean = x.head<2>() + r * (placed.mean - dead_reckoned_pose_.head<2>());
+  const Vector2 lever = landmark.mean - x.head<2>();
+  landmark.gx << 1.0, 0.0, -lever[1], 0.0, 1.0, lever[0];
+  landmark.covariance = r * placed.covariance * r.transpose();
+  return landmark;
 }
 
 void EkfSlam::register_landmark(int id, const LandmarkExistence& existence) {
@@ -190,12 +236,15 @@ void EkfSlam::update(const ScanEvent& scan) {
     update_unknown(scan);
 }
 
-bool EkfSlam::inside_known_gate(std::size_t index, const Vector2& z) const {
-  Vector2 zhat;
-  Matrix2 s;
+bool EkfSlam::inside_known_gate(std::size_t index, const Measurement& z) const {
+  Measurement zhat;
+  MeasurementCovariance s;
   estimator_->innovation(index, zhat, s);
-  const Vector2 nu = estimator_->observation_model().residual(z, zhat);
-  return nu.dot(s.ldlt().solve(nu)) <= gates_.new_landmark;
+  const ObservationModel& model = estimator_->observation_model();
+  return with_measurement_dim(model.dim(), [&]<int D>(std::integral_constant<int, D>) {
+    const MeasurementVector<D> nu = model.residual(z, zhat);
+    return nu.dot(MeasurementSquare<D>(s).ldlt().solve(nu)) <= gates_.new_landmark;
+  });
 }
 
 void EkfSlam::update_known(const ScanEvent& scan) {
@@ -248,9 +297,17 @@ void EkfSlam::update_known(const ScanEvent& scan) {
     const long index = find_landmark(obs.id);
     if (index >= 0) {
       apply(k, static_cast<std::size_t>(index));  // seen twice in one scan
-    } else {
+    } else if (!initialiser_) {
       add_landmark(obs.z, obs.id);
       last_associations_[k] = {AssociationDecision::kNew, obs.id};
+    } else if (const std::optional<InitialLandmark> placed =
+                   initialiser_->offer(obs.id, dead_reckoned_pose_, dead_reckoned_, obs.z, now_)) {
+      estimator_->add_landmark(in_estimate_frame(*placed));
+      register_landmark(obs.id, existence_rule_.given());
+      last_associations_[k] = {AssociationDecision::kNew, obs.id};
+    } else {
+      ++observations_waiting_;
+      last_associations_[k] = {AssociationDecision::kPending, obs.id};
     }
   }
   apply_joint_batch();
@@ -271,15 +328,12 @@ void EkfSlam::recover_known(const ScanEvent& scan) {
   const Pose2 xv = estimator_->pose();
   for (const std::size_t k : rejected_) {
     const Observation& obs = scan.observations[k];
-    Matrix23 gx;
-    Matrix2 gz;
-    model.inverse_jacobians(xv, obs.z, gx, gz);
+    const InitialLandmark placed = *inverted_landmark(model, xv, obs.z);
     ++discarded_;
     // The latest observation places the copy: the one nearest in time to the others'. Its error
     // from the pose is what the rigid motion is fitted to, so the fit's residuals carry only the
     // measurement's.
-    copies_[obs.id] = {static_cast<std::size_t>(find_landmark(obs.id)), model.inverse(xv, obs.z),
-                       gz * model.noise() * gz.transpose(), now_};
+    copies_[obs.id] = {static_cast<std::size_t>(find_landmark(obs.id)), placed.mean, placed.covariance, now_};
   }
   // A copy not seen again for the window is forgotten: most likely a single outlier.
   const double forget_before = now_ - association_.relocalise_window_s;
@@ -355,7 +409,7 @@ void EkfSlam::find_candidates(const SensorView& view) {
   grid_.query(xv.head<2>(), view.reach() + grid_.cell_size(), nearby_);
   const ObservationModel& model = estimator_->observation_model();
   for (const std::uint32_t j : nearby_)
-    if (!held_back(j) && view.contains(model.predict(xv, estimator_->landmark_position(j)))) candidates_.push_back(j);
+    if (!held_back(j) && view.contains(model, xv, estimator_->landmark_position(j))) candidates_.push_back(j);
   std::sort(candidates_.begin(), candidates_.end());
 }
 
@@ -471,7 +525,7 @@ void EkfSlam::manage_map() {
   const ObservationModel& model = estimator_->observation_model();
   for (const std::size_t j : candidates_) {
     if (j >= seen_.size() || seen_[j]) continue;  // added this scan, or seen
-    const bool expected = existence_rule_.detection_view().contains(model.predict(xv, estimator_->landmark_position(j)));
+    const bool expected = existence_rule_.detection_view().contains(model, xv, estimator_->landmark_position(j));
     if (expected ? existence_rule_.missed(existence_[j]) : existence_rule_.unseen_nearby(existence_[j]))
       doomed_.push_back(j);
   }

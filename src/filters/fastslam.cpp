@@ -77,17 +77,22 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
       map_nodes(pool),
       path_nodes(pool),
       motion(std::move(motion_model)),
-      observation(std::move(observation_model)),
-      gates(Gates::from(cfg.association)),
+      observation(observation_model ? std::move(observation_model)
+                                    : throw std::invalid_argument("FastSLAM needs a motion and an observation model")),
+      measurements{observation.get()},
+      gates(Gates::from(cfg.association, observation->dim())),
       gate_known(cfg.association.gate_known.value_or(false)),
       association_view(slamkit::association_view(cfg.sensor, cfg.association)),
-      clutter_density(slamkit::clutter_density(cfg.association, cfg.sensor)),
+      clutter_density(slamkit::clutter_density(cfg.association, cfg.sensor, *observation)),
       existence(cfg.association, cfg.sensor),
-      pending(cfg.association, cfg.sensor),
+      pending(cfg.association, cfg.sensor, *observation),
       resample_rng(splitmix64(cfg.seed ^ 0x526573616d706c65ULL)),
       grid(std::max(5.0, 0.5 * cfg.sensor.max_range)),
       relocalise_association(cfg.association) {
-  if (!motion || !observation) throw std::invalid_argument("FastSLAM needs a motion and an observation model");
+  if (!motion) throw std::invalid_argument("FastSLAM needs a motion and an observation model");
+  if (observation->dim() != 2 || !observation->invertible())
+    throw std::invalid_argument("FastSLAM reads range-bearing measurements; a " + observation->name() +
+                                " sensor runs with the EKF family (ekf, fej, invariant, compressed, ukf)");
   relocalise_association.method = AssociationMethod::kJcbb;
   r = observation->noise();
   Matrix2 unused;
@@ -169,10 +174,10 @@ void FastSlam::Impl::gather_candidates() {
   }();
   double spread = 0.0;
   for (const Particle& p : particles) spread = std::max(spread, (p.pose.head<2>() - centre_pose.head<2>()).norm());
-  // A zero measurement is the sensor itself, which may be mounted off the pose origin: a particle's
+  // The sensor may be mounted off the pose origin: a particle's
   // sensor lies within spread + 2 * offset of this one (position difference plus the offset turned
   // by any heading difference), and the grid lists every landmark version at its current mean.
-  const Vector2 sensor = observation->inverse(centre_pose, Vector2::Zero());
+  const Vector2 sensor = observation->sensor_position(centre_pose);
   const double radius = association_view.reach() + spread + 2.0 * (sensor - centre_pose.head<2>()).norm();
   // Each landmark once, in index order: a particle's candidates stop at the first index beyond its map.
   grid.query(sensor, radius, scan_candidates);

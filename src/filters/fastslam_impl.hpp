@@ -233,6 +233,26 @@ struct FastSlam::Impl {
   bool keep_paths = true;
   std::shared_ptr<const MotionModel> motion;
   std::shared_ptr<const ObservationModel> observation;
+  /// The model's answers in fixed-size types: the particle kernels are written for range and
+  /// bearing, two measurement rows (the constructor refuses other models).
+  struct RangeBearingKernels {
+    const ObservationModel* model = nullptr;
+    Vector2 predict(const Pose2& x, const Vector2& m) const { return model->predict(x, m); }
+    void jacobians(const Pose2& x, const Vector2& m, Matrix23& hx, Matrix2& hm) const {
+      PoseJacobian pose_rows;
+      LandmarkJacobian landmark_rows;
+      model->jacobians(x, m, pose_rows, landmark_rows);
+      hx = pose_rows;
+      hm = landmark_rows;
+    }
+    Vector2 residual(const Vector2& z, const Vector2& zhat) const { return model->residual(z, zhat); }
+    Vector2 inverse(const Pose2& x, const Vector2& z) const { return model->invert(x, z)->position; }
+    void inverse_jacobians(const Pose2& x, const Vector2& z, Matrix23& gx, Matrix2& gz) const {
+      const InverseObservation g = *model->invert(x, z);
+      gx = g.gx;
+      gz = g.gz;
+    }
+  } measurements;
   Matrix2 r;
   Gates gates;
   bool gate_known;

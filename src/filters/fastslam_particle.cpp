@@ -36,7 +36,7 @@ Matrix2 FastSlam::Impl::innovation_covariance(const Particle& p, const LandmarkG
                                               Matrix2& hm) const {
   // At the pose as predicted: for FastSLAM 2.0 its covariance enters S, as the proposal's
   // uncertainty should when judging whether an observation fits a landmark.
-  observation->jacobians(p.pose, lm.mean, hx, hm);
+  measurements.jacobians(p.pose, lm.mean, hx, hm);
   Matrix2 cov = hm * lm.covariance * hm.transpose() + r;
   if (config.version == 2) cov += hx * p.pose_cov * hx.transpose();
   return cov;
@@ -48,7 +48,7 @@ bool FastSlam::Impl::beyond_gate(const Particle& p, const LandmarkGaussian& lm, 
   Matrix2 inverse;
   double log_det = 0.0;
   if (!invert_spd(symmetric(innovation_covariance(p, lm, hx, hm)), inverse, log_det)) return false;
-  const Vector2 nu = observation->residual(z, observation->predict(p.pose, lm.mean));
+  const Vector2 nu = measurements.residual(z, measurements.predict(p.pose, lm.mean));
   ++s.gate_judged;
   const bool beyond = nu.dot(inverse * nu) > gates.new_landmark;
   s.gate_rejected += beyond ? 1 : 0;
@@ -72,8 +72,8 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
     if (index >= p.map.size()) break;
     const LandmarkGaussian& lm = p.map[index];
     if (lm.removed) continue;
-    const Vector2 zhat = observation->predict(p.pose, lm.mean);
-    if (!association_view.contains(zhat)) continue;
+    const Vector2 zhat = measurements.predict(p.pose, lm.mean);
+    if (!association_view.contains_polar(zhat[0], zhat[1])) continue;
     Matrix23 hx;
     Matrix2 hm;
     Matrix2 inverse;
@@ -91,9 +91,9 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
   s.explained.assign(n_obs, clutter_density);
   for (std::size_t k = 0; k < n_obs; ++k) {
     if (!valid[k]) continue;
-    const Vector2& z = scan.observations[k].z;
+    const Vector2 z = scan.observations[k].z;
     for (std::size_t c = 0; c < s.candidates.size(); ++c) {
-      const Vector2 nu = observation->residual(z, s.candidates[c].zhat);
+      const Vector2 nu = measurements.residual(z, s.candidates[c].zhat);
       const double d2 = nu.dot(s.candidates[c].s_inverse * nu);
       s.min_d2[k] = std::min(s.min_d2[k], d2);
       if (weigh_clutter) s.explained[k] += std::exp(-0.5 * d2 - s.candidates[c].log_normaliser);
@@ -127,8 +127,8 @@ double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, con
                                        const Vector2& z) const {
   Matrix23 hx;
   Matrix2 hm;
-  observation->jacobians(x, lm.mean, hx, hm);
-  const Vector2 nu = observation->residual(z, observation->predict(x, lm.mean));
+  measurements.jacobians(x, lm.mean, hx, hm);
+  const Vector2 nu = measurements.residual(z, measurements.predict(x, lm.mean));
   const Matrix2 pht = lm.covariance * hm.transpose();
   Matrix2 s_inverse;
   double log_det = 0.0;
@@ -149,9 +149,9 @@ double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, con
 LandmarkGaussian FastSlam::Impl::new_landmark(const Pose2& x, const Matrix3& x_cov, const Vector2& z, int id) const {
   Matrix23 gx;
   Matrix2 gz;
-  observation->inverse_jacobians(x, z, gx, gz);
+  measurements.inverse_jacobians(x, z, gx, gz);
   LandmarkGaussian lm;
-  lm.mean = observation->inverse(x, z);
+  lm.mean = measurements.inverse(x, z);
   lm.covariance = symmetric(gz * r * gz.transpose() + gx * x_cov * gx.transpose());
   lm.id = id;
   lm.started = lm.last_seen = static_cast<std::uint32_t>(scans - 1);
@@ -203,8 +203,8 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
       const LandmarkGaussian& lm = p.map[pairings[k].index];
       Matrix23 hx;
       Matrix2 hm;
-      observation->jacobians(mu, lm.mean, hx, hm);
-      const Vector2 nu = observation->residual(scan.observations[k].z, observation->predict(mu, lm.mean));
+      measurements.jacobians(mu, lm.mean, hx, hm);
+      const Vector2 nu = measurements.residual(scan.observations[k].z, measurements.predict(mu, lm.mean));
       const Matrix2 z_cov = hm * lm.covariance * hm.transpose() + r;
       const Eigen::Matrix<double, 3, 2> sht = sigma * hx.transpose();
       Matrix2 s_inverse;
@@ -239,7 +239,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   // New landmarks, and repeated observations of landmarks started in this scan, in scan order.
   for (std::size_t k = 0; k < n_obs; ++k) {
     Pairing& pairing = pairings[k];
-    const Vector2& z = scan.observations[k].z;
+    const Vector2 z = scan.observations[k].z;
     // A landmark started in this scan and seen again in it meets the outlier gate only now.
     if (known() && gate_known && pairing.decision == AssociationDecision::kUpdate && !is_old_update(k) &&
         beyond_gate(p, p.map[pairing.index], z, s))
@@ -265,7 +265,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
 
 Matrix2 FastSlam::Impl::drift_in_measurement(const Particle& p, const LandmarkGaussian& lm, Matrix2& hm) const {
   Matrix23 hx;
-  observation->jacobians(p.pose, lm.mean, hx, hm);
+  measurements.jacobians(p.pose, lm.mean, hx, hm);
   return hx * drift_of(p, lm.last_seen) * hx.transpose();
 }
 
@@ -287,7 +287,7 @@ void FastSlam::Impl::anchor_at(Particle& p, const LandmarkGaussian& lm) const {
   const Matrix3 prior = drift_of(p, lm.last_seen);
   Matrix23 hx;
   Matrix2 hm;
-  observation->jacobians(p.pose, lm.mean, hx, hm);
+  measurements.jacobians(p.pose, lm.mean, hx, hm);
   const Eigen::Matrix<double, 3, 2> pht = prior * hx.transpose();
   Matrix2 s_inverse;
   double log_det = 0.0;
@@ -297,15 +297,15 @@ void FastSlam::Impl::anchor_at(Particle& p, const LandmarkGaussian& lm) const {
 }
 
 bool FastSlam::Impl::expected_in_view(const Particle& p, const LandmarkGaussian& lm) const {
-  const Vector2 z = observation->predict(p.pose, lm.mean);
-  if (!relocalising() || lm.last_seen >= window_start) return existence.detection_view().contains(z);
+  const Vector2 z = measurements.predict(p.pose, lm.mean);
+  if (!relocalising() || lm.last_seen >= window_start) return existence.detection_view().contains_polar(z[0], z[1]);
   // Mapped before the window: the drift since may have put it anywhere within its reach of where the
   // particle predicts it, and at the return from a lap its misses there would remove it just before
   // relocalisation can pair it. It is expected only where the drift cannot have moved it out of view.
   Matrix2 hm;
   const Matrix2 spread = drift_in_measurement(p, lm, hm);
   const Vector2 reach = std::sqrt(gates.accept) * spread.diagonal().cwiseMax(0.0).cwiseSqrt();
-  return existence.detection_view().contains(Vector2(z[0] + reach[0], std::abs(z[1]) + reach[1]));
+  return existence.detection_view().contains_polar(z[0] + reach[0], std::abs(z[1]) + reach[1]);
 }
 
 void FastSlam::Impl::count_misses(Particle& p, Slot& s) const {
@@ -383,7 +383,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   // The landmarks started in the window, as the particle sees them: the search's measurements.
   s.recent_as_seen.clear();
   for (const std::uint32_t index : s.started)
-    s.recent_as_seen.push_back({observation->predict(p.pose, p.map[index].mean), kUnknownId});
+    s.recent_as_seen.push_back({measurements.predict(p.pose, p.map[index].mean), kUnknownId});
   // An old landmark can pair only with a landmark started in the window that lies in the gate its
   // drift (drift_of since it was last seen) allows; the others are left out of the search, whose
   // prior is the drift of the oldest kept. The search runs only when a landmark this scan started or
@@ -396,13 +396,13 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
     const LandmarkGaussian& lm = p.map[j];
     Matrix2 hm;
     const Matrix2 drift_cov = drift_in_measurement(p, lm, hm);
-    const Vector2 predicted = observation->predict(p.pose, lm.mean);
+    const Vector2 predicted = measurements.predict(p.pose, lm.mean);
     bool may_pair = false;
     for (std::size_t k = 0; k < s.started.size(); ++k) {
       const std::uint32_t index = s.started[k];
       const LandmarkGaussian& fresh = p.map[index];
       const Matrix2 cov = drift_cov + hm * (lm.covariance + fresh.covariance) * hm.transpose();
-      const Vector2 nu = observation->residual(s.recent_as_seen[k].z, predicted);
+      const Vector2 nu = measurements.residual(s.recent_as_seen[k].z, predicted);
       Matrix2 inverse;
       double log_det = 0.0;
       if (!invert_spd(symmetric(cov), inverse, log_det) || !(nu.dot(inverse * nu) < gates.accept)) continue;
@@ -464,7 +464,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
     const LandmarkGaussian& duplicate = p.map[s.started[k]];
     Matrix23 hx;
     Matrix2 hm;
-    observation->jacobians(p.pose, duplicate.mean, hx, hm);
+    measurements.jacobians(p.pose, duplicate.mean, hx, hm);
     s.duplicate_noise.push_back(hm * duplicate.covariance * hm.transpose());
   }
   const Pose2 prior = p.pose;
@@ -481,9 +481,9 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
       const LandmarkGaussian& original = p.map[s.old[s.matches[k].landmark]];
       Matrix23 hx;
       Matrix2 hm;
-      observation->jacobians(x, original.mean, hx, hm);
+      measurements.jacobians(x, original.mean, hx, hm);
       const Vector2 innovation =
-          observation->residual(s.recent_as_seen[k].z, observation->predict(x, original.mean)) + hx * offset;
+          measurements.residual(s.recent_as_seen[k].z, measurements.predict(x, original.mean)) + hx * offset;
       Matrix2 noise_inverse;
       double log_det = 0.0;
       if (!invert_spd(symmetric(s.duplicate_noise[pair++] + hm * original.covariance * hm.transpose()), noise_inverse,
@@ -519,7 +519,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
     if (match.decision == AssociationDecision::kUpdate) s.paired[match.landmark] = 1;
   std::size_t unseen = 0;
   for (std::size_t j = 0; j < s.old.size(); ++j)
-    if (!s.paired[j] && existence.detection_view().contains(observation->predict(x, p.map[s.old[j]].mean))) ++unseen;
+    if (!s.paired[j] && existence.detection_view().contains(*observation, x, p.map[s.old[j]].mean)) ++unseen;
   if (2 * unseen >= pairs) return;
 
   // The landmarks seen in the window keep where they are relative to the particle, which moves to
@@ -529,7 +529,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   rotation << std::cos(turn), -std::sin(turn), std::sin(turn), std::cos(turn);
   for (const std::uint32_t index : s.recent) {
     LandmarkGaussian& lm = p.map.mutate(index);
-    lm.mean = observation->inverse(x, observation->predict(prior, lm.mean));
+    lm.mean = measurements.inverse(x, measurements.predict(prior, lm.mean));
     lm.covariance = symmetric(rotation * lm.covariance * rotation.transpose());
     s.grid_entries.emplace_back(lm.mean, index);
   }

@@ -126,24 +126,31 @@ void JointGaussian::inflate_pose(const Matrix3& q) {
   p_.topLeftCorner<3, 3>() = diagonal_block<3>(0) + q;
 }
 
-void JointGaussian::covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm,
-                                              Eigen::Ref<Eigen::MatrixX2d> out) const {
+template <int D>
+void JointGaussian::covariance_times_jacobian(std::size_t lm_offset, const PoseRows<D>& hx, const LandmarkRows<D>& hm,
+                                              Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, D>> out) const {
   const auto n = static_cast<Eigen::Index>(dim_);
   const auto l = static_cast<Eigen::Index>(lm_offset);
   // H = [hx 0 .. 0 hm 0 .. 0], so P H^T = P(:, vehicle) hx^T + P(:, landmark) hm^T, each column block
   // read from the lower triangle: rows above a block come from the transposed row block.
-  out.topRows<3>().noalias() = diagonal_block<3>(0) * hx.transpose();
+  out.template topRows<3>().noalias() = diagonal_block<3>(0) * hx.transpose();
   out.bottomRows(n - 3).noalias() = p_.block(3, 0, n - 3, 3) * hx.transpose();
   out.topRows(l).noalias() += p_.block(l, 0, 2, l).transpose() * hm.transpose();
-  out.middleRows<2>(l).noalias() += diagonal_block<2>(lm_offset) * hm.transpose();
+  out.template middleRows<2>(l).noalias() += diagonal_block<2>(lm_offset) * hm.transpose();
   out.bottomRows(n - l - 2).noalias() += p_.block(l + 2, l, n - l - 2, 2) * hm.transpose();
 }
 
-bool JointGaussian::update_landmark(std::size_t index, const Vector2& z) {
+bool JointGaussian::update_landmark(std::size_t index, const Measurement& z) {
   if (update_iterations_ > 1) {
     const LandmarkObservation one{index, z};
     return update_landmarks(std::span<const LandmarkObservation>(&one, 1));
   }
+  return with_measurement_dim(observation_->dim(),
+                              [&]<int D>(std::integral_constant<int, D>) { return update_one<D>(index, z); });
+}
+
+template <int D>
+bool JointGaussian::update_one(std::size_t index, const Measurement& z) {
   apply_pending_motion();
   if (linearisation_ == Linearisation::kFirstEstimates) anchor_where_plausible(index);
   const std::size_t l = landmark_offset(index);
@@ -151,20 +158,21 @@ bool JointGaussian::update_landmark(std::size_t index, const Vector2& z) {
   const auto n = static_cast<Eigen::Index>(dim_);
   const Pose2 xv = x_.head<3>();
   const Vector2 m = x_.segment<2>(li);
-  Matrix23 hx;
-  Matrix2 hm;
-  observation_jacobians(index, x_, linearisation_, hx, hm);
-  const Vector2 nu = observation_->residual(z, observation_->predict(xv, m));
+  PoseRows<D> hx;
+  LandmarkRows<D> hm;
+  observation_jacobians<D>(index, x_, linearisation_, hx, hm);
+  const MeasurementVector<D> nu = observation_->residual(z, observation_->predict(xv, m));
 
-  auto pht = pht_.leftCols<2>().topRows(n);  // two columns known at compile time: 2x2 products stay fixed-size
-  covariance_times_jacobian(l, hx, hm, pht);
-  Matrix2 s = hx * pht.topRows<3>() + hm * pht.middleRows<2>(li) + observation_->noise();
-  s(0, 1) = s(1, 0) = 0.5 * (s(0, 1) + s(1, 0));
-  const Eigen::LLT<Matrix2> llt(s);
+  auto pht = pht_.leftCols<D>().topRows(n);  // columns known at compile time: the DxD products stay fixed-size
+  covariance_times_jacobian<D>(l, hx, hm, pht);
+  MeasurementSquare<D> s = hx * pht.template topRows<3>() + hm * pht.template middleRows<2>(li);
+  s += MeasurementSquare<D>(observation_->noise());
+  s = (0.5 * (s + s.transpose())).eval();
+  const Eigen::LLT<MeasurementSquare<D>> llt(s);
   if (llt.info() != Eigen::Success) return false;
 
   // Eq. (10): x += W nu with W = P H^T S^-1.
-  const Vector2 weights = llt.solve(nu);
+  const MeasurementVector<D> weights = llt.solve(nu);
   if (linearisation_ == Linearisation::kInvariant) {
     batch_nu_.resize(std::max<Eigen::Index>(batch_nu_.size(), n));
     batch_nu_.head(n).noalias() = pht * weights;
@@ -174,14 +182,18 @@ bool JointGaussian::update_landmark(std::size_t index, const Vector2& z) {
   }
 
   // Eq. (11): P -= W S W^T = C C^T with C = P H^T L^-T (S = L L^T). L^-T is upper triangular, so C
-  // is formed in place, column 1 first because it still needs the old column 0.
-  const Matrix2 lower = llt.matrixL();
-  const double a00 = 1.0 / lower(0, 0), a11 = 1.0 / lower(1, 1);
-  const double a01 = -lower(1, 0) * a00 * a11;
-  auto c0 = pht.col(0);
-  auto c1 = pht.col(1);
-  c1 = a01 * c0 + a11 * c1;
-  c0 *= a00;
+  // is formed in place; for two rows by hand, column 1 first because it still needs the old column 0.
+  if constexpr (D == 2) {
+    const Matrix2 lower = llt.matrixL();
+    const double a00 = 1.0 / lower(0, 0), a11 = 1.0 / lower(1, 1);
+    const double a01 = -lower(1, 0) * a00 * a11;
+    auto c0 = pht.col(0);
+    auto c1 = pht.col(1);
+    c1 = a01 * c0 + a11 * c1;
+    c0 *= a00;
+  } else {
+    llt.matrixU().template solveInPlace<Eigen::OnTheRight>(pht);
+  }
   downdate(pht);
   if (linearisation_ == Linearisation::kInvariant) correct(batch_nu_.head(n));
   return true;
@@ -198,16 +210,23 @@ void JointGaussian::reserve_joint_update(Eigen::Index k) {
 bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
   if (batch.size() == 1 && update_iterations_ == 1) return update_landmark(batch[0].index, batch[0].z);
+  return with_measurement_dim(observation_->dim(),
+                              [&]<int D>(std::integral_constant<int, D>) { return update_batch<D>(batch); });
+}
+
+template <int D>
+bool JointGaussian::update_batch(std::span<const LandmarkObservation> batch) {
   apply_pending_motion();
   if (linearisation_ == Linearisation::kFirstEstimates)
     for (const LandmarkObservation& o : batch) anchor_where_plausible(o.index);
   const auto n = static_cast<Eigen::Index>(dim_);
-  const auto k = static_cast<Eigen::Index>(2 * batch.size());
+  const auto k = static_cast<Eigen::Index>(D * batch.size());
   reserve_joint_update(k);
-  batch_hx_.resize(batch.size());
-  batch_hm_.resize(batch.size());
+  BatchJacobians<D>& jacobians = batch_jacobians_.get<D>();
+  jacobians.hx.resize(batch.size());
+  jacobians.hm.resize(batch.size());
   if (update_iterations_ == 1) {
-    linearise_batch(batch, x_, linearisation_);
+    linearise_batch<D>(batch, x_, linearisation_);
     return apply_joint_update(k);
   }
   // Iterated: relinearise at the update's result until it stops moving. The rows the batch reads
@@ -230,7 +249,7 @@ bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch)
       iterate_correction_.segment<2>(static_cast<Eigen::Index>(landmark_offset(o.index))).setZero();
   }
   for (int iteration = 1;; ++iteration) {
-    linearise_batch(batch, iterate_, on_group ? Linearisation::kInvariant : Linearisation::kStandard);
+    linearise_batch<D>(batch, iterate_, on_group ? Linearisation::kInvariant : Linearisation::kStandard);
     if (iteration == update_iterations_) break;
     auto s = iterate_s_.topLeftCorner(k, k);
     s = batch_s_.topLeftCorner(k, k);
@@ -281,14 +300,17 @@ bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch)
     }
     if (change < kIterateTolerance) break;
   }
-  if (linearisation_ == Linearisation::kFirstEstimates) linearise_batch(batch, iterate_, linearisation_);
+  if (linearisation_ == Linearisation::kFirstEstimates) linearise_batch<D>(batch, iterate_, linearisation_);
   return apply_joint_update(k);
 }
 
+template <int D>
 void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, const Eigen::VectorXd& at,
                                     Linearisation how) {
   const auto n = static_cast<Eigen::Index>(dim_);
-  const auto k = static_cast<Eigen::Index>(2 * batch.size());
+  const auto k = static_cast<Eigen::Index>(D * batch.size());
+  std::vector<PoseRows<D>>& batch_hx = batch_jacobians_.get<D>().hx;
+  std::vector<LandmarkRows<D>>& batch_hm = batch_jacobians_.get<D>().hm;
   const Pose2 xv = at.head<3>();
   Pose2 vehicle_offset = x_.head<3>() - xv;
   vehicle_offset[2] = wrap_angle(vehicle_offset[2]);
@@ -296,16 +318,16 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
   // linearisation is the first iterate's, at a zero correction).
   const bool on_group = how == Linearisation::kInvariant && update_iterations_ > 1;
   const Vector2 vehicle_turn = GroupExponential::perp(xv.head<2>() - x_.head<2>());
-  // W = P H^T, two columns per observation, each pair from the two column blocks its row of H touches.
+  // W = P H^T, D columns per observation, each from the two column blocks its rows of H touch.
   auto pht = pht_.topLeftCorner(n, k);
   auto nu = batch_nu_.head(k);
   for (std::size_t i = 0; i < batch.size(); ++i) {
     const auto l = static_cast<Eigen::Index>(landmark_offset(batch[i].index));
-    const auto r = 2 * static_cast<Eigen::Index>(i);
+    const auto r = D * static_cast<Eigen::Index>(i);
     const Vector2 m = at.segment<2>(l);
-    observation_jacobians(batch[i].index, at, how, batch_hx_[i], batch_hm_[i]);
+    observation_jacobians<D>(batch[i].index, at, how, batch_hx[i], batch_hm[i]);
     // Zero at the estimate; at an iterate, h(x) ~ h(at) + H (x - at) carries it back to the estimate.
-    Vector2 to_estimate;
+    MeasurementVector<D> to_estimate;
     if (on_group) {
       // The prior's invariant error expressed at the iterate, xi - xi_i (the invariant filter's
       // reset, exp's Jacobian at xi_i taken as the identity), is the correction's d - d_i carried
@@ -313,22 +335,25 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
       // standard Jacobian at the iterate times M_i; like the invariant Jacobian it leaves the
       // turn of the whole scene about the origin unobserved, at every iterate.
       const Vector2 landmark_correction = iterate_correction_.segment<2>(l);
-      batch_hx_[i].col(2) += batch_hx_[i].leftCols<2>() * vehicle_turn +
-                             batch_hm_[i] * GroupExponential::perp(m - x_.segment<2>(l));
-      to_estimate = -(batch_hx_[i] * iterate_correction_.head<3>() + batch_hm_[i] * landmark_correction);
+      batch_hx[i].col(2) += batch_hx[i].template leftCols<2>() * vehicle_turn +
+                            batch_hm[i] * GroupExponential::perp(m - x_.segment<2>(l));
+      to_estimate = -(batch_hx[i] * iterate_correction_.head<3>() + batch_hm[i] * landmark_correction);
     } else {
-      to_estimate = batch_hx_[i] * vehicle_offset + batch_hm_[i] * (x_.segment<2>(l) - m);
+      to_estimate = batch_hx[i] * vehicle_offset + batch_hm[i] * (x_.segment<2>(l) - m);
     }
-    nu.segment<2>(r) = observation_->residual(batch[i].z, observation_->predict(xv, m)) - to_estimate;
-    covariance_times_jacobian(static_cast<std::size_t>(l), batch_hx_[i], batch_hm_[i], pht.middleCols<2>(r));
+    nu.template segment<D>(r) =
+        MeasurementVector<D>(observation_->residual(batch[i].z, observation_->predict(xv, m))) - to_estimate;
+    covariance_times_jacobian<D>(static_cast<std::size_t>(l), batch_hx[i], batch_hm[i], pht.template middleCols<D>(r));
   }
   // S = H P H^T + R, block (i, j) = H_i (P H_j^T).
   auto s = batch_s_.topLeftCorner(k, k);
+  const MeasurementSquare<D> noise = observation_->noise();
   for (std::size_t i = 0; i < batch.size(); ++i) {
     const auto l = static_cast<Eigen::Index>(landmark_offset(batch[i].index));
-    const auto r = 2 * static_cast<Eigen::Index>(i);
-    s.middleRows<2>(r).noalias() = batch_hx_[i] * pht.topRows<3>() + batch_hm_[i] * pht.middleRows<2>(l);
-    s.block<2, 2>(r, r) += observation_->noise();
+    const auto r = D * static_cast<Eigen::Index>(i);
+    s.template middleRows<D>(r).noalias() =
+        batch_hx[i] * pht.template topRows<3>() + batch_hm[i] * pht.template middleRows<2>(l);
+    s.template block<D, D>(r, r) += noise;
   }
 }
 
@@ -365,13 +390,18 @@ bool JointGaussian::apply_joint_update(Eigen::Index k) {
   return true;
 }
 
+template <int D>
 void JointGaussian::observation_jacobians(std::size_t index, const Eigen::VectorXd& at, Linearisation how,
-                                          Matrix23& hx, Matrix2& hm) const {
-  if (how == Linearisation::kFirstEstimates) {
-    observation_->jacobians(predicted_pose_, first_estimates_[index], hx, hm);
-    return;
-  }
-  observation_->jacobians(at.head<3>(), at.segment<2>(static_cast<Eigen::Index>(landmark_offset(index))), hx, hm);
+                                          PoseRows<D>& hx, LandmarkRows<D>& hm) const {
+  PoseJacobian pose_rows;
+  LandmarkJacobian landmark_rows;
+  if (how == Linearisation::kFirstEstimates)
+    observation_->jacobians(predicted_pose_, first_estimates_[index], pose_rows, landmark_rows);
+  else
+    observation_->jacobians(at.head<3>(), at.segment<2>(static_cast<Eigen::Index>(landmark_offset(index))), pose_rows,
+                            landmark_rows);
+  hx = pose_rows;
+  hm = landmark_rows;
 }
 
 void JointGaussian::correct(const Eigen::Ref<const Eigen::VectorXd>& delta) {
@@ -433,13 +463,11 @@ void JointGaussian::add_statistics(std::map<std::string, double>& statistics) co
     statistics["first_estimates_moved"] = static_cast<double>(anchors_moved_);
 }
 
-std::size_t JointGaussian::add_landmark(const Vector2& z) {
+std::size_t JointGaussian::add_landmark(const InitialLandmark& landmark) {
   reserve(dim_ + 2);
   apply_pending_motion();
-  Matrix23 gx;
-  const Matrix2 added = place_new_landmark(z, gx);
-  const Vector2 mean = x_.segment<2>(static_cast<Eigen::Index>(dim_));
-  append_landmark(mean, gx, gx * diagonal_block<3>(0) * gx.transpose() + added);
+  const Matrix23& gx = landmark.gx;
+  append_landmark(landmark.mean, gx, gx * diagonal_block<3>(0) * gx.transpose() + landmark.covariance);
   return num_landmarks() - 1;
 }
 
@@ -470,8 +498,8 @@ bool JointGaussian::fuse_landmarks(std::span<const LandmarkPair> pairs) {
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     const auto r = 2 * static_cast<Eigen::Index>(i);
     const std::size_t dup = landmark_offset(pairs[i].duplicate), orig = landmark_offset(pairs[i].original);
-    covariance_times_jacobian(dup, no_vehicle, Matrix2::Identity(), pht.middleCols<2>(r));
-    covariance_times_jacobian(orig, no_vehicle, Matrix2::Identity(), original_columns);
+    covariance_times_jacobian<2>(dup, no_vehicle, Matrix2::Identity(), pht.middleCols<2>(r));
+    covariance_times_jacobian<2>(orig, no_vehicle, Matrix2::Identity(), original_columns);
     pht.middleCols<2>(r) -= original_columns;
     batch_nu_.segment<2>(r) = x_.segment<2>(static_cast<Eigen::Index>(orig)) - x_.segment<2>(static_cast<Eigen::Index>(dup));
   }

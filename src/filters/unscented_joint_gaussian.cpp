@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <stdexcept>
 
 #include "slamkit/core/angles.hpp"
 
@@ -144,7 +145,7 @@ void UnscentedJointGaussian::predict(const Control& u, double dt) {
   pending_motion_ = t.linearisation.leftCols<3>() * pending_motion_;
 }
 
-bool UnscentedJointGaussian::update_landmark(std::size_t index, const Vector2& z) {
+bool UnscentedJointGaussian::update_landmark(std::size_t index, const Measurement& z) {
   const LandmarkObservation one{index, z};
   return update_landmarks(std::span<const LandmarkObservation>(&one, 1));
 }
@@ -153,7 +154,8 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
   if (batch.empty()) return true;
   apply_pending_motion();
   const auto n = static_cast<Eigen::Index>(dim_);
-  const auto k = static_cast<Eigen::Index>(2 * batch.size());
+  const Eigen::Index dz = observation_->dim();
+  const auto k = dz * static_cast<Eigen::Index>(batch.size());
   // The sub-state s: the vehicle, then each observed landmark once; sub_at_[i] is observation i's
   // landmark's position in s.
   sub_offsets_.assign(1, 0);
@@ -221,7 +223,7 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
           if (!mean_pose_predicted) predict_from_mean_pose();
           auto next = mean_pose_predictions_.cbegin() + static_cast<std::ptrdiff_t>(mean_pose_first_[static_cast<std::size_t>(column)]);
           for (std::size_t i = 0; i < batch.size(); ++i)
-            if (moves(i, first_moved)) z.segment<2>(2 * static_cast<Eigen::Index>(i)) = *next++;
+            if (moves(i, first_moved)) z.segment(dz * static_cast<Eigen::Index>(i), dz) = *next++;
           return;
         }
         // A point that moves the vehicle moves every observation.
@@ -229,14 +231,14 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
         for (std::size_t i = 0; i < batch.size(); ++i) moved_landmarks_.push_back(s.segment<2>(sub_at_[i]));
         moved_predictions_.resize(moved_landmarks_.size());
         observation_->predict_many(s.head<3>(), moved_landmarks_, moved_predictions_);
-        for (std::size_t i = 0; i < batch.size(); ++i) z.segment<2>(2 * static_cast<Eigen::Index>(i)) = moved_predictions_[i];
+        for (std::size_t i = 0; i < batch.size(); ++i) z.segment(dz * static_cast<Eigen::Index>(i), dz) = moved_predictions_[i];
       },
       [&](Eigen::Ref<Eigen::VectorXd> a, const Eigen::VectorXd& b, Eigen::Index first_moved) {
         // The residual of a prediction left at the centre's is exactly zero.
         for (std::size_t i = 0; i < batch.size(); ++i) {
-          auto ai = a.segment<2>(2 * static_cast<Eigen::Index>(i));
+          auto ai = a.segment(dz * static_cast<Eigen::Index>(i), dz);
           if (moves(i, first_moved))
-            ai = observation_->residual(ai, b.segment<2>(2 * static_cast<Eigen::Index>(i)));
+            ai = observation_->residual(ai, b.segment(dz * static_cast<Eigen::Index>(i), dz));
           else
             ai.setZero();
         }
@@ -245,30 +247,37 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
   reserve_joint_update(k);
   auto s = batch_s_.topLeftCorner(k, k);
   s = t.covariance;
-  for (Eigen::Index i = 0; i < k; i += 2) {
-    s.block<2, 2>(i, i) += observation_->noise();
-    batch_nu_.segment<2>(i) = observation_->residual(batch[static_cast<std::size_t>(i / 2)].z, t.mean.segment<2>(i));
+  const MeasurementCovariance noise = observation_->noise();
+  for (Eigen::Index i = 0; i < k; i += dz) {
+    s.block(i, i, dz, dz) += noise;
+    batch_nu_.segment(i, dz) = observation_->residual(batch[static_cast<std::size_t>(i / dz)].z, t.mean.segment(i, dz));
   }
   // W = P(:, s) A^T.
   pht_.topLeftCorner(n, k).noalias() = sub_columns_ * t.linearisation.transpose();
   return apply_joint_update(k);
 }
 
-std::size_t UnscentedJointGaussian::add_landmark(const Vector2& z) {
+std::size_t UnscentedJointGaussian::add_landmark(const Measurement& z) {
+  if (!observation_->invertible())
+    throw std::logic_error("a " + observation_->name() +
+                           " measurement does not determine a landmark; start it through a landmark initialiser");
   reserve(dim_ + 2);
   apply_pending_motion();
   // Sigma points over [vehicle, measurement noise], through the inverse observation model.
   Transform& t = landmark_transform_;
-  sub_mean_.resize(5);
+  const Eigen::Index dz = observation_->dim();
+  sub_mean_.resize(3 + dz);
   sub_mean_ << x_.head<3>(), z;
-  sub_covariance_.setZero(5, 5);
+  sub_covariance_.setZero(3 + dz, 3 + dz);
   sub_covariance_.topLeftCorner<3, 3>() = diagonal_block<3>(0);
-  sub_covariance_.bottomRightCorner<2, 2>() = observation_->noise();
+  sub_covariance_.bottomRightCorner(dz, dz) = observation_->noise();
   // The images are written through fixed-size heads: on a dynamic destination GCC 12 reports Eigen's
   // (unreachable) 8-wide AVX-512 loop as reading past a 2- or 3-vector.
   unscented(
       t, sub_mean_, sub_covariance_, 2,
-      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) { y.head<2>() = observation_->inverse(a.head<3>(), a.tail<2>()); },
+      [&](const Eigen::VectorXd& a, Eigen::Index, Eigen::Index, Eigen::Ref<Eigen::VectorXd> y) {
+        y.head<2>() = observation_->invert(a.head<3>(), a.tail(dz))->position;
+      },
       [](Eigen::Ref<Eigen::VectorXd> y, const Eigen::VectorXd& centre, Eigen::Index) { y -= centre; });
   append_landmark(t.mean, t.linearisation.leftCols<3>(), t.covariance);
   return num_landmarks() - 1;

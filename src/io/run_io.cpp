@@ -105,8 +105,10 @@ void read_associations(const std::string& path, RunResult& run) {
       r.decision = AssociationDecision::kNew;
     else if (d == "discard")
       r.decision = AssociationDecision::kDiscard;
+    else if (d == "pending")
+      r.decision = AssociationDecision::kPending;
     else
-      in.fail("expected a decision (update, new or discard), found '" + std::string(d) + "'");
+      in.fail("expected a decision (update, new, discard or pending), found '" + std::string(d) + "'");
     const long id = in.integer(4, "landmark_id");
     if (id < -1 || id > std::numeric_limits<int>::max())
       in.fail(fmt::format("expected a landmark id from -1 to {}, found {}", std::numeric_limits<int>::max(), id));

@@ -19,6 +19,7 @@
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
+#include "slamkit/models/observation_model.hpp"
 
 namespace slamkit {
 namespace {
@@ -69,6 +70,13 @@ void write_params(const fs::path& path, const Dataset& dataset, const SimulatorC
   write_file(path, out);
 }
 
+/// The measurement columns of an obs line for the sensor of `model`: "<range> <bearing>", "<range>"
+/// or "<bearing>".
+std::string measurement_columns(const ObservationModel& model) {
+  const MeasuredRows rows = model.rows();
+  return rows.range >= 0 && rows.bearing >= 0 ? "<range> <bearing>" : rows.range >= 0 ? "<range>" : "<bearing>";
+}
+
 // events.txt and truth_observations.txt in one pass, as they share their line order.
 void write_events(const fs::path& dir, const Dataset& dataset) {
   const std::vector<std::vector<int>>& true_ids = dataset.truth.observation_ids;
@@ -78,8 +86,9 @@ void write_events(const fs::path& dir, const Dataset& dataset) {
       events,
       "# slamkit simulator events; units s, m, rad\n"
       "# control <t> <dt> <speed> <steer>   control applied over (t - dt, t]\n"
-      "# obs <t> <id> <range> <bearing>     observation of landmark id (-1: unknown)\n"
-      "# Consecutive obs lines with the same t form one scan, taken at the end of the control before it.\n");
+      "# {:<35}observation of landmark id (-1: unknown)\n"
+      "# Consecutive obs lines with the same t form one scan, taken at the end of the control before it.\n",
+      "obs <t> <id> " + measurement_columns(*dataset.observation));
   append(truth, "# slamkit true landmark id of each obs line of {}, in the same order\n# <t> <true_id>\n",
          kEventsFile);
   std::size_t scan_index = 0;
@@ -97,7 +106,9 @@ void write_events(const fs::path& dir, const Dataset& dataset) {
           "write_sim_log: the truth's observation ids do not match scan {} of the event stream", scan_index));
     for (std::size_t i = 0; i < scan.observations.size(); ++i) {
       const Observation& o = scan.observations[i];
-      append(events, "obs {:.12g} {} {:.12g} {:.12g}\n", scan.t, o.id, o.z[0], o.z[1]);
+      append(events, "obs {:.12g} {}", scan.t, o.id);
+      for (Eigen::Index k = 0; k < o.z.size(); ++k) append(events, " {:.12g}", o.z[k]);
+      append(events, "\n");
       if (with_truth) append(truth, "{:.12g} {}\n", scan.t, true_ids[scan_index][i]);
     }
     ++scan_index;
@@ -202,7 +213,8 @@ struct ObsLine {
   std::size_t line;
 };
 
-void read_events(const fs::path& file, std::vector<Event>& events, std::vector<ObsLine>& obs_lines) {
+void read_events(const fs::path& file, const ObservationModel& model, std::vector<Event>& events,
+                 std::vector<ObsLine>& obs_lines) {
   if (!fs::exists(file)) throw InputError(file.string(), 0, "missing file (every simulator log has one)");
   TextReader in(file.string());
   double last_t = -std::numeric_limits<double>::infinity();
@@ -213,8 +225,11 @@ void read_events(const fs::path& file, std::vector<Event>& events, std::vector<O
     const std::string_view keyword = in.field(0);
     if (keyword != "control" && keyword != "obs")
       in.fail(fmt::format("unknown keyword '{}'; expected 'control' or 'obs'", keyword));
-    in.expect_fields(
-        5, keyword == "control" ? "control <t> <dt> <speed> <steer>" : "obs <t> <id> <range> <bearing>");
+    const int measured = model.dim();
+    if (keyword == "control")
+      in.expect_fields(5, "control <t> <dt> <speed> <steer>");
+    else
+      in.expect_fields(static_cast<std::size_t>(3 + measured), "obs <t> <id> " + measurement_columns(model));
     const double t = in.number(1, "the time");
     if (t < last_t)
       in.fail(fmt::format(
@@ -246,9 +261,14 @@ void read_events(const fs::path& file, std::vector<Event>& events, std::vector<O
     }
 
     const int id = read_id(in, 2, kUnknownId, "an id");
-    const double range = in.number(3, "the range");
-    if (range <= 0.0) in.fail(fmt::format("expected a range > 0, found {}", range));
-    const Observation o{Vector2(range, wrap_angle(in.number(4, "the bearing"))), id};
+    const MeasuredRows rows = model.rows();
+    Observation o{Measurement(measured), id};
+    if (rows.range >= 0) {
+      const double range = in.number(3 + static_cast<std::size_t>(rows.range), "the range");
+      if (range <= 0.0) in.fail(fmt::format("expected a range > 0, found {}", range));
+      o.z[rows.range] = range;
+    }
+    if (rows.bearing >= 0) o.z[rows.bearing] = wrap_angle(in.number(3 + static_cast<std::size_t>(rows.bearing), "the bearing"));
     auto* scan = events.empty() ? nullptr : std::get_if<ScanEvent>(&events.back());
     if (scan != nullptr && scan->t == t)
       scan->observations.push_back(o);
@@ -358,7 +378,7 @@ Dataset read_sim_log(const std::string& dir) {
   dataset.initial_pose = params.initial_pose;
 
   std::vector<ObsLine> obs_lines;
-  read_events(root / kEventsFile, dataset.events, obs_lines);
+  read_events(root / kEventsFile, *dataset.observation, dataset.events, obs_lines);
   GroundTruth& truth = dataset.truth;
   truth.poses_have_heading = true;
   if (fs::exists(root / kTruthPosesFile)) read_truth_poses(root / kTruthPosesFile, truth.poses);

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
 #include "slamkit/core/names.hpp"
 #include "slamkit/filters/fastslam.hpp"
 
@@ -33,6 +34,24 @@ constexpr std::pair<EkfVariant, const char*> kEkfVariantNames[] = {{EkfVariant::
                                                                    {EkfVariant::kInvariant, "invariant"}};
 constexpr std::pair<UkfNoise, const char*> kUkfNoiseNames[] = {{UkfNoise::kAugmented, "augmented"},
                                                                 {UkfNoise::kAdditive, "additive"}};
+constexpr std::pair<LandmarkInit, const char*> kLandmarkInitNames[] = {
+    {LandmarkInit::kAuto, "auto"}, {LandmarkInit::kImmediate, "immediate"}, {LandmarkInit::kDelayed, "delayed"}};
+
+// The delayed start's settings, run.json's settings.delayed_init. Their ranges are
+// validate(DelayedInitialisationOptions)'s, checked with the rest of the filter's settings.
+using Delayed = DelayedInitialisationOptions;
+const OptionKey<Delayed> kDelayedInitKeys[] = {
+    {"min_views", IntegerOption<Delayed, int>{[](Delayed& o) -> int& { return o.min_views; }}},
+    {"max_views", IntegerOption<Delayed, int>{[](Delayed& o) -> int& { return o.max_views; }}},
+    {"max_std_m", RealOption<Delayed>{[](Delayed& o) -> double& { return o.max_std_m; }, option_ranges::kFinite}},
+    {"window_s", RealOption<Delayed>{[](Delayed& o) -> double& { return o.window_s; }, option_ranges::kFinite}},
+    {"gate_probability",
+     RealOption<Delayed>{[](Delayed& o) -> double& { return o.gate_probability; }, option_ranges::kFinite}},
+};
+
+void read_delayed_init(const nlohmann::json& json, const std::string& source, Delayed& options) {
+  option_detail::read_keys<Delayed>(json, source, "'delayed_init'", kDelayedInitKeys, options);
+}
 
 template <typename Enum, std::size_t N>
 Enum parse_name(const std::pair<Enum, const char*> (&names)[N], const std::string& name, const char* what) {
@@ -58,6 +77,10 @@ EkfVariant parse_ekf_variant(const std::string& name) { return parse_name(kEkfVa
 std::string to_string(EkfVariant variant) { return name_of(kEkfVariantNames, variant); }
 UkfNoise parse_ukf_noise(const std::string& name) { return parse_name(kUkfNoiseNames, name, "UKF noise"); }
 std::string to_string(UkfNoise noise) { return name_of(kUkfNoiseNames, noise); }
+LandmarkInit parse_landmark_init(const std::string& name) {
+  return parse_name(kLandmarkInitNames, name, "landmark initialisation");
+}
+std::string to_string(LandmarkInit init) { return name_of(kLandmarkInitNames, init); }
 
 std::vector<std::string> filter_names() {
   std::vector<std::string> names;
@@ -84,7 +107,11 @@ void validate(const FilterConfig& config) {
       (config.filter != FilterKind::kEkf || config.ekf_variant == EkfVariant::kCompressed))
     throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full, fej or invariant");
   validate(config.association);
+  validate(config.delayed_init);
   const bool particle_filter = config.filter == FilterKind::kFastSlam1 || config.filter == FilterKind::kFastSlam2;
+  if (particle_filter && config.landmark_init == LandmarkInit::kDelayed)
+    throw std::invalid_argument(fmt::format("landmark initialisation 'delayed' is for the EKF and the UKF; {} starts "
+                                            "a landmark from one range-bearing measurement", to_string(config.filter)));
   if (particle_filter && config.association.method == AssociationMethod::kJcbb)
     throw std::invalid_argument(fmt::format("association jcbb is for the EKF and the UKF; {} associates per particle with known or nn",
                                             to_string(config.filter)));
@@ -104,6 +131,9 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       if (config.ekf_update == EkfUpdate::kIterated) options.update_iterations = kIteratedUpdateLinearisations;
       options.threads = config.threads;
       options.ukf_noise = config.ukf_noise;
+      if (config.landmark_init == LandmarkInit::kImmediate) options.initialisation = LandmarkInitialisation::kImmediate;
+      if (config.landmark_init == LandmarkInit::kDelayed) options.initialisation = LandmarkInitialisation::kDelayed;
+      options.delayed_initialisation = config.delayed_init;
       return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
     }
     case FilterKind::kFastSlam1:
@@ -132,6 +162,8 @@ nlohmann::json to_json(const FilterConfig& config) {
           {"ekf_update", to_string(config.ekf_update)},
           {"ekf_variant", to_string(config.ekf_variant)},
           {"ukf_noise", to_string(config.ukf_noise)},
+          {"landmark_init", to_string(config.landmark_init)},
+          {"delayed_init", options_to_json<Delayed>(config.delayed_init, kDelayedInitKeys)},
           {"particles", config.particles},
           {"pose_sample_fraction", config.pose_sample_fraction},
           {"resample", to_string(config.resample)},
@@ -181,6 +213,10 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
         config.ekf_variant = parse_ekf_variant(name());
       else if (key == "ukf_noise")
         config.ukf_noise = parse_ukf_noise(name());
+      else if (key == "landmark_init")
+        config.landmark_init = parse_landmark_init(name());
+      else if (key == "delayed_init")
+        read_delayed_init(value, source, config.delayed_init);
       else if (key == "particles")
         integer(config.particles);
       else if (key == "pose_sample_fraction") {
@@ -194,9 +230,10 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
       else if (key == "threads")
         integer(config.threads);
       else {
-        const std::vector<std::string> keys = {"filter",    "seed",      "association",          "ekf_update",
-                                               "ekf_variant", "ukf_noise", "particles", "pose_sample_fraction",
-                                               "resample",  "resample_when", "threads"};
+        const std::vector<std::string> keys = {"filter",        "seed",         "association", "ekf_update",
+                                               "ekf_variant",   "ukf_noise",    "landmark_init", "delayed_init",
+                                               "particles",     "pose_sample_fraction", "resample", "resample_when",
+                                               "threads"};
         throw InputError(source, 0,
                          fmt::format("unknown key '{}' in the filter settings{}; expected one of: {}", key,
                                      did_you_mean(key, keys), fmt::join(keys, ", ")));

@@ -75,11 +75,19 @@ void ReplayRecorder::on_scan(const SlamFilter& filter, const ScanEvent& scan, st
                      significant(lm.covariance(1, 1))})
       landmarks.push_back(v);
   nlohmann::json& rays = frame["rays"] = nlohmann::json::array();
+  nlohmann::json rings = nlohmann::json::array();
   for (std::size_t i = 0; i < scan.observations.size() && i < records.size(); ++i) {
-    const Vector2 end = dataset_.observation->inverse(pose, scan.observations[i].z);
-    const int decision = wrong[i] ? 3 : static_cast<int>(records[i].decision);
-    for (double v : {rounded(end.x()), rounded(end.y()), double(decision)}) rays.push_back(v);
+    const MeasurementShape shape = dataset_.observation->shape(pose, scan.observations[i].z, dataset_.sensor.max_range);
+    // The page's codes: update, new, discard, wrong pairing, pending.
+    const int decision = wrong[i] ? 3 : records[i].decision == AssociationDecision::kPending ? 4
+                                                                                           : static_cast<int>(records[i].decision);
+    if (shape.radius > 0.0)
+      for (double v : {rounded(shape.sensor.x()), rounded(shape.sensor.y()), rounded(shape.radius), double(decision)})
+        rings.push_back(v);
+    else
+      for (double v : {rounded(shape.end.x()), rounded(shape.end.y()), double(decision)}) rays.push_back(v);
   }
+  if (!rings.empty()) frame["rings"] = std::move(rings);
   const std::vector<WeightedPose> samples = filter.pose_samples();
   if (!samples.empty()) {
     nlohmann::json& particles = frame["particles"] = nlohmann::json::array();

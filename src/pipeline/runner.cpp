@@ -10,6 +10,7 @@
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/names.hpp"
 #include "slamkit/models/motion_model.hpp"
+#include "slamkit/models/observation_model.hpp"
 
 namespace slamkit {
 
@@ -129,6 +130,7 @@ void check_events(const Dataset& dataset) {
                                  "({}, {}, {})",
                                  kMaxAbsCoordinate, start.x(), start.y(), start.z()));
   const int control_dim = dataset.motion ? dataset.motion->control_dim() : -1;
+  const int measurement_dim = dataset.observation ? dataset.observation->dim() : -1;
   double previous = -INFINITY;
   for (std::size_t i = 0; i < dataset.events.size(); ++i) {
     const Event& event = dataset.events[i];
@@ -148,9 +150,14 @@ void check_events(const Dataset& dataset) {
         if (!within(control->u(k), kMaxAbsValue))
           refuse(fmt::format("control values within +-{:g}, found {}", kMaxAbsValue, control->u(k)));
     } else {
-      for (const Observation& o : std::get<ScanEvent>(event).observations)
-        if (!within(o.z.x(), kMaxAbsValue) || !within(o.z.y(), kMaxAbsValue))
-          refuse(fmt::format("observations within +-{:g}, found ({}, {})", kMaxAbsValue, o.z.x(), o.z.y()));
+      for (const Observation& o : std::get<ScanEvent>(event).observations) {
+        if (o.z.size() != measurement_dim)
+          refuse(fmt::format("measurements of {} values for the observation model, found {}", measurement_dim,
+                             o.z.size()));
+        for (Eigen::Index k = 0; k < o.z.size(); ++k)
+          if (!within(o.z(k), kMaxAbsValue))
+            refuse(fmt::format("measurement values within +-{:g}, found {}", kMaxAbsValue, o.z(k)));
+      }
     }
   }
 }

@@ -219,20 +219,50 @@ double route_length(const std::vector<Vector2>& waypoints) {
   return length;
 }
 
+constexpr std::string_view kSensorKey = "sensor";
+
 }  // namespace
+
+SensorKind parse_sensor_kind(const std::string& name) {
+  if (name == "range-bearing") return SensorKind::kRangeBearing;
+  if (name == "range-only") return SensorKind::kRangeOnly;
+  if (name == "bearing-only") return SensorKind::kBearingOnly;
+  throw std::invalid_argument(unknown_name_message("sensor", name, {"range-bearing", "range-only", "bearing-only"}));
+}
+
+std::string to_string(SensorKind kind) {
+  switch (kind) {
+    case SensorKind::kRangeBearing: return "range-bearing";
+    case SensorKind::kRangeOnly: return "range-only";
+    case SensorKind::kBearingOnly: return "bearing-only";
+  }
+  return "range-bearing";
+}
 
 void set_platform(Dataset& dataset, const SimulatorConfig& config) {
   dataset.motion = std::make_shared<const AckermannModel>(
       AckermannModel::Params{config.wheelbase, config.sigma_speed, config.sigma_steer});
-  RangeBearingModel::Params sensor;
-  sensor.sigma_range = config.sigma_range;
-  sensor.sigma_bearing = config.sigma_bearing;
-  dataset.observation = std::make_shared<const RangeBearingModel>(sensor);
+  switch (config.sensor) {
+    case SensorKind::kRangeBearing:
+      dataset.observation = std::make_shared<const RangeBearingModel>(
+          RangeBearingModel::Params{.sigma_range = config.sigma_range, .sigma_bearing = config.sigma_bearing});
+      break;
+    case SensorKind::kRangeOnly:
+      dataset.observation =
+          std::make_shared<const RangeOnlyModel>(RangeOnlyModel::Params{.sigma_range = config.sigma_range});
+      break;
+    case SensorKind::kBearingOnly:
+      dataset.observation =
+          std::make_shared<const BearingOnlyModel>(BearingOnlyModel::Params{.sigma_bearing = config.sigma_bearing});
+      break;
+  }
   dataset.sensor = SensorLimits{config.max_range, config.fov};
 }
 
 nlohmann::json to_json(const SimulatorConfig& config) {
-  return options_to_json<SimulatorConfig>(config, kConfigKeys);
+  nlohmann::json json = options_to_json<SimulatorConfig>(config, kConfigKeys);
+  if (config.sensor != SensorKind::kRangeBearing) json[std::string(kSensorKey)] = to_string(config.sensor);
+  return json;
 }
 
 void validate(const SimulatorConfig& c, const std::string& source) {
@@ -241,8 +271,22 @@ void validate(const SimulatorConfig& c, const std::string& source) {
 }
 
 SimulatorConfig simulator_config_from_json(const nlohmann::json& json, const std::string& source_name) {
+  // The sensor is a name, not a number: read apart from the table of numeric keys.
+  SimulatorConfig defaults;
+  nlohmann::json numeric = json;
+  if (json.is_object() && json.contains(kSensorKey)) {
+    const nlohmann::json& kind = json.at(std::string(kSensorKey));
+    if (!kind.is_string())
+      throw InputError(source_name, 0, fmt::format("'sensor' must be a string, found {}", kind.dump()));
+    try {
+      defaults.sensor = parse_sensor_kind(kind.get<std::string>());
+    } catch (const std::invalid_argument& e) {
+      throw InputError(source_name, 0, e.what());
+    }
+    numeric.erase(std::string(kSensorKey));
+  }
   const SimulatorConfig config =
-      options_from_json<SimulatorConfig>(json, source_name, "the simulator config", {}, kConfigKeys);
+      options_from_json<SimulatorConfig>(numeric, source_name, "the simulator config", defaults, kConfigKeys);
   check_periods(config, source_name);
   return config;
 }
@@ -259,7 +303,16 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
   out.name = "simulated";
   set_platform(out, config);
   const MotionModel& motion = *out.motion;
-  const ObservationModel& sensor = *out.observation;
+  // Which landmarks are in view, and what each would measure without noise, is geometry: its range
+  // and bearing, of which the sensor reports its part.
+  const RangeBearingModel sight;
+  const bool measures_range = config.sensor != SensorKind::kBearingOnly;
+  const bool measures_bearing = config.sensor != SensorKind::kRangeOnly;
+  const auto measured = [&](double range, double bearing) -> Measurement {
+    if (!measures_bearing) return Measurement::Constant(1, range);
+    if (!measures_range) return Measurement::Constant(1, bearing);
+    return Vector2(range, bearing);
+  };
   const Vector2 heading = waypoints[1] - waypoints[0];
   Pose2 pose = world.start.value_or(Pose2(waypoints[0].x(), waypoints[0].y(), std::atan2(heading.y(), heading.x())));
   out.initial_pose = pose;
@@ -343,27 +396,31 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
     std::vector<int> true_ids;
     for (const int i : candidates) {
       const Landmark& landmark = world.landmarks[static_cast<std::size_t>(i)];
-      const Vector2 z = sensor.predict(pose, landmark.position);
+      const Measurement z = sight.predict(pose, landmark.position);
       if (z[0] > config.max_range || std::abs(z[1]) > config.fov / 2.0) continue;
       // The draws in a fixed order, not as a call's arguments (whose order gcc and clang differ in);
-      // bearing first, the order gcc gave the existing logs.
-      const double bearing_noise = sensor_noise();
-      const double range_noise = sensor_noise();
-      const Vector2 noisy(z[0] + config.sigma_range * range_noise,
-                          wrap_angle(z[1] + config.sigma_bearing * bearing_noise));
+      // bearing first, the order gcc gave the existing logs. A sensor that measures one of the two
+      // draws only its noise.
+      const double bearing_noise = measures_bearing ? sensor_noise() : 0.0;
+      const double range_noise = measures_range ? sensor_noise() : 0.0;
+      const double range = z[0] + config.sigma_range * range_noise;
+      const double bearing = wrap_angle(z[1] + config.sigma_bearing * bearing_noise);
       if (uniform01(detection_rng) >= config.detection_probability) continue;
       // Only a landmark almost on top of the sensor can come out at a negative range: no real
       // sensor reports one, so it counts as missed.
-      if (noisy[0] <= 0.0) continue;
-      scan.observations.push_back(Observation{noisy, config.provide_ids ? landmark.id : kUnknownId});
+      if (range <= 0.0) continue;
+      scan.observations.push_back(Observation{measured(range, bearing), config.provide_ids ? landmark.id : kUnknownId});
       true_ids.push_back(landmark.id);
     }
     // Uniform over the visible sector: the area within radius r grows as r^2, hence the square root.
-    // 1 - u keeps the range above zero, as a sensor reports it.
+    // 1 - u keeps the range above zero, as a sensor reports it. A sensor that measures one of the
+    // two reports that one, uniform over its measurement space, as the filters' clutter density has
+    // it: a range-only sensor's over [0, max_range], a bearing-only one's over the field of view.
     for (long c = poisson(config.clutter_rate, clutter_rng); c > 0; --c) {
-      const double range = config.max_range * std::sqrt(1.0 - uniform01(clutter_rng));
+      const double u = 1.0 - uniform01(clutter_rng);
+      const double range = config.max_range * (measures_bearing ? std::sqrt(u) : u);
       const double bearing = wrap_angle(config.fov * (uniform01(clutter_rng) - 0.5));
-      scan.observations.push_back(Observation{Vector2(range, bearing), kUnknownId});
+      scan.observations.push_back(Observation{measured(range, bearing), kUnknownId});
       true_ids.push_back(kUnknownId);
     }
     if (scan.observations.empty()) continue;

@@ -31,7 +31,7 @@ import urllib.request
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 CHROMEDRIVER = os.environ.get("CHROMEDRIVER", "/usr/bin/chromedriver")
-DECISIONS = ["update", "new", "discard", "wrong"]
+DECISIONS = ["update", "new", "discard", "wrong", "pending"]
 
 
 class Browser:
@@ -128,6 +128,8 @@ RAY_RGB = {"update": (22, 163, 74), "new": (37, 99, 235), "wrong": (220, 38, 38)
 def expected_counts(frame):
     rays = {name: 0 for name in DECISIONS}
     for code in frame["rays"][2::3]:
+        rays[DECISIONS[int(code)]] += 1
+    for code in frame.get("rings", [])[3::4]:
         rays[DECISIONS[int(code)]] += 1
     return {"landmarks": len(frame["landmarks"]) // 6, "particles": len(frame.get("particles", [])) // 2,
             "rays": rays}

@@ -8,7 +8,7 @@
 //    starts a landmark; one between the gates is ambiguous and discarded.
 //  - JCBB (Neira and Tardos, joint compatibility branch and bound): searches the pairings of a whole
 //    scan for the hypothesis with the most pairings whose JOINT innovation passes the chi-square
-//    gate (2k dof), ties broken by the smaller joint Mahalanobis distance. The joint covariance
+//    gate (k times the measurement's dof), ties broken by the smaller joint Mahalanobis distance. The joint covariance
 //    includes the correlations through the vehicle and the map, which is what rejects pairings that
 //    are individually plausible but jointly inconsistent. The joint distance is extended by one
 //    block Cholesky step per node, O(k^2) per node for k pairings.
@@ -39,12 +39,13 @@ class GaussianMapView {
   virtual Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const = 0;
 };
 
-/// Squared Mahalanobis distance thresholds derived from the configured probabilities (2 dof), for
-/// every filter. from() validates the whole config first.
+/// Squared Mahalanobis distance thresholds derived from the configured probabilities, with as many
+/// degrees of freedom as the measurement has components, for every filter. from() validates the
+/// whole config first.
 struct Gates {
   double accept = 0.0;
   double new_landmark = 0.0;
-  static Gates from(const AssociationConfig& config);
+  static Gates from(const AssociationConfig& config, int dof);
 };
 
 /// The decision for one observation; `landmark` is a map index, meaningful for kUpdate only.
@@ -79,9 +80,16 @@ class AssociationWorkspace {
   std::unique_ptr<Impl> impl_;
 };
 
-/// False detections per scan per unit of measurement space (1 / (m rad)): config.clutter_per_scan
-/// spread uniformly over the sensor's range and field of view.
-double clutter_density(const AssociationConfig& config, const SensorLimits& sensor);
+/// False detections per scan per unit of measurement space (1 / (m rad) for range and bearing):
+/// config.clutter_per_scan spread uniformly over the part of the model's measurement space the
+/// sensor's range and field of view span.
+double clutter_density(const AssociationConfig& config, const SensorLimits& sensor, const ObservationModel& model);
+
+/// Throws std::invalid_argument unless `config`'s method can run with `model`: searching for the
+/// landmark an observation comes from (nn, jcbb) needs a model whose one measurement places a
+/// landmark, since a landmark that a range or a bearing alone cannot place is started from several
+/// observations of it, which only known identities gather.
+void require_searchable(const AssociationConfig& config, const ObservationModel& model);
 
 /// Pairs each of `observations` with one of `candidates` (map indices of landmarks that can be in
 /// view) or decides it is new or ambiguous, into `out` (one entry per observation). `method` must be

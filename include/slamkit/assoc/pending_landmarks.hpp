@@ -31,7 +31,7 @@ namespace slamkit {
 class PendingLandmarks {
  public:
   /// Reads clutter_per_scan, detection_probability, accept_probability and relocalise_window_s.
-  PendingLandmarks(const AssociationConfig& config, const SensorLimits& sensor);
+  PendingLandmarks(const AssociationConfig& config, const SensorLimits& sensor, const ObservationModel& model);
 
   /// Whether observations wait here at all: only where clutter is expected.
   bool active() const { return clutter_density_ > 0.0; }
@@ -44,7 +44,7 @@ class PendingLandmarks {
   /// detections of the landmark it starts now (1 for a first sighting that is more probably real
   /// than not), or 0 when it waits as a hypothesis. `landmarks_started` and `scans` give the map's rate of
   /// new landmarks so far.
-  int offer(const Vector2& z, const ObservationModel& model, std::size_t landmarks_started, std::size_t scans);
+  int offer(const Measurement& z, const ObservationModel& model, std::size_t landmarks_started, std::size_t scans);
 
   /// Ends the scan: the hypotheses predicted inside `detection_view` and not detected lose evidence.
   void end_scan(const ObservationModel& model, const SensorView& detection_view);

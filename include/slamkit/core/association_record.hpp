@@ -8,9 +8,10 @@
 
 namespace slamkit {
 
-/// What a filter did with one observation: updated a landmark, started a new one from it, or
-/// discarded it (ambiguous, or outside every gate).
-enum class AssociationDecision { kUpdate, kNew, kDiscard };
+/// What a filter did with one observation: updated a landmark, started a new one from it, discarded
+/// it (ambiguous, or outside every gate), or kept it for a landmark that one observation cannot
+/// place (pending: its landmark starts once enough observations agree).
+enum class AssociationDecision { kUpdate, kNew, kDiscard, kPending };
 
 /// The decision's name, as associations.txt and the Python module spell it.
 inline const char* to_string(AssociationDecision decision) {
@@ -18,13 +19,14 @@ inline const char* to_string(AssociationDecision decision) {
     case AssociationDecision::kUpdate: return "update";
     case AssociationDecision::kNew: return "new";
     case AssociationDecision::kDiscard: return "discard";
+    case AssociationDecision::kPending: return "pending";
   }
   return "discard";
 }
 
 struct AssociationRecord {
   AssociationDecision decision = AssociationDecision::kDiscard;
-  /// The landmark updated or created (its map id); kUnknownId when discarded.
+  /// The landmark updated, created or waiting to start (its map id); kUnknownId when discarded.
   int landmark_id = kUnknownId;
 };
 

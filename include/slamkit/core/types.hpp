@@ -22,12 +22,21 @@ using ControlJacobian = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxContr
 using ControlCovariance =
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxControlDim, kMaxControlDim>;
 
+/// A measurement of one landmark has the observation model's dimension (1 for range only or bearing
+/// only, 2 for range and bearing) but never more than kMaxMeasurementDim: fixed-capacity storage,
+/// as for controls, so that nothing allocates per observation.
+inline constexpr int kMaxMeasurementDim = 3;
+using Measurement = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxMeasurementDim, 1>;
+using MeasurementCovariance =
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxMeasurementDim, kMaxMeasurementDim>;
+
 /// Landmark identity carried by an observation. kUnknownId means the sensor does not say.
 inline constexpr int kUnknownId = -1;
 
-/// One landmark measurement: range [m], bearing [rad] in the sensor frame.
+/// One landmark measurement, in the terms of the dataset's observation model (range [m] and bearing
+/// [rad] in the sensor frame for a range-bearing sensor).
 struct Observation {
-  Vector2 z = Vector2::Zero();
+  Measurement z;
   int id = kUnknownId;
 };
 

@@ -38,9 +38,10 @@ class CompressedJointGaussian final : public EkfEstimator {
 
   void predict(const Control& u, double dt) override;
   void inflate_pose(const Matrix3& q) override;
-  bool update_landmark(std::size_t index, const Vector2& z) override;
+  bool update_landmark(std::size_t index, const Measurement& z) override;
   bool update_landmarks(std::span<const LandmarkObservation> batch) override;
-  std::size_t add_landmark(const Vector2& z) override;
+  using EkfEstimator::add_landmark;
+  std::size_t add_landmark(const InitialLandmark& landmark) override;
   /// Flushes first: removal renumbers the state, and the area's bookkeeping is by stored offset.
   void remove_landmark(std::size_t index) override;
   bool fuse_landmarks(std::span<const LandmarkPair> pairs) override;
@@ -61,7 +62,8 @@ class CompressedJointGaussian final : public EkfEstimator {
   /// Starts an area ahead of the vehicle with the landmarks of `must_include` active.
   void begin_area(std::span<const LandmarkObservation> must_include = {});
   void predict_local(const Matrix3& f, const Matrix3& q);
-  /// One joint update of active landmarks.
+  /// One joint update of active landmarks, measurements of dimension D.
+  template <int D>
   bool update_local(std::span<const LandmarkObservation> batch);
   /// The tail of a local update whose P_AA H_A^T, innovation, S and H_A phi (k rows) the caller has
   /// written into the workspace. Returns false (and changes nothing) if S is not positive definite.
@@ -132,8 +134,12 @@ class CompressedJointGaussian final : public EkfEstimator {
   Eigen::MatrixXd s_;
   Eigen::VectorXd nu_;
   std::vector<LandmarkObservation> fused_;  // the landmarks a fusion needs active
-  std::vector<Matrix23> hx_;
-  std::vector<Matrix2> hm_;
+  template <int D>
+  struct Jacobians {
+    std::vector<PoseRows<D>> hx;
+    std::vector<LandmarkRows<D>> hm;
+  };
+  PerMeasurementDim<Jacobians> jacobians_;
   MergeWorkspace merge_;
   std::size_t flushes_ = 0;
 };

@@ -31,7 +31,7 @@ namespace slamkit {
 /// One observation of the landmark at a map index.
 struct LandmarkObservation {
   std::size_t index = 0;
-  Vector2 z = Vector2::Zero();
+  Measurement z;
 };
 
 class EkfEstimator : public GaussianMapView {
@@ -48,7 +48,7 @@ class EkfEstimator : public GaussianMapView {
   /// The full symmetric covariance (a copy: O(n^2); for tests and exports, not for the hot path).
   virtual Eigen::MatrixXd covariance() const = 0;
   /// Predicted measurement and innovation covariance S of landmark `index` (for gating).
-  void innovation(std::size_t index, Vector2& zhat, Matrix2& s) const;
+  void innovation(std::size_t index, Measurement& zhat, MeasurementCovariance& s) const;
 
   /// Eqs. (8)-(9): the time update with control u over dt.
   virtual void predict(const Control& u, double dt) = 0;
@@ -56,13 +56,15 @@ class EkfEstimator : public GaussianMapView {
   virtual void inflate_pose(const Matrix3& q) = 0;
   /// Eqs. (10)-(11) for one observation z of the landmark at map index `index`. Returns false (and
   /// changes nothing) if the innovation covariance is not positive definite.
-  virtual bool update_landmark(std::size_t index, const Vector2& z) = 0;
+  virtual bool update_landmark(std::size_t index, const Measurement& z) = 0;
   /// Eqs. (10)-(11) for observations of distinct landmarks, stacked into one innovation. Returns
   /// false (and changes nothing) if the innovation covariance is not positive definite.
   virtual bool update_landmarks(std::span<const LandmarkObservation> batch) = 0;
+  /// Appends `landmark` (its correlations all through the vehicle's); returns its map index.
+  virtual std::size_t add_landmark(const InitialLandmark& landmark) = 0;
   /// Appends the landmark seen as z from the current pose, with its full cross-covariances; returns
-  /// its map index.
-  virtual std::size_t add_landmark(const Vector2& z) = 0;
+  /// its map index. Throws std::logic_error if the observation model cannot invert z.
+  virtual std::size_t add_landmark(const Measurement& z);
   /// Takes landmark `index` out of the state: its rows and columns leave the covariance, and the
   /// landmarks after it move down one index. O(n^2).
   virtual void remove_landmark(std::size_t index) = 0;
@@ -84,6 +86,7 @@ class EkfEstimator : public GaussianMapView {
 
   const MotionModel& motion_model() const { return *motion_; }
   const ObservationModel& observation_model() const { return *observation_; }
+  const std::shared_ptr<const ObservationModel>& shared_observation_model() const { return observation_; }
 
  protected:
   /// Throws std::invalid_argument for a missing model.
@@ -104,10 +107,6 @@ class EkfEstimator : public GaussianMapView {
     return i > j ? p_(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j))
                  : p_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i));
   }
-  /// The new landmark's mean g(x_v, z), written at the end of the state (whose room the caller has
-  /// reserved), its Jacobian gx with respect to the vehicle, and Gz R Gz^T. The caller adds its
-  /// covariance and then the 2 to dim_.
-  Matrix2 place_new_landmark(const Vector2& z, Matrix23& gx);
   /// Squeezes landmark `index` out of the stored state and lower triangle, in place.
   void remove_stored_landmark(std::size_t index);
   /// P -= C C^T on the stored lower triangle, C with dim_ rows (P -= A B^T with b).
@@ -123,7 +122,8 @@ class EkfEstimator : public GaussianMapView {
   Eigen::VectorXd x_;
   Eigen::MatrixXd p_;  // capacity x capacity; lower triangle of the leading dim_ x dim_ block is P
   Eigen::Matrix<double, Eigen::Dynamic, 3> scratch3_;  // capacity x 3, reused by the time updates
-  // capacity x 2 per observation of the largest joint update so far: P H^T of the current update.
+  // capacity x one column per measurement row of the largest joint update so far: P H^T of the
+  // current update.
   Eigen::MatrixXd pht_;
   LowerDowndate downdate_;
   /// The threads of use_threads (null: one); a copy of the estimator gets a pool of its own.

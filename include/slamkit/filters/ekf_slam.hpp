@@ -26,6 +26,7 @@
 #include "slamkit/assoc/pending_landmarks.hpp"
 #include "slamkit/assoc/sensor_view.hpp"
 #include "slamkit/filters/ekf_estimator.hpp"
+#include "slamkit/filters/landmark_initialiser.hpp"
 #include "slamkit/filters/slam_filter.hpp"
 #include "slamkit/filters/unscented_joint_gaussian.hpp"
 
@@ -67,6 +68,11 @@ struct EkfSlamOptions {
   unsigned threads = 0;
   /// Unscented variant: how its time update treats the control noise.
   UkfNoise ukf_noise = UkfNoise::kAugmented;
+  /// How a landmark starts (filters/landmark_initialiser.hpp); unset: immediately where the
+  /// observation model inverts a measurement, delayed where it does not. Delayed needs known
+  /// identities.
+  std::optional<LandmarkInitialisation> initialisation;
+  DelayedInitialisationOptions delayed_initialisation;
 };
 
 class EkfSlam final : public SlamFilter {
@@ -117,7 +123,7 @@ class EkfSlam final : public SlamFilter {
  private:
   void update_known(const ScanEvent& scan);
   /// Whether observation z of landmark `index` passes the known-identity gate (the new-landmark gate).
-  bool inside_known_gate(std::size_t index, const Vector2& z) const;
+  bool inside_known_gate(std::size_t index, const Measurement& z) const;
   /// Each observation the known-identity gate rejected this scan (rejected_) places a copy of its
   /// landmark from the current pose, outside the state; copies unseen for the relocalisation window
   /// are dropped. Once relocalise_min_pairs copies fit their originals up to one rigid motion, the
@@ -136,7 +142,10 @@ class EkfSlam final : public SlamFilter {
   /// existence rule gives up.
   void manage_map();
   /// Adds the landmark seen as z to the estimator and the map's bookkeeping.
-  void add_landmark(const Vector2& z, int id);
+  void add_landmark(const Measurement& z, int id);
+  /// A landmark the delayed start placed in dead reckoning's frame, carried to the estimate's: its
+  /// position relative to the dead-reckoned pose becomes its position relative to the estimate.
+  InitialLandmark in_estimate_frame(const InitialLandmark& placed) const;
   /// Takes landmark `index` out of the estimator and the map's bookkeeping.
   void remove_landmark(std::size_t index);
   /// The bookkeeping of a landmark the estimator has just added with index ids_.size().
@@ -154,6 +163,12 @@ class EkfSlam final : public SlamFilter {
   void rebin(std::size_t index);
 
   std::unique_ptr<EkfEstimator> estimator_;
+  // Delayed initialisation: the observations of landmarks not yet placed (null: each starts from
+  // its first observation's inverse, through the estimator, which the UKF transforms unscented).
+  std::unique_ptr<LandmarkInitialiser> initialiser_;
+  std::size_t observations_waiting_ = 0;
+  Pose2 dead_reckoned_pose_;                 // dead reckoning from the start pose
+  Matrix3 dead_reckoned_ = Matrix3::Zero();  // its covariance
   // Per landmark, by map index.
   std::vector<int> ids_;
   std::vector<LandmarkExistence> existence_;

@@ -6,7 +6,8 @@
 // update once, O(n), before the next operation that needs it (accessors apply it on the fly). An
 // observation update is O(n^2) with the constant of one symmetric rank-2 downdate, because the
 // observation Jacobian has non-zeros only in the vehicle's 3 and the landmark's 2 columns; a joint
-// update of k observations is one symmetric rank-2k downdate, a single pass over the lower triangle.
+// update of k observations is one symmetric downdate of rank k times the measurement's dimension, a
+// single pass over the lower triangle.
 //
 // Linearisation: besides the standard EKF, two variants that keep EKF-SLAM consistent by giving the
 // linearised system the unobservable directions of the true one (global translation and rotation),
@@ -99,12 +100,13 @@ class JointGaussian : public EkfEstimator {
 
   void predict(const Control& u, double dt) override;
   void inflate_pose(const Matrix3& q) override;
-  bool update_landmark(std::size_t index, const Vector2& z) override;
+  bool update_landmark(std::size_t index, const Measurement& z) override;
   /// One joint innovation for the batch; equal to the sequential updates for linear models, and for
   /// nonlinear ones every observation is linearised at the prior, as in eqs. (10)-(11) with z_k the
   /// whole batch.
   bool update_landmarks(std::span<const LandmarkObservation> batch) override;
-  std::size_t add_landmark(const Vector2& z) override;
+  using EkfEstimator::add_landmark;
+  std::size_t add_landmark(const InitialLandmark& landmark) override;
   void remove_landmark(std::size_t index) override;
   bool fuse_landmarks(std::span<const LandmarkPair> pairs) override;
   /// First-estimates variant: the anchors moved so far (see "Moving a first estimate").
@@ -132,16 +134,25 @@ class JointGaussian : public EkfEstimator {
   Eigen::MatrixXd batch_s_;
 
  private:
-  /// Fills `out` (dim_ x 2) with P H^T for an observation Jacobian with blocks hx (vehicle) and hm
+  /// update_landmark for a measurement of dimension D.
+  template <int D>
+  bool update_one(std::size_t index, const Measurement& z);
+  /// update_landmarks for measurements of dimension D.
+  template <int D>
+  bool update_batch(std::span<const LandmarkObservation> batch);
+  /// Fills `out` (dim_ x D) with P H^T for an observation Jacobian with blocks hx (vehicle) and hm
   /// (landmark).
-  void covariance_times_jacobian(std::size_t lm_offset, const Matrix23& hx, const Matrix2& hm,
-                                 Eigen::Ref<Eigen::MatrixX2d> out) const;
+  template <int D>
+  void covariance_times_jacobian(std::size_t lm_offset, const PoseRows<D>& hx, const LandmarkRows<D>& hm,
+                                 Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, D>> out) const;
   /// The observation Jacobians of landmark `index` where linearisation `how` evaluates them, the
   /// state-dependent ones at the point `at` (the estimate, or an iterate of the iterated update).
-  void observation_jacobians(std::size_t index, const Eigen::VectorXd& at, Linearisation how, Matrix23& hx,
-                             Matrix2& hm) const;
+  template <int D>
+  void observation_jacobians(std::size_t index, const Eigen::VectorXd& at, Linearisation how, PoseRows<D>& hx,
+                             LandmarkRows<D>& hm) const;
   /// Fills W = P H^T, the innovation and S for the batch linearised about `at` (Jacobians as `how`
   /// evaluates them); the innovation is taken at the estimate: z - h(at) - H (x - at).
+  template <int D>
   void linearise_batch(std::span<const LandmarkObservation> batch, const Eigen::VectorXd& at, Linearisation how);
   /// Adds the correction `delta` (standard coordinates) to the estimate; the invariant variant
   /// applies it through the group's exponential and carries the covariance along.
@@ -167,8 +178,12 @@ class JointGaussian : public EkfEstimator {
   std::vector<Vector2> first_estimates_;
   std::size_t anchors_moved_ = 0;
   // The joint update's other terms, sized for the largest batch so far.
-  std::vector<Matrix23> batch_hx_;
-  std::vector<Matrix2> batch_hm_;
+  template <int D>
+  struct BatchJacobians {
+    std::vector<PoseRows<D>> hx;
+    std::vector<LandmarkRows<D>> hm;
+  };
+  PerMeasurementDim<BatchJacobians> batch_jacobians_;
   Eigen::VectorXd transport_u_, transport_b_;  // the invariant variant's rank-2 update
 };
 

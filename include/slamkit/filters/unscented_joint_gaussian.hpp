@@ -46,11 +46,13 @@ class UnscentedJointGaussian final : public JointGaussian {
                          UkfNoise noise = UkfNoise::kAugmented);
 
   void predict(const Control& u, double dt) override;
-  bool update_landmark(std::size_t index, const Vector2& z) override;
+  bool update_landmark(std::size_t index, const Measurement& z) override;
   /// One joint innovation for the batch (observations of distinct landmarks), sigma points over the
   /// vehicle and those landmarks.
   bool update_landmarks(std::span<const LandmarkObservation> batch) override;
-  std::size_t add_landmark(const Vector2& z) override;
+  using JointGaussian::add_landmark;
+  /// Sigma points over the vehicle and the measurement noise, through the model's inverse.
+  std::size_t add_landmark(const Measurement& z) override;
 
  private:
   /// Buffers of one kind of unscented transform (time update, its control noise apart when additive,
@@ -96,7 +98,8 @@ class UnscentedJointGaussian final : public JointGaussian {
   // The observed landmarks of a sigma point that moves the vehicle, and their predictions; for all
   // the points that leave the vehicle at the mean, the landmarks they move, their predictions and
   // where each image column's start.
-  std::vector<Vector2> moved_landmarks_, moved_predictions_, mean_pose_landmarks_, mean_pose_predictions_;
+  std::vector<Vector2> moved_landmarks_, mean_pose_landmarks_;
+  std::vector<Measurement> moved_predictions_, mean_pose_predictions_;
   std::vector<std::size_t> mean_pose_first_;
 };
 

@@ -27,6 +27,11 @@ enum class EkfUpdate {
   kIterated,    // all at once, relinearised at the result until it converges (the iterated EKF)
 };
 
+/// How the EKF and the UKF start a landmark: auto (immediately where the dataset's observation model
+/// inverts a measurement, delayed where it does not), immediate, or delayed (triangulated from
+/// several observations; needs known identities).
+enum class LandmarkInit { kAuto, kImmediate, kDelayed };
+
 struct FilterConfig {
   FilterKind filter = FilterKind::kEkf;
   std::uint64_t seed = 1;
@@ -39,6 +44,10 @@ struct FilterConfig {
   EkfVariant ekf_variant = EkfVariant::kFull;
   // UKF only.
   UkfNoise ukf_noise = UkfNoise::kAugmented;
+  // EKF and UKF: how a landmark starts (filters/landmark_initialiser.hpp), and the delayed start's
+  // settings.
+  LandmarkInit landmark_init = LandmarkInit::kAuto;
+  DelayedInitialisationOptions delayed_init;
   // Particle filters only.
   int particles = 100;
   double pose_sample_fraction = FastSlamConfig{}.pose_sample_fraction;  // FastSLAM 2.0 only
@@ -60,6 +69,9 @@ std::string to_string(EkfVariant variant);
 /// "augmented" or "additive"; throws std::invalid_argument naming the accepted values.
 UkfNoise parse_ukf_noise(const std::string& name);
 std::string to_string(UkfNoise noise);
+/// "auto", "immediate" or "delayed"; throws std::invalid_argument naming the accepted values.
+LandmarkInit parse_landmark_init(const std::string& name);
+std::string to_string(LandmarkInit init);
 
 /// The filter names parse_filter_kind accepts.
 std::vector<std::string> filter_names();

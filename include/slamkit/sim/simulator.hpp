@@ -16,6 +16,16 @@
 
 namespace slamkit {
 
+/// What the simulated sensor measures of each landmark it sees: range and bearing (the reference
+/// simulators' sensor), the range alone (a radio ranging to beacons) or the bearing alone (a camera's
+/// azimuth).
+enum class SensorKind { kRangeBearing, kRangeOnly, kBearingOnly };
+
+/// "range-bearing", "range-only" or "bearing-only"; throws std::invalid_argument naming the accepted
+/// values otherwise.
+SensorKind parse_sensor_kind(const std::string& name);
+std::string to_string(SensorKind kind);
+
 /// Defaults are those of the reference simulators. Angles in radians.
 struct SimulatorConfig {
   // Vehicle and controller.
@@ -28,7 +38,9 @@ struct SimulatorConfig {
   // Control noise: what the filter is told differs from what the vehicle did by this much.
   double sigma_speed = 0.3;           // m/s
   double sigma_steer = deg2rad(3.0);  // rad
-  // Sensor.
+  // Sensor. sigma_range applies to a sensor that measures range, sigma_bearing to one that measures
+  // bearing.
+  SensorKind sensor = SensorKind::kRangeBearing;
   double max_range = 30.0;              // m
   double fov = 2.0 * kPi;               // rad, full opening angle centred on the heading
   double sigma_range = 0.1;             // m
@@ -44,7 +56,8 @@ struct SimulatorConfig {
 };
 
 /// The config as JSON: angles in degrees, every key named with its unit (e.g. "sigma_steer_deg");
-/// clutter_rate is "clutter_rate_per_scan".
+/// clutter_rate is "clutter_rate_per_scan". "sensor" is written only for a sensor other than range
+/// and bearing, so that configs written before the choice existed read and write as they did.
 nlohmann::json to_json(const SimulatorConfig& config);
 
 /// Reads what to_json writes. Missing keys keep their defaults; an unknown key, a value of the wrong

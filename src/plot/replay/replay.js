@@ -11,8 +11,8 @@
 
   const data = JSON.parse(document.getElementById('replay-data').textContent);
   const frames = data.frames;
-  const decisions = ['update', 'new', 'discard', 'wrong'];
-  const colours = { update: '#16a34a', new: '#2563eb', discard: '#9ca3af', wrong: '#dc2626' };
+  const decisions = ['update', 'new', 'discard', 'wrong', 'pending'];
+  const colours = { update: '#16a34a', new: '#2563eb', discard: '#9ca3af', wrong: '#dc2626', pending: '#d97706' };
   const sigmaScale = 2; // ellipses and bands at two standard deviations
   const baseFramesPerSecond = 20;
 
@@ -150,7 +150,7 @@
     const resized = w !== mapSize.w || h !== mapSize.h;
     mapSize.w = w; mapSize.h = h;
     if (resized && view.fitted) fitView();
-    const drawn = { frame: state.frame, landmarks: 0, particles: 0, rays: { update: 0, new: 0, discard: 0, wrong: 0 },
+    const drawn = { frame: state.frame, landmarks: 0, particles: 0, rays: { update: 0, new: 0, discard: 0, wrong: 0, pending: 0 },
                     size: { w, h, ratio, pixelWidth: mapCanvas.width, pixelHeight: mapCanvas.height } };
     ctx.fillStyle = '#ffffff';
     ctx.fillRect(0, 0, w, h);
@@ -168,6 +168,15 @@
       const [ex, ey] = toScreen(f.rays[i], f.rays[i + 1]);
       ctx.strokeStyle = colours[name]; ctx.lineWidth = name === 'wrong' ? 2 : 1;
       ctx.beginPath(); ctx.moveTo(px, py); ctx.lineTo(ex, ey); ctx.stroke();
+      drawn.rays[name] += 1;
+    }
+    // A range alone puts its landmark on a circle about the sensor.
+    const rings = f.rings || [];
+    for (let i = 0; i < rings.length; i += 4) {
+      const name = decisions[rings[i + 3]];
+      const [cx, cy] = toScreen(rings[i], rings[i + 1]);
+      ctx.strokeStyle = colours[name]; ctx.lineWidth = name === 'wrong' ? 2 : 1;
+      ctx.beginPath(); ctx.arc(cx, cy, rings[i + 2] * view.scale, 0, 2 * Math.PI); ctx.stroke();
       drawn.rays[name] += 1;
     }
 

@@ -1,0 +1,123 @@
+#pragma once
+// How a Gaussian filter starts a landmark. Where one measurement determines the landmark (range and
+// bearing), it starts at once from that measurement's inverse. Where it does not (a range alone puts
+// the landmark on a circle, a bearing alone on a ray), the observations of the landmark wait here
+// until several of them, taken from poses far enough apart, place it: delayed initialisation, the
+// triangulation of Leonard and Newman's range-only and Bailey's (2003) bearing-only SLAM.
+//
+// The delayed start, per landmark (by its known identity):
+//  - each observation is kept with the pose it was taken from, for a window of time (older ones are
+//    forgotten, so a landmark seen once long ago starts afresh). The poses must be consistent with
+//    each other: EkfSlam gives dead reckoning's, which no correction makes jump, and carries the
+//    landmark from that frame to the estimate's once it is placed;
+//  - with enough of them (3 ranges or 2 bearings at least), the landmark position m that best
+//    explains them all is found by Gauss-Newton from a closed-form start (lines through the
+//    sensors for bearings, the linearised circle equations for ranges), each observation weighed by
+//    R plus the pose uncertainty gained since it was taken, relative to the current pose (the growth
+//    of dead reckoning's covariance since, projected onto the positive semi-definite cone);
+//  - it starts when its covariance (the inverse of the information sum Hm^T W Hm) has no standard
+//    deviation above max_std_m, the residuals pass the chi-square gate, and no second position
+//    explains the observations as well: ranges taken along a straight line fit the landmark and its
+//    mirror image across that line equally, and the start waits until the vehicle turns. A view
+//    whose residual fails the gate is dropped as an outlier.
+// The landmark joins the state rigidly attached to the current pose (as an inverted measurement
+// does: P(m, :) = [I, J (m - p)] P(v, :)) with the triangulation's covariance on top, the uncertainty
+// relative to that pose; the observations that placed it are not applied again.
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "slamkit/models/observation_model.hpp"
+
+namespace slamkit {
+
+enum class LandmarkInitialisation {
+  kImmediate,  ///< one measurement places the landmark (needs a model that inverts it)
+  kDelayed,    ///< triangulation from several observations at well-spread poses
+};
+
+struct DelayedInitialisationOptions {
+  int min_views = 0;           ///< observations before a triangulation is tried; 0: 3 ranges or 2 bearings
+  int max_views = 40;          ///< kept per landmark, the oldest dropped first (bounds time and memory)
+  double max_std_m = 1.0;      ///< the largest standard deviation a landmark may start with [m]
+  double window_s = 120.0;     ///< observations older than this are forgotten [s]
+  double gate_probability = 0.9999;  ///< of the residuals' chi-square test, and of the ambiguity test
+};
+
+/// Throws std::invalid_argument naming the first setting out of its range.
+void validate(const DelayedInitialisationOptions& options);
+
+class LandmarkInitialiser {
+ public:
+  virtual ~LandmarkInitialiser() = default;
+  /// Observation z of landmark `id` (not yet in the map) from a vehicle estimated at x, at time t:
+  /// the landmark to start now, or nothing while it waits. `odometry_covariance` is dead
+  /// reckoning's covariance at t, which only grows: its growth between two observations stands for
+  /// the uncertainty of one pose relative to the other.
+  virtual std::optional<InitialLandmark> offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
+                                               const Measurement& z, double t) = 0;
+  /// How many landmarks have observations waiting.
+  virtual std::size_t waiting() const = 0;
+};
+
+/// Immediate: the inverse of each measurement (the model must invert).
+class ImmediateInitialiser final : public LandmarkInitialiser {
+ public:
+  /// Throws std::invalid_argument if `model` cannot invert a measurement.
+  explicit ImmediateInitialiser(std::shared_ptr<const ObservationModel> model);
+  std::optional<InitialLandmark> offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
+                                       const Measurement& z, double t) override;
+  std::size_t waiting() const override { return 0; }
+
+ private:
+  std::shared_ptr<const ObservationModel> model_;
+};
+
+/// Delayed: triangulation (see the file's comment).
+class DelayedInitialiser final : public LandmarkInitialiser {
+ public:
+  /// Throws std::invalid_argument for invalid options or a model that is neither range-only nor
+  /// bearing-only nor range-bearing (the closed-form start needs one of those).
+  DelayedInitialiser(std::shared_ptr<const ObservationModel> model, const DelayedInitialisationOptions& options);
+  std::optional<InitialLandmark> offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
+                                       const Measurement& z, double t) override;
+  std::size_t waiting() const override { return views_.size(); }
+
+  struct View {
+    Pose2 pose;
+    Matrix3 odometry_covariance;
+    Measurement z;
+    double t = 0.0;
+  };
+  struct Fit {
+    Vector2 position;
+    Matrix2 covariance;
+    double chi2 = 0.0;
+    std::size_t worst = 0;  // the view with the largest residual
+    double worst_chi2 = 0.0;
+  };
+  /// The best position for `views` weighed against the uncertainty gained since each, by
+  /// Gauss-Newton from `start`; nothing if the information stays singular.
+  std::optional<Fit> fit(const std::vector<View>& views, const Matrix3& odometry_covariance_now, Vector2 start) const;
+
+ private:
+  /// Closed-form starting points for the fit: one, or for ranges from collinear sensors the two
+  /// mirror images; none if the views do not intersect at all.
+  std::vector<Vector2> starts(const std::vector<View>& views) const;
+
+  std::shared_ptr<const ObservationModel> model_;
+  DelayedInitialisationOptions options_;
+  bool measures_range_;
+  bool measures_bearing_;
+  int min_views_;
+  std::map<int, std::vector<View>> views_;  // by landmark id; ordered, so the order of work is fixed
+};
+
+/// The initialiser `method` names for `model`: immediate needs a model that inverts.
+std::unique_ptr<LandmarkInitialiser> make_initialiser(LandmarkInitialisation method,
+                                                      std::shared_ptr<const ObservationModel> model,
+                                                      const DelayedInitialisationOptions& options);
+
+}  // namespace slamkit

@@ -1,0 +1,275 @@
+#include "slamkit/filters/landmark_initialiser.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "slamkit/core/chi_square.hpp"
+
+namespace slamkit {
+
+void validate(const DelayedInitialisationOptions& o) {
+  const auto fail = [](const std::string& what) { throw std::invalid_argument("delayed initialisation: " + what); };
+  if (o.min_views < 0 || o.min_views > 1000) fail(fmt::format("min_views must be from 0 to 1000, found {}", o.min_views));
+  if (o.max_views < 2 || o.max_views > 1000) fail(fmt::format("max_views must be from 2 to 1000, found {}", o.max_views));
+  if (o.min_views > o.max_views)
+    fail(fmt::format("min_views ({}) must not exceed max_views ({})", o.min_views, o.max_views));
+  if (!(o.max_std_m > 0.0 && o.max_std_m <= 1e4)) fail(fmt::format("max_std_m must be > 0 and <= 10000, found {}", o.max_std_m));
+  if (!(o.window_s > 0.0 && o.window_s <= 1e7)) fail(fmt::format("window_s must be > 0 and <= 1e7, found {}", o.window_s));
+  if (!(o.gate_probability > 0.5 && o.gate_probability < 1.0))
+    fail(fmt::format("gate_probability must be > 0.5 and < 1, found {}", o.gate_probability));
+}
+
+ImmediateInitialiser::ImmediateInitialiser(std::shared_ptr<const ObservationModel> model) : model_(std::move(model)) {
+  if (!model_ || !model_->invertible())
+    throw std::invalid_argument("immediate landmark initialisation needs a measurement that places a landmark, which a " +
+                                (model_ ? model_->name() : std::string("missing")) +
+                                " measurement does not; use delayed initialisation");
+}
+
+std::optional<InitialLandmark> ImmediateInitialiser::offer(int, const Pose2& x, const Matrix3&, const Measurement& z,
+                                                           double) {
+  return inverted_landmark(*model_, x, z);
+}
+
+namespace {
+
+/// The nearest positive semi-definite matrix to the symmetric part of a (eigenvalues clipped at 0).
+Matrix3 clipped_psd(const Matrix3& a) {
+  const Eigen::SelfAdjointEigenSolver<Matrix3> eigen(0.5 * (a + a.transpose()));
+  return eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(0.0).asDiagonal() * eigen.eigenvectors().transpose();
+}
+
+/// The unit direction of the sensors' spread (principal axis of their positions) and their centroid.
+struct Spread {
+  Vector2 centre;
+  Vector2 axis;
+  double across = 0.0;  // standard deviation of the positions across the axis [m]
+};
+
+Spread spread_of(const std::vector<Vector2>& sensors) {
+  Spread s;
+  s.centre = Vector2::Zero();
+  for (const Vector2& p : sensors) s.centre += p;
+  s.centre /= static_cast<double>(sensors.size());
+  Matrix2 scatter = Matrix2::Zero();
+  for (const Vector2& p : sensors) scatter += (p - s.centre) * (p - s.centre).transpose();
+  scatter /= static_cast<double>(sensors.size());
+  const Eigen::SelfAdjointEigenSolver<Matrix2> eigen(scatter);
+  s.axis = eigen.eigenvectors().col(1);
+  s.across = std::sqrt(std::max(0.0, eigen.eigenvalues()[0]));
+  return s;
+}
+
+/// m reflected across the line through `spread`'s centre along its axis.
+Vector2 mirrored(const Vector2& m, const Spread& spread) {
+  const Vector2 d = m - spread.centre;
+  return spread.centre + 2.0 * d.dot(spread.axis) * spread.axis - d;
+}
+
+}  // namespace
+
+DelayedInitialiser::DelayedInitialiser(std::shared_ptr<const ObservationModel> model,
+                                       const DelayedInitialisationOptions& options)
+    : model_(std::move(model)), options_((validate(options), options)) {
+  if (!model_) throw std::invalid_argument("delayed landmark initialisation needs an observation model");
+  const MeasuredRows rows = model_->rows();
+  measures_range_ = rows.range >= 0;
+  measures_bearing_ = rows.bearing >= 0;
+  if (!measures_range_ && !measures_bearing_)
+    throw std::invalid_argument("delayed landmark initialisation triangulates ranges or bearings; a " + model_->name() +
+                                " measurement holds neither");
+  // A circle meets another in two points and a third picks one; two rays meet in one.
+  min_views_ = options_.min_views > 0 ? options_.min_views : measures_bearing_ ? 2 : 3;
+}
+
+std::vector<Vector2> DelayedInitialiser::starts(const std::vector<View>& views) const {
+  const MeasuredRows rows = model_->rows();
+  std::vector<Vector2> sensors;
+  for (const View& v : views) sensors.push_back(model_->sensor_position(v.pose));
+  if (measures_bearing_) {
+    if (measures_range_) {
+      const View& last = views.back();
+      const double a = last.pose[2] + last.z[rows.bearing];
+      return {sensors.back() + last.z[rows.range] * Vector2(std::cos(a), std::sin(a))};
+    }
+    // The point nearest every ray's line: sum n n^T m = sum n n^T s, n each line's normal.
+    Matrix2 a = Matrix2::Zero();
+    Vector2 b = Vector2::Zero();
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      const double angle = views[i].pose[2] + views[i].z[rows.bearing];
+      const Vector2 n(-std::sin(angle), std::cos(angle));
+      a += n * n.transpose();
+      b += n * n.dot(sensors[i]);
+    }
+    const Eigen::SelfAdjointEigenSolver<Matrix2> eigen(a);
+    // Parallel rays (to a degree and a half) meet nowhere useful.
+    if (!(eigen.eigenvalues()[0] > 1e-3 * eigen.eigenvalues()[1])) return {};
+    return {a.ldlt().solve(b)};
+  }
+  // Ranges: |m - s_i|^2 = r_i^2, less their mean, is linear in m: 2 (s_i - s)^T m = b_i.
+  const Spread spread = spread_of(sensors);
+  double mean_square_range = 0.0, mean_square_sensor = 0.0;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    mean_square_range += views[i].z[rows.range] * views[i].z[rows.range];
+    mean_square_sensor += sensors[i].squaredNorm();
+  }
+  mean_square_range /= static_cast<double>(views.size());
+  mean_square_sensor /= static_cast<double>(views.size());
+  const auto b_of = [&](std::size_t i) {
+    const double r = views[i].z[rows.range];
+    return sensors[i].squaredNorm() - mean_square_sensor - (r * r - mean_square_range);
+  };
+  // Along the spread's axis the equations fix m; across it only where the sensors spread that way
+  // too. So m = c + alpha u + beta n, alpha from the axis, beta from the ranges themselves.
+  const Vector2 u = spread.axis, n(-u[1], u[0]);
+  double along_num = 0.0, along_den = 0.0;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    const double a_i = 2.0 * (sensors[i] - spread.centre).dot(u);
+    along_num += a_i * (b_of(i) - 2.0 * (sensors[i] - spread.centre).dot(spread.centre));
+    along_den += a_i * a_i;
+  }
+  if (!(along_den > 0.0)) return {};
+  const double alpha = along_num / along_den;
+  // beta^2 = r_i^2 - |c + alpha u - s_i|^2 averaged, taken about the line through the sensors.
+  double beta_square = 0.0;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    const double r = views[i].z[rows.range];
+    const Vector2 foot = spread.centre + alpha * u;
+    beta_square += r * r - (foot - sensors[i]).squaredNorm();
+  }
+  const double beta = std::sqrt(std::max(0.0, beta_square / static_cast<double>(views.size())));
+  const Vector2 foot = spread.centre + alpha * u;
+  return {foot + beta * n, foot - beta * n};
+}
+
+std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector<View>& views,
+                                                               const Matrix3& odometry_covariance_now,
+                                                               Vector2 start) const {
+  const MeasurementCovariance r = model_->noise();
+  // Each view's weight: R and the pose uncertainty the vehicle has gained since (the landmark is
+  // placed relative to the current pose, so what was already uncertain then it inherits through
+  // the current pose's covariance instead).
+  std::vector<Matrix3> gained;
+  gained.reserve(views.size());
+  for (const View& v : views) gained.push_back(clipped_psd(odometry_covariance_now - v.odometry_covariance));
+  Fit out;
+  out.position = start;
+  PoseJacobian hx;
+  LandmarkJacobian hm;
+  constexpr int kMaxIterations = 30;
+  bool converged = false;
+  for (int iteration = 0;; ++iteration) {
+    Matrix2 information = Matrix2::Zero();
+    Vector2 gradient = Vector2::Zero();
+    out.chi2 = 0.0;
+    out.worst_chi2 = -1.0;
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      const View& v = views[i];
+      model_->jacobians(v.pose, out.position, hx, hm);
+      const Eigen::VectorXd residual = model_->residual(v.z, model_->predict(v.pose, out.position));
+      const Eigen::MatrixXd s = r + hx * gained[i] * hx.transpose();
+      const Eigen::LLT<Eigen::MatrixXd> llt(s);
+      if (llt.info() != Eigen::Success) return std::nullopt;
+      const Eigen::MatrixXd w_hm = llt.solve(Eigen::MatrixXd(hm));
+      const Eigen::VectorXd w_residual = llt.solve(residual);
+      information += hm.transpose() * w_hm;
+      gradient += hm.transpose() * w_residual;
+      const double chi2 = residual.dot(w_residual);
+      out.chi2 += chi2;
+      if (chi2 > out.worst_chi2) {
+        out.worst_chi2 = chi2;
+        out.worst = i;
+      }
+    }
+    const Eigen::LLT<Matrix2> llt(information);
+    if (llt.info() != Eigen::Success || !information.allFinite()) return std::nullopt;
+    out.covariance = llt.solve(Matrix2::Identity());
+    // The last pass evaluates the information and residuals at the converged position.
+    if (converged || iteration == kMaxIterations) break;
+    const Vector2 step = llt.solve(gradient);
+    if (!step.allFinite()) return std::nullopt;
+    out.position += step;
+    converged = step.norm() < 1e-9 * (1.0 + out.position.norm());
+  }
+  return out;
+}
+
+std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
+                                                         const Measurement& z, double t) {
+  std::vector<View>& views = views_[id];
+  views.push_back({x, odometry_covariance, z, t});
+  std::erase_if(views, [&](const View& v) { return v.t < t - options_.window_s; });
+  if (views.size() > static_cast<std::size_t>(options_.max_views)) views.erase(views.begin());
+  if (views.size() < static_cast<std::size_t>(min_views_)) return std::nullopt;
+
+  std::vector<Fit> fits;
+  for (const Vector2& start : starts(views))
+    if (const std::optional<Fit> f = fit(views, odometry_covariance, start)) fits.push_back(*f);
+  if (fits.empty()) return std::nullopt;
+  // A copy: the ambiguity test below adds to `fits`.
+  const Fit best =
+      *std::min_element(fits.begin(), fits.end(), [](const Fit& a, const Fit& b) { return a.chi2 < b.chi2; });
+  const double dof = static_cast<double>(views.size()) * model_->dim() - 2.0;
+  const double gate = dof > 0.0 ? eval::chi_square_quantile(options_.gate_probability, dof) : INFINITY;
+  if (!(best.chi2 <= gate)) {
+    // An observation no position explains with the others, most likely an outlier: the one whose
+    // absence leaves the others fitting best.
+    std::size_t drop = best.worst;
+    double least = INFINITY;
+    std::vector<View> others;
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      others.assign(views.begin(), views.end());
+      others.erase(others.begin() + static_cast<std::ptrdiff_t>(i));
+      if (const std::optional<Fit> f = fit(others, odometry_covariance, best.position); f && f->chi2 < least) {
+        least = f->chi2;
+        drop = i;
+      }
+    }
+    views.erase(views.begin() + static_cast<std::ptrdiff_t>(drop));
+    return std::nullopt;
+  }
+  const Eigen::SelfAdjointEigenSolver<Matrix2> eigen(best.covariance);
+  if (!(eigen.eigenvalues()[1] <= options_.max_std_m * options_.max_std_m)) return std::nullopt;
+  // Ranges along a line fit the landmark and its mirror image equally: wait while another position
+  // passes the gate too (the mirror image, or another fit's answer, beyond the best's 3-sigma).
+  std::vector<Vector2> sensors;
+  for (const View& v : views) sensors.push_back(model_->sensor_position(v.pose));
+  if (!measures_bearing_)
+    if (const std::optional<Fit> m = fit(views, odometry_covariance, mirrored(best.position, spread_of(sensors))))
+      fits.push_back(*m);
+  const Matrix2 information = best.covariance.inverse();
+  for (const Fit& other : fits) {
+    const Vector2 apart = other.position - best.position;
+    if (other.chi2 <= gate && apart.dot(information * apart) > 9.0) return std::nullopt;
+  }
+  if (measures_bearing_) {
+    // A bearing sees forward along its ray: a position behind any sensor is not the landmark.
+    const int row = model_->rows().bearing;
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      const double angle = views[i].pose[2] + views[i].z[row];
+      if ((best.position - sensors[i]).dot(Vector2(std::cos(angle), std::sin(angle))) <= 0.0) return std::nullopt;
+    }
+  }
+  InitialLandmark landmark;
+  landmark.mean = best.position;
+  // Attached rigidly to the current pose, as an inverted measurement is: dm/dx = [I, J (m - p)].
+  const Vector2 lever = landmark.mean - x.head<2>();
+  landmark.gx << 1.0, 0.0, -lever[1], 0.0, 1.0, lever[0];
+  landmark.covariance = 0.5 * (best.covariance + best.covariance.transpose());
+  views_.erase(id);
+  return landmark;
+}
+
+std::unique_ptr<LandmarkInitialiser> make_initialiser(LandmarkInitialisation method,
+                                                      std::shared_ptr<const ObservationModel> model,
+                                                      const DelayedInitialisationOptions& options) {
+  if (method == LandmarkInitialisation::kImmediate) return std::make_unique<ImmediateInitialiser>(std::move(model));
+  return std::make_unique<DelayedInitialiser>(std::move(model), options);
+}
+
+}  // namespace slamkit

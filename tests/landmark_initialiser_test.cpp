@@ -1,0 +1,221 @@
+// Landmark initialisation where one measurement does not place the landmark: the delayed start
+// triangulates ranges and bearings, waits while they admit two positions, drops an outlier; and the
+// filters run on range-only and bearing-only data end to end.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include "slamkit/core/angles.hpp"
+#include "slamkit/eval/evaluation.hpp"
+#include "slamkit/filters/ekf_slam.hpp"
+#include "slamkit/filters/fastslam.hpp"
+#include "slamkit/filters/landmark_initialiser.hpp"
+#include "slamkit/io/sim_log.hpp"
+#include "slamkit/models/motion_model.hpp"
+#include "slamkit/pipeline/runner.hpp"
+#include "slamkit/sim/simulator.hpp"
+#include "test_data.hpp"
+
+using namespace slamkit;
+
+namespace {
+
+const Matrix3 kNoDrift = Matrix3::Zero();
+
+std::shared_ptr<const ObservationModel> range_only() { return std::make_shared<RangeOnlyModel>(); }
+std::shared_ptr<const ObservationModel> bearing_only() { return std::make_shared<BearingOnlyModel>(); }
+
+/// Offers the exact measurement of `m` from each pose in turn; the landmark that starts, if any, and
+/// after how many offers.
+std::optional<InitialLandmark> offer_exact(LandmarkInitialiser& init, const ObservationModel& model,
+                                           const std::vector<Pose2>& poses, const Vector2& m, int* offers = nullptr) {
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (offers) *offers = static_cast<int>(i + 1);
+    if (auto l = init.offer(7, poses[i], kNoDrift, model.predict(poses[i], m), static_cast<double>(i)))
+      return l;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+TEST(DelayedInitialiser, PlacesALandmarkFromExactRangesAtThreeSpreadPoses) {
+  const auto model = range_only();
+  DelayedInitialiser init(model, {});
+  const Vector2 m(4.0, 5.0);
+  int offers = 0;
+  const auto l = offer_exact(init, *model, {Pose2(0, 0, 0), Pose2(8, 0, 0.3), Pose2(4, 12, 1.2)}, m, &offers);
+  ASSERT_TRUE(l.has_value());
+  EXPECT_EQ(offers, 3) << "a circle meets another in two points and a third picks one";
+  EXPECT_LT((l->mean - m).norm(), 1e-6);
+  // Rigidly attached to the last pose, as an inverted measurement: dm/dx = [I, J (m - p)].
+  Matrix23 gx;
+  gx << 1, 0, -(m.y() - 12.0), 0, 1, m.x() - 4.0;
+  EXPECT_LT((l->gx - gx).norm(), 1e-6);
+  EXPECT_EQ(init.waiting(), 0u);
+}
+
+TEST(DelayedInitialiser, PlacesALandmarkFromExactBearingsAtTwoPoses) {
+  const auto model = bearing_only();
+  DelayedInitialiser init(model, {});
+  const Vector2 m(10.0, 3.0);
+  int offers = 0;
+  const auto l = offer_exact(init, *model, {Pose2(0, 0, 0.1), Pose2(3, -2, 0.4)}, m, &offers);
+  ASSERT_TRUE(l.has_value());
+  EXPECT_EQ(offers, 2);
+  EXPECT_LT((l->mean - m).norm(), 1e-6);
+}
+
+TEST(DelayedInitialiser, KeepsBothPositionsARangeAlongALineAdmitsUntilTheVehicleTurns) {
+  // One beacon north of a straight road: ranges from the road fit it and its mirror image south of
+  // the road equally, so it must not start until the vehicle leaves the line.
+  const auto model = std::make_shared<RangeOnlyModel>(RangeOnlyModel::Params{.sigma_range = 0.05});
+  DelayedInitialiser init(model, {});
+  const Vector2 beacon(10.0, 6.0);
+  double t = 0.0;
+  for (double x = 0.0; x <= 20.0; x += 1.0, t += 1.0)
+    ASSERT_FALSE(init.offer(0, Pose2(x, 0.0, 0.0), kNoDrift, model->predict(Pose2(x, 0.0, 0.0), beacon), t))
+        << "started at x = " << x << " while the mirror image (10, -6) fits as well";
+  EXPECT_EQ(init.waiting(), 1u);
+  // Turning north off the road resolves it, to the true side.
+  std::optional<InitialLandmark> l;
+  for (double y = 1.0; y <= 6.0 && !l; y += 1.0, t += 1.0) {
+    const Pose2 x(20.0, y, kPi / 2);
+    l = init.offer(0, x, kNoDrift, model->predict(x, beacon), t);
+  }
+  ASSERT_TRUE(l.has_value());
+  EXPECT_LT((l->mean - beacon).norm(), 1e-3);
+}
+
+TEST(DelayedInitialiser, DropsARangeNoPositionExplainsWithTheOthers) {
+  const auto model = std::make_shared<RangeOnlyModel>(RangeOnlyModel::Params{.sigma_range = 0.1});
+  DelayedInitialiser init(model, {});
+  const Vector2 m(3.0, 8.0);
+  const std::vector<Pose2> poses = {Pose2(0, 0, 0), Pose2(6, 0, 0), Pose2(6, 5, 0), Pose2(0, 5, 0), Pose2(3, 2, 0)};
+  Measurement outlier = model->predict(poses[0], m);
+  outlier[0] += 15.0;  // a reflection read long
+  ASSERT_FALSE(init.offer(1, poses[0], kNoDrift, outlier, 0.0));
+  std::optional<InitialLandmark> l;
+  for (std::size_t i = 1; i < poses.size() && !l; ++i)
+    l = init.offer(1, poses[i], kNoDrift, model->predict(poses[i], m), static_cast<double>(i));
+  ASSERT_TRUE(l.has_value());
+  EXPECT_LT((l->mean - m).norm(), 1e-6);
+}
+
+TEST(DelayedInitialiser, ForgetsObservationsOlderThanItsWindow) {
+  const auto model = range_only();
+  DelayedInitialisationOptions options;
+  options.window_s = 10.0;
+  DelayedInitialiser init(model, options);
+  const Vector2 m(4.0, 7.0);
+  EXPECT_FALSE(init.offer(2, Pose2(0, 0, 0), kNoDrift, model->predict(Pose2(0, 0, 0), m), 0.0));
+  EXPECT_FALSE(init.offer(2, Pose2(5, 0, 0), kNoDrift, model->predict(Pose2(5, 0, 0), m), 1.0));
+  // Twenty seconds on, the two are gone: a third range alone cannot place it.
+  EXPECT_FALSE(init.offer(2, Pose2(6, 4, 0), kNoDrift, model->predict(Pose2(6, 4, 0), m), 21.0));
+}
+
+TEST(LandmarkInitialiser, ImmediateNeedsAMeasurementThatPlacesALandmark) {
+  EXPECT_THROW(ImmediateInitialiser{range_only()}, std::invalid_argument);
+  EXPECT_THROW(ImmediateInitialiser{bearing_only()}, std::invalid_argument);
+  const auto rb = std::make_shared<RangeBearingModel>();
+  ImmediateInitialiser init(rb);
+  const auto l = init.offer(0, Pose2(1, 2, 0.5), kNoDrift, rb->predict(Pose2(1, 2, 0.5), Vector2(4, 4)), 0.0);
+  ASSERT_TRUE(l.has_value());
+  EXPECT_LT((l->mean - Vector2(4, 4)).norm(), 1e-12);
+}
+
+TEST(LandmarkInitialiser, SearchingAssociationAndImmediateStartsRefuseASensorThatCannotPlaceALandmark) {
+  const auto motion = std::make_shared<AckermannModel>();
+  EkfSlamOptions nn;
+  nn.association.method = AssociationMethod::kNearestNeighbour;
+  try {
+    EkfSlam{motion, range_only(), nn};
+    ADD_FAILURE() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("known"), std::string::npos) << e.what();
+  }
+  EkfSlamOptions immediate;
+  immediate.initialisation = LandmarkInitialisation::kImmediate;
+  EXPECT_THROW((EkfSlam{motion, bearing_only(), immediate}), std::invalid_argument);
+  FastSlamConfig fs;
+  try {
+    FastSlam{motion, range_only(), fs};
+    ADD_FAILURE() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("EKF"), std::string::npos) << e.what();
+  }
+}
+
+namespace {
+
+Metrics run_on(SensorKind sensor, EkfVariant variant, std::uint64_t seed) {
+  Scenario s = scenario("default");
+  s.config.sensor = sensor;
+  s.config.seed = seed;
+  const Dataset d = simulate(s.world, s.config);
+  EkfSlamOptions options;
+  options.initial_pose = d.initial_pose;
+  options.sensor = d.sensor;
+  options.variant = variant;
+  options.threads = 1;
+  EkfSlam filter(d.motion, d.observation, options);
+  return evaluate_run(run_filter(filter, d), d.truth);
+}
+
+}  // namespace
+
+// The reference world seen by a range-only radio and by a bearing-only camera, every landmark
+// started by triangulation: the consistent variants beat dead reckoning by far and stay consistent.
+TEST(DelayedStart, RangeOnlyAndBearingOnlyEkfSlamBeatDeadReckoningAndStayConsistent) {
+  for (const SensorKind sensor : {SensorKind::kRangeOnly, SensorKind::kBearingOnly}) {
+    const Metrics m = run_on(sensor, EkfVariant::kFirstEstimates, 1);
+    SCOPED_TRACE(to_string(sensor));
+    ASSERT_TRUE(m.ate_rmse_m && m.dead_reckoning_ate_rmse_m && m.nees_pose);
+    EXPECT_LT(*m.ate_rmse_m, 0.5 * *m.dead_reckoning_ate_rmse_m);
+    EXPECT_GE(m.nees_pose->in_interval_fraction, 0.8);
+    EXPECT_GE(m.landmarks, 50u) << "most of the world's 100 landmarks start";
+  }
+}
+
+TEST(SimulatedSensors, ReportTheirPartOfRangeAndBearingWithTheirNoise) {
+  Scenario s = scenario("default");
+  for (const SensorKind sensor : {SensorKind::kRangeOnly, SensorKind::kBearingOnly}) {
+    s.config.sensor = sensor;
+    const Dataset d = simulate(s.world, s.config);
+    EXPECT_EQ(d.observation->dim(), 1);
+    EXPECT_EQ(d.observation->name(), to_string(sensor));
+    for (const Event& e : d.events)
+      if (const auto* scan = std::get_if<ScanEvent>(&e))
+        for (const Observation& o : scan->observations) ASSERT_EQ(o.z.size(), 1);
+    // The config says which sensor, and reads back as it was written.
+    EXPECT_EQ(simulator_config_from_json(to_json(s.config), "test").sensor, sensor);
+  }
+  // A config without the key is range and bearing, and one written for it carries no key.
+  EXPECT_FALSE(to_json(SimulatorConfig{}).contains("sensor"));
+  EXPECT_THROW(parse_sensor_kind("sonar"), std::invalid_argument);
+}
+
+TEST(SimulatedSensors, ARangeOnlyLogReadsBackAsItWasWritten) {
+  test_data::ScratchDir dir;
+  Scenario s = scenario("default");
+  s.config.sensor = SensorKind::kRangeOnly;
+  s.config.loops = 1;
+  const Dataset d = simulate(s.world, s.config);
+  write_sim_log(dir.path().string(), d, s.config, s.world);
+  const Dataset back = read_sim_log(dir.path().string());
+  EXPECT_EQ(back.observation->name(), "range-only");
+  ASSERT_EQ(back.events.size(), d.events.size());
+  for (std::size_t i = 0; i < d.events.size(); ++i) {
+    const auto* a = std::get_if<ScanEvent>(&d.events[i]);
+    const auto* b = std::get_if<ScanEvent>(&back.events[i]);
+    ASSERT_EQ(a == nullptr, b == nullptr);
+    if (!a) continue;
+    ASSERT_EQ(a->observations.size(), b->observations.size());
+    for (std::size_t k = 0; k < a->observations.size(); ++k) {
+      EXPECT_EQ(b->observations[k].z.size(), 1);
+      EXPECT_NEAR(b->observations[k].z[0], a->observations[k].z[0], 1e-9);
+    }
+  }
+}
