@@ -1,16 +1,19 @@
 // Dataset specs: their form is checked before any file is read (a usage error naming what was
-// expected), MRCLAM's robot is taken as DIR:robotN, DIR:N or DIR/RobotN, and recorded specs name
-// the robot.
+// expected), MRCLAM's robot is taken as DIR:robotN, DIR:N or DIR/RobotN and Plaza's run as
+// DIR:PlazaN, and recorded specs name the robot and the run.
 #include "slamkit/io/load_dataset.hpp"
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
 
 #include "slamkit/core/error.hpp"
 #include "slamkit/io/mrclam.hpp"
+#include "slamkit/io/plaza.hpp"
+#include "slamkit/models/observation_model.hpp"
 #include "test_data.hpp"
 
 namespace slamkit {
@@ -28,20 +31,26 @@ std::string spec_error(const std::string& spec) {
 TEST(DatasetSpec, KnownFormsPassWithoutTouchingTheFileSystem) {
   for (const char* spec : {"sim:/nowhere", "victoria-park:/nowhere", "victoria-park", "course:/nowhere",
                            "mrclam:/nowhere", "mrclam:/nowhere:robot3", "mrclam:/nowhere:Robot3", "mrclam:/nowhere:3",
-                           "mrclam:/nowhere/Robot5", "mrclam"})
+                           "mrclam:/nowhere/Robot5", "mrclam", "plaza:/nowhere", "plaza:/nowhere:Plaza1",
+                           "plaza:/nowhere:plaza2", "plaza:", "plaza"})
     EXPECT_EQ(spec_error(spec), "no error") << spec;
 }
 
 TEST(DatasetSpec, AMisspeltKindIsAnsweredWithTheNearest) {
   EXPECT_EQ(spec_error("victoria_park:/x"),
             "unknown dataset kind 'victoria_park' (did you mean 'victoria-park'?); expected one of: sim, "
-            "victoria-park, mrclam, course");
-  EXPECT_EQ(spec_error("tape:/x"), "unknown dataset kind 'tape'; expected one of: sim, victoria-park, mrclam, course");
+            "victoria-park, mrclam, course, plaza");
+  EXPECT_EQ(spec_error("tape:/x"),
+            "unknown dataset kind 'tape'; expected one of: sim, victoria-park, mrclam, course, plaza");
   EXPECT_EQ(spec_error("/data/log"),
-            "'/data/log' is not a dataset spec; expected KIND:PATH with KIND one of: sim, victoria-park, mrclam, course");
+            "'/data/log' is not a dataset spec; expected KIND:PATH with KIND one of: sim, victoria-park, mrclam, "
+            "course, plaza");
   EXPECT_EQ(spec_error("mrclm"),
-            "'mrclm' is not a dataset spec; expected KIND:PATH with KIND one of: sim, victoria-park, mrclam, course "
-            "(did you mean 'mrclam'?)");
+            "'mrclm' is not a dataset spec; expected KIND:PATH with KIND one of: sim, victoria-park, mrclam, course, "
+            "plaza (did you mean 'mrclam'?)");
+  EXPECT_EQ(spec_error("plaz:/x"),
+            "unknown dataset kind 'plaz' (did you mean 'plaza'?); expected one of: sim, victoria-park, mrclam, course, "
+            "plaza");
   EXPECT_EQ(spec_error("sim:"), "expected a path after 'sim:'");
 }
 
@@ -79,6 +88,52 @@ TEST(DatasetSpec, EveryFormOfAnMrclamRobotReadsThatRobot) {
     const Dataset d = load_dataset("mrclam:" + dir.string() + suffix);
     EXPECT_EQ(d.name, reference.name) << suffix;
     EXPECT_EQ(d.events.size(), reference.events.size()) << suffix;
+  }
+}
+
+TEST(DatasetSpec, APlazaRunOfAnotherFormNamesTheValidForm) {
+  for (const char* spec : {"plaza:/d:", "plaza:/d:Plaza", "plaza:/d:Plaza0", "plaza:/d:Plaza01", "plaza:/d:Plaza1x",
+                           "plaza:/d:Gesling1", "plaza:/d:robot1", "plaza:/d:1"}) {
+    const std::string message = spec_error(spec);
+    EXPECT_NE(message.find("expected a run as DIR:PlazaN"), std::string::npos) << spec << ": " << message;
+  }
+  EXPECT_EQ(spec_error("plaza:/d:Plaza0"),
+            "no Plaza run 'Plaza0'; expected a run as DIR:PlazaN with N a whole number from 1 (a bare DIR is Plaza1)");
+  try {
+    load_dataset("plaza:/d:Gesling1");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "plaza:/d:Gesling1: no Plaza run 'Gesling1'; expected a run as DIR:PlazaN with N a whole number from 1 "
+              "(a bare DIR is Plaza1)");
+  }
+}
+
+TEST(DatasetSpec, RecordedPlazaSpecsNameTheRun) {
+  const std::string dir = std::filesystem::absolute("/data/plaza_range_only").string();
+  EXPECT_EQ(absolute_dataset_spec("plaza:/data/plaza_range_only"), "plaza:" + dir + ":Plaza1");
+  EXPECT_EQ(absolute_dataset_spec("plaza:/data/plaza_range_only:PLAZA2"), "plaza:" + dir + ":Plaza2");
+}
+
+TEST(DatasetSpec, EveryFormOfAPlazaRunReadsThatRunWithItsSettings) {
+  const auto dir = test_data::shared_dataset("plaza_range_only");
+  SLAMKIT_REQUIRE_DATASET(dir);
+  const Dataset reference = read_plaza(dir.string());
+  for (const std::string suffix : {"", ":Plaza1", ":plaza1"}) {
+    const Dataset d = load_dataset("plaza:" + dir.string() + suffix);
+    EXPECT_EQ(d.spec, "plaza:" + dir.string() + suffix);
+    EXPECT_EQ(d.name, reference.name) << suffix;
+    EXPECT_EQ(d.events.size(), reference.events.size()) << suffix;
+  }
+  const Dataset tuned = load_dataset("plaza:" + dir.string(), nlohmann::json{{"sigma_range_m", 0.5}}, "tuned.json");
+  EXPECT_EQ(tuned.observation->noise()(0, 0), 0.25);
+  try {
+    load_dataset("plaza:" + dir.string(), nlohmann::json{{"sigma_bearing_deg", 1.0}}, "tuned.json");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("tuned.json: unknown key 'sigma_bearing_deg' in the Plaza options"),
+              std::string::npos)
+        << e.what();
   }
 }
 

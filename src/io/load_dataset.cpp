@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <iterator>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string_view>
 
@@ -17,6 +18,7 @@
 #include "slamkit/core/names.hpp"
 #include "slamkit/io/course_log.hpp"
 #include "slamkit/io/mrclam.hpp"
+#include "slamkit/io/plaza.hpp"
 #include "slamkit/io/sim_log.hpp"
 #include "slamkit/io/victoria_park.hpp"
 
@@ -87,6 +89,30 @@ Dataset read_mrclam_robot(const std::string& path, const nlohmann::json* setting
                      settings ? mrclam_options_from_json(*settings, source) : MrclamOptions{});
 }
 
+struct PlazaRun {
+  std::string dir;
+  std::string run;  // as its files spell it
+};
+
+/// Plaza's run in a spec's path: "DIR:PlazaN" ("plaza" in any case) or a bare DIR for Plaza1. Throws
+/// std::invalid_argument on any other run name.
+PlazaRun select_plaza_run(const std::string& path) {
+  const auto colon = path.rfind(':');
+  if (colon == std::string::npos) return {path, kPlazaDefaultRun};
+  const std::string given = path.substr(colon + 1);
+  const std::optional<std::string> run = plaza_run_name(given);
+  if (!run)
+    throw std::invalid_argument(fmt::format(
+        "no Plaza run '{}'; expected a run as DIR:PlazaN with N a whole number from 1 (a bare DIR is {})", given,
+        kPlazaDefaultRun));
+  return {path.substr(0, colon), *run};
+}
+
+Dataset read_plaza_run(const std::string& path, const nlohmann::json* settings, const std::string& source) {
+  const PlazaRun run = select_plaza_run(path);
+  return read_plaza(run.dir, run.run, settings ? plaza_options_from_json(*settings, source) : PlazaOptions{});
+}
+
 Dataset read_course(const std::string& path, const nlohmann::json* settings, const std::string& source) {
   return read_course_log(path, settings ? course_options_from_json(*settings, source) : CourseOptions{});
 }
@@ -103,6 +129,7 @@ constexpr DatasetKind kKinds[] = {
          "fastslam2": {"association": {"method": "nn"}, "pose_sample_fraction": 0.01}})"},
     {"mrclam", &read_mrclam_robot, "mrclam/MRCLAM_Dataset6", ""},
     {"course", &read_course, "", ""},
+    {"plaza", &read_plaza_run, "plaza_range_only", ""},
 };
 
 std::vector<std::string> kind_names() {
@@ -132,6 +159,7 @@ ParsedSpec parse_spec(const std::string& spec) {
   if (path.empty() && match->default_folder.empty())
     throw std::invalid_argument(fmt::format("expected a path after '{}:'", kind));
   if (match->read == &read_mrclam_robot && !path.empty()) select_mrclam_robot(path);
+  if (match->read == &read_plaza_run && !path.empty()) select_plaza_run(path);
   return {match, path};
 }
 
@@ -170,12 +198,16 @@ void check_dataset_spec(const std::string& spec) { parse_spec(spec); }
 
 std::string absolute_dataset_spec(const std::string& spec) {
   const ParsedSpec resolved = resolve(spec);
-  // MRCLAM's robot is no part of the folder; it is written out, so run.json names it even when the
-  // spec left robot 1 implicit.
+  // MRCLAM's robot and Plaza's run are no part of the folder; they are written out, so run.json
+  // names them even when the spec left robot 1 or Plaza1 implicit.
   if (resolved.kind->read == &read_mrclam_robot) {
     const MrclamRobot robot = select_mrclam_robot(resolved.path);
     return fmt::format("{}:{}:robot{}", resolved.kind->name,
                        fs::absolute(robot.dataset_dir).lexically_normal().string(), robot.robot);
+  }
+  if (resolved.kind->read == &read_plaza_run) {
+    const PlazaRun run = select_plaza_run(resolved.path);
+    return fmt::format("{}:{}:{}", resolved.kind->name, fs::absolute(run.dir).lexically_normal().string(), run.run);
   }
   return fmt::format("{}:{}", resolved.kind->name, fs::absolute(resolved.path).lexically_normal().string());
 }

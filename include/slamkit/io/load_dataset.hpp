@@ -9,8 +9,9 @@
 namespace slamkit {
 
 /// Opens a dataset from a "kind:PATH" spec ("sim:DIR", "victoria-park:DIR", "mrclam:DIR:robotN",
-/// "course:DIR"). `settings_path` names a JSON file of the dataset's settings (noise, sensor limits,
-/// ...; the shipped ones are config/*.json); empty for the defaults, which equal the shipped files.
+/// "course:DIR", "plaza:DIR:PlazaN"). `settings_path` names a JSON file of the dataset's settings
+/// (noise, sensor limits, ...; the shipped ones are config/*.json); empty for the defaults, which
+/// equal the shipped files.
 /// The settings' "recommended" object is for the filters (recommended_settings), not the reader.
 /// Throws InputError on a bad spec, file or setting.
 Dataset load_dataset(const std::string& spec, const std::string& settings_path = "");
@@ -20,10 +21,10 @@ Dataset load_dataset(const std::string& spec, const std::string& settings_path =
 Dataset load_dataset(const std::string& spec, const nlohmann::json& settings, const std::string& source);
 
 /// Checks the form of a spec without touching the file system: a known kind, a path where the kind
-/// has no standard place, and for MRCLAM the robot: "DIR:robotN", "DIR:N" or "DIR/RobotN" with N
-/// from 1 to 5 (a bare DIR is robot 1). Throws std::invalid_argument, one line naming what was
-/// expected (and the nearest kind to a misspelt one): a usage error, which load_dataset reports as
-/// InputError.
+/// has no standard place, for MRCLAM the robot: "DIR:robotN", "DIR:N" or "DIR/RobotN" with N from 1
+/// to 5 (a bare DIR is robot 1), and for Plaza the run: "DIR:PlazaN" with N a whole number from 1 (a
+/// bare DIR is Plaza1). Throws std::invalid_argument, one line naming what was expected (and the
+/// nearest kind to a misspelt one): a usage error, which load_dataset reports as InputError.
 void check_dataset_spec(const std::string& spec);
 
 /// The filter settings a dataset needs, by filter name: {"fastslam2": {"pose_sample_fraction": 0.01},
@@ -35,9 +36,9 @@ void check_dataset_spec(const std::string& spec);
 /// object; pipeline/settings.hpp checks its contents.
 nlohmann::json recommended_settings(const std::string& spec, const nlohmann::json& settings, const std::string& source);
 
-/// `spec` with its folder made absolute (a missing one looked up as load_dataset does) and MRCLAM's
-/// robot written out as ":robotN", so a run folder names its data in a way that works from any
-/// working directory.
+/// `spec` with its folder made absolute (a missing one looked up as load_dataset does), MRCLAM's
+/// robot written out as ":robotN" and Plaza's run as ":PlazaN", so a run folder names its data in a
+/// way that works from any working directory.
 std::string absolute_dataset_spec(const std::string& spec);
 
 /// Where datasets named without a path are looked up: $SLAMKIT_DATA if set, else ../shared/datasets
