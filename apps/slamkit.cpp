@@ -434,8 +434,9 @@ int run_command(int argc, char** argv) {
       run_cmd
           ->add_option("--data", data_spec,
                        "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN (N 1-5; also DIR:N "
-                       "and DIR/RobotN; a bare DIR is robot 1), course:DIR. Its files must be regular files, with "
-                       "lines up to 1 MiB, positions within +-2e6 m and at least one observation")
+                       "and DIR/RobotN; a bare DIR is robot 1), course:DIR, plaza:DIR:Plaza1 (range-only). Its files "
+                       "must be regular files, with lines up to 1 MiB, positions within +-2e6 m and at least one "
+                       "observation")
           ->check(parsed_by(check_dataset_spec));
   auto* data_config_opt = run_cmd->add_option(
       "--data-config", data_config,

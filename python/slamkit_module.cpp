@@ -366,7 +366,7 @@ PYBIND11_MODULE(slamkit, m) {
       },
       py::arg("spec"), py::arg("settings") = py::none(),
       "Opens a dataset by its 'kind:PATH' spec, as `slamkit run --data` does (sim:DIR, victoria-park:DIR, "
-      "mrclam:DIR:robotN, course:DIR); `settings` is a dict of the dataset's settings (the contents of a "
+      "mrclam:DIR:robotN, course:DIR, plaza:DIR:Plaza1); `settings` is a dict of the dataset's settings (the contents of a "
       "config/*.json), None for the defaults. Returns a Dataset.");
 
   py::class_<PyRun>(m, "Run", "The result of run(): estimates, map and statistics, which save() writes as a run folder.")

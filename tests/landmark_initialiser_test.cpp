@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -12,6 +13,7 @@
 #include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/filters/fastslam.hpp"
 #include "slamkit/filters/landmark_initialiser.hpp"
+#include "slamkit/io/load_dataset.hpp"
 #include "slamkit/io/sim_log.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/pipeline/runner.hpp"
@@ -218,4 +220,24 @@ TEST(SimulatedSensors, ARangeOnlyLogReadsBackAsItWasWritten) {
       EXPECT_NEAR(b->observations[k].z[0], a->observations[k].z[0], 1e-9);
     }
   }
+}
+
+// CMU Plaza1: four radio beacons, known identities, none given a prior position. The consistent
+// EKF starts every beacon by triangulation and beats dead reckoning; the beacons lie about the
+// ranges' +2.8 m bias from the survey, which is not modelled yet.
+TEST(DelayedStart, Plaza1BeaconsStartFromRangesAloneAndTheEkfBeatsDeadReckoning) {
+  const std::filesystem::path dir = test_data::shared_dataset("plaza_range_only");
+  SLAMKIT_REQUIRE_DATASET(dir);
+  const Dataset d = load_dataset("plaza:" + dir.string() + ":Plaza1");
+  EkfSlamOptions options;
+  options.initial_pose = d.initial_pose;
+  options.sensor = d.sensor;
+  options.variant = EkfVariant::kFirstEstimates;
+  options.threads = 1;
+  EkfSlam filter(d.motion, d.observation, options);
+  const Metrics m = evaluate_run(run_filter(filter, d), d.truth);
+  ASSERT_TRUE(m.ate_rmse_m && m.dead_reckoning_ate_rmse_m && m.map_rmse_m);
+  EXPECT_EQ(m.landmarks, 4u);
+  EXPECT_LT(*m.ate_rmse_m, 0.8 * *m.dead_reckoning_ate_rmse_m);
+  EXPECT_LT(*m.map_rmse_m, 4.0);
 }

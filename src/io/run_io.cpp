@@ -51,7 +51,7 @@ std::vector<LandmarkStdSample> read_landmark_std(const std::string& path) {
 void write_associations(const std::string& path, const std::vector<double>& times,
                         const std::vector<std::vector<AssociationRecord>>& associations) {
   LineWriter out(path);
-  out.text("# scan t observation decision landmark_id  (decision: update | new | discard)\n"
+  out.text("# scan t observation decision landmark_id  (decision: update | new | discard | pending)\n"
            "# a scan without observations is one line: scan t none");
   out.end_line();
   for (std::size_t k = 0; k < associations.size(); ++k) {

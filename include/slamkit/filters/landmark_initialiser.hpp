@@ -42,7 +42,7 @@ struct DelayedInitialisationOptions {
   int min_views = 0;           ///< observations before a triangulation is tried; 0: 3 ranges or 2 bearings
   int max_views = 40;          ///< kept per landmark, the oldest dropped first (bounds time and memory)
   double max_std_m = 1.0;      ///< the largest standard deviation a landmark may start with [m]
-  double window_s = 120.0;     ///< observations older than this are forgotten [s]
+  double window_s = 60.0;      ///< observations older than this are forgotten [s]
   double gate_probability = 0.9999;  ///< of the residuals' chi-square test, and of the ambiguity test
 };
 
