@@ -78,7 +78,8 @@ std::string measurement_columns(const ObservationModel& model) {
 }
 
 // events.txt and truth_observations.txt in one pass, as they share their line order.
-void write_events(const fs::path& dir, const Dataset& dataset) {
+/// `model` is the one the log's config gives its sensor (set_platform), whose columns it writes.
+void write_events(const fs::path& dir, const Dataset& dataset, const ObservationModel& model) {
   const std::vector<std::vector<int>>& true_ids = dataset.truth.observation_ids;
   const bool with_truth = !true_ids.empty();
   Buffer events, truth;
@@ -88,7 +89,7 @@ void write_events(const fs::path& dir, const Dataset& dataset) {
       "# control <t> <dt> <speed> <steer>   control applied over (t - dt, t]\n"
       "# {:<35}observation of landmark id (-1: unknown)\n"
       "# Consecutive obs lines with the same t form one scan, taken at the end of the control before it.\n",
-      "obs <t> <id> " + measurement_columns(*dataset.observation));
+      "obs <t> <id> " + measurement_columns(model));
   append(truth, "# slamkit true landmark id of each obs line of {}, in the same order\n# <t> <true_id>\n",
          kEventsFile);
   std::size_t scan_index = 0;
@@ -106,6 +107,9 @@ void write_events(const fs::path& dir, const Dataset& dataset) {
           "write_sim_log: the truth's observation ids do not match scan {} of the event stream", scan_index));
     for (std::size_t i = 0; i < scan.observations.size(); ++i) {
       const Observation& o = scan.observations[i];
+      if (o.z.size() != model.dim())
+        throw std::invalid_argument(fmt::format("write_sim_log: a {} sensor's measurement has {} values, found {}",
+                                                model.name(), model.dim(), o.z.size()));
       append(events, "obs {:.12g} {}", scan.t, o.id);
       for (Eigen::Index k = 0; k < o.z.size(); ++k) append(events, " {:.12g}", o.z[k]);
       append(events, "\n");
@@ -356,7 +360,9 @@ void write_sim_log(const std::string& dir, const Dataset& dataset, const Simulat
   fs::create_directories(root, error);
   if (error) throw InputError(dir, 0, "cannot create directory: " + error.message());
   write_params(root / kParamsFile, dataset, config, world);
-  write_events(root, dataset);
+  Dataset platform;
+  set_platform(platform, config);
+  write_events(root, dataset, *platform.observation);
   if (!dataset.truth.empty()) {
     write_truth(root, dataset.truth);
   } else {
