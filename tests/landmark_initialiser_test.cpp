@@ -118,14 +118,13 @@ TEST(DelayedInitialiser, ForgetsObservationsOlderThanItsWindow) {
   EXPECT_FALSE(init.offer(2, Pose2(6, 4, 0), kNoDrift, model->predict(Pose2(6, 4, 0), m), 21.0));
 }
 
-TEST(LandmarkInitialiser, ImmediateNeedsAMeasurementThatPlacesALandmark) {
-  EXPECT_THROW(ImmediateInitialiser{range_only()}, std::invalid_argument);
-  EXPECT_THROW(ImmediateInitialiser{bearing_only()}, std::invalid_argument);
-  const auto rb = std::make_shared<RangeBearingModel>();
-  ImmediateInitialiser init(rb);
-  const auto l = init.offer(0, Pose2(1, 2, 0.5), kNoDrift, rb->predict(Pose2(1, 2, 0.5), Vector2(4, 4)), 0.0);
+TEST(LandmarkInitialiser, AnInvertedMeasurementPlacesItsLandmarkAndOnlyRangeBearingInverts) {
+  const RangeBearingModel rb;
+  const auto l = inverted_landmark(rb, Pose2(1, 2, 0.5), rb.predict(Pose2(1, 2, 0.5), Vector2(4, 4)));
   ASSERT_TRUE(l.has_value());
   EXPECT_LT((l->mean - Vector2(4, 4)).norm(), 1e-12);
+  EXPECT_FALSE(inverted_landmark(RangeOnlyModel{}, Pose2::Zero(), Measurement::Constant(1, 5.0)));
+  EXPECT_FALSE(inverted_landmark(BearingOnlyModel{}, Pose2::Zero(), Measurement::Constant(1, 0.5)));
 }
 
 TEST(LandmarkInitialiser, SearchingAssociationAndImmediateStartsRefuseASensorThatCannotPlaceALandmark) {

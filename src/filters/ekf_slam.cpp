@@ -74,7 +74,8 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
       throw std::invalid_argument(
           "delayed landmark initialisation gathers the observations of one landmark by its identity; it needs "
           "association 'known'");
-    initialiser_ = make_initialiser(initialisation, estimator_->shared_observation_model(), options.delayed_initialisation);
+    initialiser_ =
+        std::make_unique<DelayedInitialiser>(estimator_->shared_observation_model(), options.delayed_initialisation);
   } else if (!estimator_->observation_model().invertible()) {
     throw std::invalid_argument("immediate landmark initialisation needs a measurement that places a landmark, which "
                                 "a " + estimator_->observation_model().name() + " measurement does not; use delayed");

@@ -24,18 +24,6 @@ void validate(const DelayedInitialisationOptions& o) {
     fail(fmt::format("gate_probability must be > 0.5 and < 1, found {}", o.gate_probability));
 }
 
-ImmediateInitialiser::ImmediateInitialiser(std::shared_ptr<const ObservationModel> model) : model_(std::move(model)) {
-  if (!model_ || !model_->invertible())
-    throw std::invalid_argument("immediate landmark initialisation needs a measurement that places a landmark, which a " +
-                                (model_ ? model_->name() : std::string("missing")) +
-                                " measurement does not; use delayed initialisation");
-}
-
-std::optional<InitialLandmark> ImmediateInitialiser::offer(int, const Pose2& x, const Matrix3&, const Measurement& z,
-                                                           double) {
-  return inverted_landmark(*model_, x, z);
-}
-
 namespace {
 
 /// The nearest positive semi-definite matrix to the symmetric part of a (eigenvalues clipped at 0).
@@ -263,13 +251,6 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   landmark.covariance = 0.5 * (best.covariance + best.covariance.transpose());
   views_.erase(id);
   return landmark;
-}
-
-std::unique_ptr<LandmarkInitialiser> make_initialiser(LandmarkInitialisation method,
-                                                      std::shared_ptr<const ObservationModel> model,
-                                                      const DelayedInitialisationOptions& options) {
-  if (method == LandmarkInitialisation::kImmediate) return std::make_unique<ImmediateInitialiser>(std::move(model));
-  return std::make_unique<DelayedInitialiser>(std::move(model), options);
 }
 
 }  // namespace slamkit

@@ -33,6 +33,9 @@
 
 namespace slamkit {
 
+/// How EkfSlam starts a landmark. Immediate is the estimator's own add_landmark(z) (the UKF
+/// transforms the inverse unscented), so only the delayed start is a LandmarkInitialiser here; the
+/// interface is the seam for others (multi-hypothesis starts).
 enum class LandmarkInitialisation {
   kImmediate,  ///< one measurement places the landmark (needs a model that inverts it)
   kDelayed,    ///< triangulation from several observations at well-spread poses
@@ -62,19 +65,6 @@ class LandmarkInitialiser {
   virtual std::size_t waiting() const = 0;
 };
 
-/// Immediate: the inverse of each measurement (the model must invert).
-class ImmediateInitialiser final : public LandmarkInitialiser {
- public:
-  /// Throws std::invalid_argument if `model` cannot invert a measurement.
-  explicit ImmediateInitialiser(std::shared_ptr<const ObservationModel> model);
-  std::optional<InitialLandmark> offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
-                                       const Measurement& z, double t) override;
-  std::size_t waiting() const override { return 0; }
-
- private:
-  std::shared_ptr<const ObservationModel> model_;
-};
-
 /// Delayed: triangulation (see the file's comment).
 class DelayedInitialiser final : public LandmarkInitialiser {
  public:
@@ -85,6 +75,7 @@ class DelayedInitialiser final : public LandmarkInitialiser {
                                        const Measurement& z, double t) override;
   std::size_t waiting() const override { return views_.size(); }
 
+ private:
   struct View {
     Pose2 pose;
     Matrix3 odometry_covariance;
@@ -101,8 +92,6 @@ class DelayedInitialiser final : public LandmarkInitialiser {
   /// The best position for `views` weighed against the uncertainty gained since each, by
   /// Gauss-Newton from `start`; nothing if the information stays singular.
   std::optional<Fit> fit(const std::vector<View>& views, const Matrix3& odometry_covariance_now, Vector2 start) const;
-
- private:
   /// Closed-form starting points for the fit: one, or for ranges from collinear sensors the two
   /// mirror images; none if the views do not intersect at all.
   std::vector<Vector2> starts(const std::vector<View>& views) const;
@@ -114,10 +103,5 @@ class DelayedInitialiser final : public LandmarkInitialiser {
   int min_views_;
   std::map<int, std::vector<View>> views_;  // by landmark id; ordered, so the order of work is fixed
 };
-
-/// The initialiser `method` names for `model`: immediate needs a model that inverts.
-std::unique_ptr<LandmarkInitialiser> make_initialiser(LandmarkInitialisation method,
-                                                      std::shared_ptr<const ObservationModel> model,
-                                                      const DelayedInitialisationOptions& options);
 
 }  // namespace slamkit
