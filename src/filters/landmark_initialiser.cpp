@@ -36,7 +36,6 @@ Matrix3 clipped_psd(const Matrix3& a) {
 struct Spread {
   Vector2 centre;
   Vector2 axis;
-  double across = 0.0;  // standard deviation of the positions across the axis [m]
 };
 
 Spread spread_of(const std::vector<Vector2>& sensors) {
@@ -49,7 +48,6 @@ Spread spread_of(const std::vector<Vector2>& sensors) {
   scatter /= static_cast<double>(sensors.size());
   const Eigen::SelfAdjointEigenSolver<Matrix2> eigen(scatter);
   s.axis = eigen.eigenvectors().col(1);
-  s.across = std::sqrt(std::max(0.0, eigen.eigenvalues()[0]));
   return s;
 }
 
