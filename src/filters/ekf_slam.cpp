@@ -1,6 +1,7 @@
 #include "slamkit/filters/ekf_slam.hpp"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -168,13 +169,10 @@ void EkfSlam::add_landmark(const Measurement& z, int id) {
 InitialLandmark EkfSlam::in_estimate_frame(const InitialLandmark& placed) const {
   // Where the landmark is relative to the dead-reckoned pose, it is relative to the estimate.
   const Pose2 x = estimator_->pose();
-  const double turn = x[2] - dead_reckoned_pose_[2];
-  Matrix2 r;
-  r << std::cos(turn), -std::sin(turn), std::sin(turn), std::cos(turn);
+  const Matrix2 r = Eigen::Rotation2Dd(x[2] - dead_reckoned_pose_[2]).toRotationMatrix();
   InitialLandmark landmark;
   landmark.mean = x.head<2>() + r * (placed.mean - dead_reckoned_pose_.head<2>());
-  const Vector2 lever = landmark.mean - x.head<2>();
-  landmark.gx << 1.0, 0.0, -lever[1], 0.0, 1.0, lever[0];
+  landmark.gx = attached_to_pose(x, landmark.mean);
   landmark.covariance = r * placed.covariance * r.transpose();
   return landmark;
 }

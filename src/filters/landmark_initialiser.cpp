@@ -24,6 +24,13 @@ void validate(const DelayedInitialisationOptions& o) {
     fail(fmt::format("gate_probability must be > 0.5 and < 1, found {}", o.gate_probability));
 }
 
+Matrix23 attached_to_pose(const Pose2& x, const Vector2& m) {
+  const Vector2 lever = m - x.head<2>();
+  Matrix23 gx;
+  gx << 1.0, 0.0, -lever[1], 0.0, 1.0, lever[0];
+  return gx;
+}
+
 namespace {
 
 /// The nearest positive semi-definite matrix to the symmetric part of a (eigenvalues clipped at 0).
@@ -73,10 +80,9 @@ DelayedInitialiser::DelayedInitialiser(std::shared_ptr<const ObservationModel> m
   min_views_ = options_.min_views > 0 ? options_.min_views : measures_bearing_ ? 2 : 3;
 }
 
-std::vector<Vector2> DelayedInitialiser::starts(const std::vector<View>& views) const {
+std::vector<Vector2> DelayedInitialiser::starts(const std::vector<View>& views,
+                                                const std::vector<Vector2>& sensors) const {
   const MeasuredRows rows = model_->rows();
-  std::vector<Vector2> sensors;
-  for (const View& v : views) sensors.push_back(model_->sensor_position(v.pose));
   if (measures_bearing_) {
     if (measures_range_) {
       const View& last = views.back();
@@ -193,8 +199,10 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   if (views.size() > static_cast<std::size_t>(options_.max_views)) views.erase(views.begin());
   if (views.size() < static_cast<std::size_t>(min_views_)) return std::nullopt;
 
+  std::vector<Vector2> sensors;
+  for (const View& v : views) sensors.push_back(model_->sensor_position(v.pose));
   std::vector<Fit> fits;
-  for (const Vector2& start : starts(views))
+  for (const Vector2& start : starts(views, sensors))
     if (const std::optional<Fit> f = fit(views, odometry_covariance, start)) fits.push_back(*f);
   if (fits.empty()) return std::nullopt;
   // A copy: the ambiguity test below adds to `fits`.
@@ -223,8 +231,6 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   if (!(eigen.eigenvalues()[1] <= options_.max_std_m * options_.max_std_m)) return std::nullopt;
   // Ranges along a line fit the landmark and its mirror image equally: wait while another position
   // passes the gate too (the mirror image, or another fit's answer, beyond the best's 3-sigma).
-  std::vector<Vector2> sensors;
-  for (const View& v : views) sensors.push_back(model_->sensor_position(v.pose));
   if (!measures_bearing_)
     if (const std::optional<Fit> m = fit(views, odometry_covariance, mirrored(best.position, spread_of(sensors))))
       fits.push_back(*m);
@@ -243,9 +249,7 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   }
   InitialLandmark landmark;
   landmark.mean = best.position;
-  // Attached rigidly to the current pose, as an inverted measurement is: dm/dx = [I, J (m - p)].
-  const Vector2 lever = landmark.mean - x.head<2>();
-  landmark.gx << 1.0, 0.0, -lever[1], 0.0, 1.0, lever[0];
+  landmark.gx = attached_to_pose(x, landmark.mean);
   landmark.covariance = 0.5 * (best.covariance + best.covariance.transpose());
   views_.erase(id);
   return landmark;

@@ -52,6 +52,10 @@ struct DelayedInitialisationOptions {
 /// Throws std::invalid_argument naming the first setting out of its range.
 void validate(const DelayedInitialisationOptions& options);
 
+/// dm/dx of a landmark at m attached rigidly to a vehicle at x, as an inverted measurement is:
+/// [I, J (m - p)], J the quarter turn.
+Matrix23 attached_to_pose(const Pose2& x, const Vector2& m);
+
 class LandmarkInitialiser {
  public:
   virtual ~LandmarkInitialiser() = default;
@@ -92,9 +96,9 @@ class DelayedInitialiser final : public LandmarkInitialiser {
   /// The best position for `views` weighed against the uncertainty gained since each, by
   /// Gauss-Newton from `start`; nothing if the information stays singular.
   std::optional<Fit> fit(const std::vector<View>& views, const Matrix3& odometry_covariance_now, Vector2 start) const;
-  /// Closed-form starting points for the fit: one, or for ranges from collinear sensors the two
-  /// mirror images; none if the views do not intersect at all.
-  std::vector<Vector2> starts(const std::vector<View>& views) const;
+  /// Closed-form starting points for the fit from the views and their sensors' positions: one, or
+  /// for ranges from collinear sensors the two mirror images; none if the views do not intersect.
+  std::vector<Vector2> starts(const std::vector<View>& views, const std::vector<Vector2>& sensors) const;
 
   std::shared_ptr<const ObservationModel> model_;
   DelayedInitialisationOptions options_;
