@@ -493,6 +493,27 @@ int run_command(int argc, char** argv) {
                       "Delayed start: how long a landmark's observations are kept while it waits [s]",
                       fmt::format("{}", defaults.delayed_init.window_s))
       ->check(finite_number());
+  // The range calibration: on with its default prior; a deviation given turns it on too.
+  const RangeCalibrationPrior calibration_prior;
+  run_cmd->add_flag_callback(
+      "--range-calibration",
+      [&] {
+        nlohmann::json& calibration = flag_settings["range_calibration"];
+        if (!calibration.is_object()) calibration = nlohmann::json::object();
+      },
+      fmt::format("EKF (full, fej, invariant), known ids: estimate the range sensor's offset and scale error (it "
+                  "reads (1 + s) d + b; radio beacons read long) in the state, from priors 0 +- {} m and 0 +- {}",
+                  calibration_prior.offset_std_m, calibration_prior.scale_error_std));
+  add_setting<double>(run_cmd, "--range-offset-std", flag_settings, "/range_calibration/offset_std_m",
+                      "The range calibration's prior standard deviation of the offset [m] (implies "
+                      "--range-calibration)",
+                      fmt::format("{}", calibration_prior.offset_std_m))
+      ->check(finite_number());
+  add_setting<double>(run_cmd, "--range-scale-std", flag_settings, "/range_calibration/scale_error_std",
+                      "The range calibration's prior standard deviation of the scale error (implies "
+                      "--range-calibration)",
+                      fmt::format("{}", calibration_prior.scale_error_std))
+      ->check(finite_number());
   // Association and map management: a file holding the keys run.json records under
   // settings.association, and a flag for each setting, which overrides the file. Their ranges are
   // validate(AssociationConfig)'s, checked with the other settings before any data is read.

@@ -554,6 +554,34 @@ TEST_F(Cli, PrintConfigShowsEveryEffectiveSettingWithoutRunning) {
   EXPECT_EQ(nlohmann::json::parse(ukf.out).at("settings").at("ukf_noise"), "additive");
 }
 
+// --range-calibration turns the calibration on with its default prior, a deviation given turns it
+// on too, and a run reports what it estimated.
+TEST_F(Cli, RangeCalibrationFlagsSetItsPriorAndTheRunReportsTheEstimate) {
+  const std::string data = " --data sim:" + (*work_ / "sim").string();
+  const auto settings = [&](const std::string& flags) {
+    const Result r = slamkit("run" + flags + data + " --print-config", *work_);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return nlohmann::json::parse(r.out).at("settings").at("range_calibration");
+  };
+  EXPECT_TRUE(settings("").is_null());
+  // The documented default prior: 0 +- 1 m and 0 +- 0.1.
+  const nlohmann::json on = settings(" --range-calibration");
+  EXPECT_EQ(on.at("offset_m"), 0.0);
+  EXPECT_EQ(on.at("offset_std_m"), 1.0);
+  EXPECT_EQ(on.at("scale_error_std"), 0.1);
+  const nlohmann::json scale = settings(" --range-scale-std 0.02");
+  EXPECT_EQ(scale.at("scale_error_std"), 0.02);
+  EXPECT_EQ(scale.at("offset_std_m"), 1.0);
+
+  const Result run = slamkit("run --range-calibration" + data + " --out " + (*work_ / "calibrated").string(), *work_);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::ifstream metrics(*work_ / "calibrated" / "metrics.json");
+  const nlohmann::json m = nlohmann::json::parse(metrics);
+  // The built-in world's sensor has no systematic error.
+  EXPECT_LT(std::abs(m.at("range_offset_m").get<double>()), 4.0 * m.at("range_offset_std_m").get<double>());
+  EXPECT_LT(std::abs(m.at("range_scale_error").get<double>()), 4.0 * m.at("range_scale_error_std").get<double>());
+}
+
 // The association file sets what it names, the flags override it, and run.json records the result.
 TEST_F(Cli, AssociationSettingsComeFromAFileAndFlagsOverrideIt) {
   const fs::path file = *work_ / "association.json";
@@ -750,6 +778,10 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
        "--landmark-init: unknown landmark initialisation 'delay' (did you mean 'delayed'?)"},
       {"run --init-max-std 0" + data, 2, "delayed initialisation: max_std_m must be > 0 and <= 10000, found 0"},
       {"run --init-window x" + data, 2, "--init-window: expected a finite number, found x"},
+      {"run --range-calibration --assoc nn" + data, 2,
+       "a range calibration is estimated with association 'known': nn and jcbb predict measurements without it"},
+      {"run --range-offset-std 0" + data, 2, "range_calibration.offset_std_m must be > 0 and <= 10000, found 0"},
+      {"run --range-scale-std x" + data, 2, "--range-scale-std: expected a finite number, found x"},
       {"run --assoc-config /nonexistent/a.json" + data, 1,
        "/nonexistent/a.json: cannot open file for reading (No such file or directory)"},
       {"run --accept-probability 1.5" + data, 2, "association setting accept_probability must be in (0, 1), found 1.5"},

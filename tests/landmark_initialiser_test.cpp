@@ -25,6 +25,7 @@ using namespace slamkit;
 namespace {
 
 const Matrix3 kNoDrift = Matrix3::Zero();
+const RangeCorrection kNoCorrection;
 
 std::shared_ptr<const ObservationModel> range_only() { return std::make_shared<RangeOnlyModel>(); }
 std::shared_ptr<const ObservationModel> bearing_only() { return std::make_shared<BearingOnlyModel>(); }
@@ -35,7 +36,7 @@ std::optional<InitialLandmark> offer_exact(LandmarkInitialiser& init, const Obse
                                            const std::vector<Pose2>& poses, const Vector2& m, int* offers = nullptr) {
   for (std::size_t i = 0; i < poses.size(); ++i) {
     if (offers) *offers = static_cast<int>(i + 1);
-    if (auto l = init.offer(7, poses[i], kNoDrift, model.predict(poses[i], m), static_cast<double>(i)))
+    if (auto l = init.offer(7, poses[i], kNoDrift, model.predict(poses[i], m), static_cast<double>(i), kNoCorrection))
       return l;
   }
   return std::nullopt;
@@ -78,14 +79,15 @@ TEST(DelayedInitialiser, KeepsBothPositionsARangeAlongALineAdmitsUntilTheVehicle
   const Vector2 beacon(10.0, 6.0);
   double t = 0.0;
   for (double x = 0.0; x <= 20.0; x += 1.0, t += 1.0)
-    ASSERT_FALSE(init.offer(0, Pose2(x, 0.0, 0.0), kNoDrift, model->predict(Pose2(x, 0.0, 0.0), beacon), t))
+    ASSERT_FALSE(
+        init.offer(0, Pose2(x, 0.0, 0.0), kNoDrift, model->predict(Pose2(x, 0.0, 0.0), beacon), t, kNoCorrection))
         << "started at x = " << x << " while the mirror image (10, -6) fits as well";
   EXPECT_EQ(init.waiting(), 1u);
   // Turning north off the road resolves it, to the true side.
   std::optional<InitialLandmark> l;
   for (double y = 1.0; y <= 6.0 && !l; y += 1.0, t += 1.0) {
     const Pose2 x(20.0, y, kPi / 2);
-    l = init.offer(0, x, kNoDrift, model->predict(x, beacon), t);
+    l = init.offer(0, x, kNoDrift, model->predict(x, beacon), t, kNoCorrection);
   }
   ASSERT_TRUE(l.has_value());
   EXPECT_LT((l->mean - beacon).norm(), 1e-3);
@@ -98,10 +100,10 @@ TEST(DelayedInitialiser, DropsARangeNoPositionExplainsWithTheOthers) {
   const std::vector<Pose2> poses = {Pose2(0, 0, 0), Pose2(6, 0, 0), Pose2(6, 5, 0), Pose2(0, 5, 0), Pose2(3, 2, 0)};
   Measurement outlier = model->predict(poses[0], m);
   outlier[0] += 15.0;  // a reflection read long
-  ASSERT_FALSE(init.offer(1, poses[0], kNoDrift, outlier, 0.0));
+  ASSERT_FALSE(init.offer(1, poses[0], kNoDrift, outlier, 0.0, kNoCorrection));
   std::optional<InitialLandmark> l;
   for (std::size_t i = 1; i < poses.size() && !l; ++i)
-    l = init.offer(1, poses[i], kNoDrift, model->predict(poses[i], m), static_cast<double>(i));
+    l = init.offer(1, poses[i], kNoDrift, model->predict(poses[i], m), static_cast<double>(i), kNoCorrection);
   ASSERT_TRUE(l.has_value());
   EXPECT_LT((l->mean - m).norm(), 1e-6);
 }
@@ -112,10 +114,10 @@ TEST(DelayedInitialiser, ForgetsObservationsOlderThanItsWindow) {
   options.window_s = 10.0;
   DelayedInitialiser init(model, options);
   const Vector2 m(4.0, 7.0);
-  EXPECT_FALSE(init.offer(2, Pose2(0, 0, 0), kNoDrift, model->predict(Pose2(0, 0, 0), m), 0.0));
-  EXPECT_FALSE(init.offer(2, Pose2(5, 0, 0), kNoDrift, model->predict(Pose2(5, 0, 0), m), 1.0));
+  EXPECT_FALSE(init.offer(2, Pose2(0, 0, 0), kNoDrift, model->predict(Pose2(0, 0, 0), m), 0.0, kNoCorrection));
+  EXPECT_FALSE(init.offer(2, Pose2(5, 0, 0), kNoDrift, model->predict(Pose2(5, 0, 0), m), 1.0, kNoCorrection));
   // Twenty seconds on, the two are gone: a third range alone cannot place it.
-  EXPECT_FALSE(init.offer(2, Pose2(6, 4, 0), kNoDrift, model->predict(Pose2(6, 4, 0), m), 21.0));
+  EXPECT_FALSE(init.offer(2, Pose2(6, 4, 0), kNoDrift, model->predict(Pose2(6, 4, 0), m), 21.0, kNoCorrection));
 }
 
 TEST(LandmarkInitialiser, AnInvertedMeasurementPlacesItsLandmarkAndOnlyRangeBearingInverts) {

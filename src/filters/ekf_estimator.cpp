@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <thread>
 
@@ -61,6 +62,46 @@ void EkfEstimator::landmark_marginals(std::vector<Vector2>& means, std::vector<M
   }
 }
 
+Measurement EkfEstimator::predicted_measurement(const Pose2& x, const Vector2& m) const {
+  Measurement z = observation_->predict(x, m);
+  if (calibrates_ranges()) z[calibrated_row()] = range_correction().range(z[calibrated_row()]);
+  return z;
+}
+
+void EkfEstimator::estimate_range_calibration(const RangeCalibrationPrior& prior) {
+  if (observation_->rows().range < 0)
+    throw std::invalid_argument("a range calibration needs a sensor that measures range; a " + observation_->name() +
+                                " measurement does not");
+  if (!supports_range_calibration())
+    throw std::invalid_argument("this estimator does not keep a range calibration (the full-covariance EKF, its "
+                                "FEJ, invariant and iterated variants do)");
+  const auto deviation = [](double std) { return std > 0.0 && std::isfinite(std); };
+  if (!std::isfinite(prior.offset_m) || !deviation(prior.offset_std_m) ||
+      !(prior.scale_error > -0.5 && prior.scale_error < 0.5) || !deviation(prior.scale_error_std))
+    throw std::invalid_argument("the range calibration's prior needs a finite offset, a scale error between -0.5 and "
+                                "0.5, and positive, finite standard deviations");
+  if (num_landmarks() > 0 || calibrates_ranges())
+    throw std::logic_error("the range calibration joins the state before the first landmark, once");
+  reserve(dim_ + 2);
+  // Static, as a landmark is: its covariance with the vehicle changes with the motion as theirs do.
+  x_[kOffsetRow] = prior.offset_m;
+  x_[kScaleRow] = prior.scale_error;
+  p_.block<2, 3>(kOffsetRow, 0).setZero();
+  p_.block<2, 2>(kOffsetRow, kOffsetRow) =
+      Eigen::Vector2d(prior.offset_std_m * prior.offset_std_m, prior.scale_error_std * prior.scale_error_std)
+          .asDiagonal();
+  dim_ += 2;
+  parameters_ = 2;
+}
+
+RangeCorrection EkfEstimator::range_correction() const {
+  return calibrates_ranges() ? RangeCorrection{x_[kOffsetRow], x_[kScaleRow]} : RangeCorrection{};
+}
+
+Matrix2 EkfEstimator::range_correction_covariance() const {
+  return calibrates_ranges() ? diagonal_block<2>(kOffsetRow) : Matrix2::Zero();
+}
+
 void EkfEstimator::innovation(std::size_t index, Measurement& zhat, MeasurementCovariance& s) const {
   const Pose2 xv = pose();
   const Vector2 m = landmark_position(index);
@@ -69,18 +110,35 @@ void EkfEstimator::innovation(std::size_t index, Measurement& zhat, MeasurementC
     PoseJacobian pose_rows;
     LandmarkJacobian landmark_rows;
     observation_->jacobians(xv, m, pose_rows, landmark_rows);
-    const PoseRows<D> hx = pose_rows;
-    const LandmarkRows<D> hm = landmark_rows;
+    PoseRows<D> hx = pose_rows;
+    LandmarkRows<D> hm = landmark_rows;
+    const double distance = calibrates_ranges() ? calibrate<D>(x_, zhat, hx, hm) : 0.0;
     // S = hx Pvv hx^T + hx Pvm hm^T + hm Pmv hx^T + hm Pmm hm^T + R: only the 5x5 block is needed.
     const Matrix23 pvm_t = landmark_pose_covariance(index);  // P(m, v)
     const MeasurementSquare<D> cross = hm * pvm_t * hx.transpose();
-    s = hx * pose_covariance() * hx.transpose() + cross + cross.transpose() +
-        hm * landmark_covariance(index) * hm.transpose() + MeasurementSquare<D>(observation_->noise());
+    MeasurementSquare<D> sd = hx * pose_covariance() * hx.transpose() + cross + cross.transpose() +
+                              hm * landmark_covariance(index) * hm.transpose() +
+                              MeasurementSquare<D>(observation_->noise());
+    if (calibrates_ranges()) {
+      // H gains the calibration's columns, (1, d) in the range row: S their share in that row and
+      // column, with their covariances with the vehicle and the landmark.
+      const int row = calibrated_row();
+      const auto l = static_cast<Eigen::Index>(landmark_offset(index));
+      const Vector2 hp(1.0, distance);
+      const MeasurementVector<D> with_calibration =
+          hx * calibration_pose_covariance().transpose() * hp + hm * p_.block<2, 2>(l, kOffsetRow) * hp;
+      sd.col(row) += with_calibration;
+      sd.row(row) += with_calibration.transpose();
+      sd(row, row) += hp.dot(diagonal_block<2>(kOffsetRow) * hp);
+    }
+    s = sd;
   });
 }
 
 std::size_t EkfEstimator::add_landmark(const Measurement& z) {
-  const std::optional<InitialLandmark> landmark = inverted_landmark(*observation_, pose(), z);
+  Measurement distance = z;
+  if (calibrates_ranges()) distance[calibrated_row()] = range_correction().distance(z[calibrated_row()]);
+  const std::optional<InitialLandmark> landmark = inverted_landmark(*observation_, pose(), distance);
   if (!landmark)
     throw std::logic_error("a " + observation_->name() +
                            " measurement does not determine a landmark; start it through a landmark initialiser");

@@ -40,11 +40,18 @@ std::unique_ptr<EkfEstimator> make_estimator(std::shared_ptr<const MotionModel> 
                                          options.initial_covariance, linearisation, options.update_iterations);
 }
 
+std::unique_ptr<EkfEstimator> with_range_calibration(std::unique_ptr<EkfEstimator> estimator,
+                                                     const EkfSlamOptions& options) {
+  if (options.range_calibration) estimator->estimate_range_calibration(*options.range_calibration);
+  return estimator;
+}
+
 }  // namespace
 
 EkfSlam::EkfSlam(std::shared_ptr<const MotionModel> motion, std::shared_ptr<const ObservationModel> observation,
                  const EkfSlamOptions& options)
-    : EkfSlam(make_estimator(std::move(motion), std::move(observation), options), {}, options) {
+    : EkfSlam(with_range_calibration(make_estimator(std::move(motion), std::move(observation), options), options),
+              {}, options) {
   estimator_->use_threads(options.threads);
 }
 
@@ -67,6 +74,9 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
       joint_scan_update_(options.joint_scan_update),
       unscented_(options.variant == EkfVariant::kUnscented) {
   require_searchable(association_, estimator_->observation_model());
+  if (estimator_->calibrates_ranges() && association_.method != AssociationMethod::kKnown)
+    throw std::invalid_argument("a range calibration is estimated with association 'known': nn and jcbb predict "
+                                "measurements without it");
   const LandmarkInitialisation initialisation = options.initialisation.value_or(
       estimator_->observation_model().invertible() ? LandmarkInitialisation::kImmediate
                                                    : LandmarkInitialisation::kDelayed);
@@ -118,6 +128,14 @@ std::map<std::string, double> EkfSlam::statistics() const {
   estimator_->add_statistics(s);
   if (association_.method == AssociationMethod::kKnown && gate_known_) gate_tally_.add_statistics(s);
   if (recover_known_) s["known_id_recoveries"] = static_cast<double>(known_recoveries_);
+  if (estimator_->calibrates_ranges()) {
+    const RangeCorrection c = estimator_->range_correction();
+    const Matrix2 covariance = estimator_->range_correction_covariance();
+    s["range_offset_m"] = c.offset_m;
+    s["range_offset_std_m"] = std::sqrt(covariance(0, 0));
+    s["range_scale_error"] = c.scale_error;
+    s["range_scale_error_std"] = std::sqrt(covariance(1, 1));
+  }
   if (initialiser_) {
     s["observations_pending"] = static_cast<double>(observations_waiting_);
     s["landmarks_pending"] = static_cast<double>(initialiser_->waiting());
@@ -174,6 +192,8 @@ InitialLandmark EkfSlam::in_estimate_frame(const InitialLandmark& placed) const 
   landmark.mean = x.head<2>() + r * (placed.mean - dead_reckoned_pose_.head<2>());
   landmark.gx = attached_to_pose(x, landmark.mean);
   landmark.covariance = r * placed.covariance * r.transpose();
+  landmark.range_gain = r * placed.range_gain;
+  landmark.range_scale_gain = r * placed.range_scale_gain;
   return landmark;
 }
 
@@ -300,7 +320,8 @@ void EkfSlam::update_known(const ScanEvent& scan) {
       add_landmark(obs.z, obs.id);
       last_associations_[k] = {AssociationDecision::kNew, obs.id};
     } else if (const std::optional<InitialLandmark> placed =
-                   initialiser_->offer(obs.id, dead_reckoned_pose_, dead_reckoned_, obs.z, now_)) {
+                   initialiser_->offer(obs.id, dead_reckoned_pose_, dead_reckoned_, obs.z, now_,
+                                       estimator_->range_correction())) {
       estimator_->add_landmark(in_estimate_frame(*placed));
       register_landmark(obs.id, existence_rule_.given());
       last_associations_[k] = {AssociationDecision::kNew, obs.id};
@@ -327,7 +348,10 @@ void EkfSlam::recover_known(const ScanEvent& scan) {
   const Pose2 xv = estimator_->pose();
   for (const std::size_t k : rejected_) {
     const Observation& obs = scan.observations[k];
-    const InitialLandmark placed = *inverted_landmark(model, xv, obs.z);
+    Measurement distance = obs.z;
+    if (estimator_->calibrates_ranges())
+      distance[model.rows().range] = estimator_->range_correction().distance(obs.z[model.rows().range]);
+    const InitialLandmark placed = *inverted_landmark(model, xv, distance);
     ++discarded_;
     // The latest observation places the copy: the one nearest in time to the others'. Its error
     // from the pose is what the rigid motion is fitted to, so the fit's residuals carry only the

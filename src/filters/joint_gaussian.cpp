@@ -128,6 +128,7 @@ void JointGaussian::inflate_pose(const Matrix3& q) {
 
 template <int D>
 void JointGaussian::covariance_times_jacobian(std::size_t lm_offset, const PoseRows<D>& hx, const LandmarkRows<D>& hm,
+                                              int calibrated, double distance,
                                               Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, D>> out) const {
   const auto n = static_cast<Eigen::Index>(dim_);
   const auto l = static_cast<Eigen::Index>(lm_offset);
@@ -138,6 +139,14 @@ void JointGaussian::covariance_times_jacobian(std::size_t lm_offset, const PoseR
   out.topRows(l).noalias() += p_.block(l, 0, 2, l).transpose() * hm.transpose();
   out.template middleRows<2>(l).noalias() += diagonal_block<2>(lm_offset) * hm.transpose();
   out.bottomRows(n - l - 2).noalias() += p_.block(l + 2, l, n - l - 2, 2) * hm.transpose();
+  if (calibrated >= 0) {
+    // P(:, offset) + distance P(:, scale), each column read from the lower triangle.
+    const Vector2 hp(1.0, distance);
+    auto column = out.col(calibrated);
+    column.template head<3>() += p_.block<2, 3>(kOffsetRow, 0).transpose() * hp;
+    column.template segment<2>(kOffsetRow) += diagonal_block<2>(kOffsetRow) * hp;
+    column.tail(n - kScaleRow - 1) += p_.block(kScaleRow + 1, kOffsetRow, n - kScaleRow - 1, 2) * hp;
+  }
 }
 
 bool JointGaussian::update_landmark(std::size_t index, const Measurement& z) {
@@ -161,11 +170,15 @@ bool JointGaussian::update_one(std::size_t index, const Measurement& z) {
   PoseRows<D> hx;
   LandmarkRows<D> hm;
   observation_jacobians<D>(index, x_, linearisation_, hx, hm);
-  const MeasurementVector<D> nu = observation_->residual(z, observation_->predict(xv, m));
+  Measurement zhat = observation_->predict(xv, m);
+  const int calibrated = calibrated_row();
+  const double distance = calibrated >= 0 ? calibrate<D>(x_, zhat, hx, hm) : 0.0;
+  const MeasurementVector<D> nu = observation_->residual(z, zhat);
 
   auto pht = pht_.leftCols<D>().topRows(n);  // columns known at compile time: the DxD products stay fixed-size
-  covariance_times_jacobian<D>(l, hx, hm, pht);
+  covariance_times_jacobian<D>(l, hx, hm, calibrated, distance, pht);
   MeasurementSquare<D> s = hx * pht.template topRows<3>() + hm * pht.template middleRows<2>(li);
+  if (calibrated >= 0) s.row(calibrated) += pht.row(kOffsetRow) + distance * pht.row(kScaleRow);
   s += MeasurementSquare<D>(observation_->noise());
   s = (0.5 * (s + s.transpose())).eval();
   const Eigen::LLT<MeasurementSquare<D>> llt(s);
@@ -243,8 +256,9 @@ bool JointGaussian::update_batch(std::span<const LandmarkObservation> batch) {
   // iterates astray where a landmark's first estimate is poor: Victoria Park ATE 1.70 -> 4.12 m).
   // The invariant variant iterates on the group (see linearise_batch).
   const bool on_group = linearisation_ == Linearisation::kInvariant;
+  const bool calibrated = calibrates_ranges();
   if (on_group) {
-    iterate_correction_.head<3>().setZero();
+    iterate_correction_.head(static_cast<Eigen::Index>(map_offset())).setZero();
     for (const LandmarkObservation& o : batch)
       iterate_correction_.segment<2>(static_cast<Eigen::Index>(landmark_offset(o.index))).setZero();
   }
@@ -285,13 +299,20 @@ bool JointGaussian::update_batch(std::span<const LandmarkObservation> batch) {
       };
       move(0);
       moved_by(2, x_[2] + g.phi);
+      if (calibrated)
+        // Neither a turn nor a shift of the scene changes the calibration: corrected additively.
+        for (const Eigen::Index row : {kOffsetRow, kScaleRow}) {
+          iterate_correction_[row] = pht_.row(row).head(k).dot(step);
+          moved_by(row, x_[row] + iterate_correction_[row]);
+        }
       for (const LandmarkObservation& o : batch) {
         const auto l = static_cast<Eigen::Index>(landmark_offset(o.index));
         correction(l);
         move(l);
       }
     } else {
-      for (Eigen::Index row = 0; row < 3; ++row) moved_by(row, x_[row] + pht_.row(row).head(k).dot(step));
+      for (auto row = Eigen::Index{0}; row < static_cast<Eigen::Index>(map_offset()); ++row)
+        moved_by(row, x_[row] + pht_.row(row).head(k).dot(step));
       for (const LandmarkObservation& o : batch)
         for (Eigen::Index row = 0; row < 2; ++row) {
           const Eigen::Index r = static_cast<Eigen::Index>(landmark_offset(o.index)) + row;
@@ -321,11 +342,16 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
   // W = P H^T, D columns per observation, each from the two column blocks its rows of H touch.
   auto pht = pht_.topLeftCorner(n, k);
   auto nu = batch_nu_.head(k);
+  const int calibrated = calibrated_row();
+  batch_distances_.resize(batch.size());
   for (std::size_t i = 0; i < batch.size(); ++i) {
     const auto l = static_cast<Eigen::Index>(landmark_offset(batch[i].index));
     const auto r = D * static_cast<Eigen::Index>(i);
     const Vector2 m = at.segment<2>(l);
+    Measurement zhat = observation_->predict(xv, m);
     observation_jacobians<D>(batch[i].index, at, how, batch_hx[i], batch_hm[i]);
+    const double distance = calibrated >= 0 ? calibrate<D>(at, zhat, batch_hx[i], batch_hm[i]) : 0.0;
+    batch_distances_[i] = distance;
     // Zero at the estimate; at an iterate, h(x) ~ h(at) + H (x - at) carries it back to the estimate.
     MeasurementVector<D> to_estimate;
     if (on_group) {
@@ -338,12 +364,16 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
       batch_hx[i].col(2) += batch_hx[i].template leftCols<2>() * vehicle_turn +
                             batch_hm[i] * GroupExponential::perp(m - x_.segment<2>(l));
       to_estimate = -(batch_hx[i] * iterate_correction_.head<3>() + batch_hm[i] * landmark_correction);
+      if (calibrated >= 0)
+        to_estimate[calibrated] -= iterate_correction_[kOffsetRow] + distance * iterate_correction_[kScaleRow];
     } else {
       to_estimate = batch_hx[i] * vehicle_offset + batch_hm[i] * (x_.segment<2>(l) - m);
+      if (calibrated >= 0)
+        to_estimate[calibrated] += x_[kOffsetRow] - at[kOffsetRow] + distance * (x_[kScaleRow] - at[kScaleRow]);
     }
-    nu.template segment<D>(r) =
-        MeasurementVector<D>(observation_->residual(batch[i].z, observation_->predict(xv, m))) - to_estimate;
-    covariance_times_jacobian<D>(static_cast<std::size_t>(l), batch_hx[i], batch_hm[i], pht.template middleCols<D>(r));
+    nu.template segment<D>(r) = MeasurementVector<D>(observation_->residual(batch[i].z, zhat)) - to_estimate;
+    covariance_times_jacobian<D>(static_cast<std::size_t>(l), batch_hx[i], batch_hm[i], calibrated, distance,
+                                 pht.template middleCols<D>(r));
   }
   // S = H P H^T + R, block (i, j) = H_i (P H_j^T).
   auto s = batch_s_.topLeftCorner(k, k);
@@ -353,6 +383,8 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
     const auto r = D * static_cast<Eigen::Index>(i);
     s.template middleRows<D>(r).noalias() =
         batch_hx[i] * pht.template topRows<3>() + batch_hm[i] * pht.template middleRows<2>(l);
+    if (calibrated >= 0)
+      s.row(r + calibrated) += pht.row(kOffsetRow) + batch_distances_[i] * pht.row(kScaleRow);
     s.template block<D, D>(r, r) += noise;
   }
 }
@@ -415,7 +447,14 @@ void JointGaussian::correct(const Eigen::Ref<const Eigen::VectorXd>& delta) {
   }
   auto u = transport_u_.head(n);
   u[2] = 0.0;
-  for (Eigen::Index o = 0; o < n; o += (o == 0 ? 3 : 2)) {
+  if (calibrates_ranges())
+    // Unchanged by a turn or shift of the scene: corrected additively, not transported.
+    for (const Eigen::Index row : {kOffsetRow, kScaleRow}) {
+      x_[row] += delta[row];
+      u[row] = 0.0;
+    }
+  const auto map = static_cast<Eigen::Index>(map_offset());
+  for (Eigen::Index o = 0; o < n; o += (o == 0 ? map : 2)) {
     const Vector2 before = x_.segment<2>(o);
     const Vector2 after = g.move(before, delta.segment<2>(o));
     x_.segment<2>(o) = after;
@@ -467,7 +506,26 @@ std::size_t JointGaussian::add_landmark(const InitialLandmark& landmark) {
   reserve(dim_ + 2);
   apply_pending_motion();
   const Matrix23& gx = landmark.gx;
+  const std::size_t l = dim_;
   append_landmark(landmark.mean, gx, gx * diagonal_block<3>(0) * gx.transpose() + landmark.covariance);
+  if (calibrates_ranges()) {
+    // Placed from distances read through the calibration, d = (r - b) / (1 + s), the landmark moves
+    // with it: dm/d(b, s) = gp = -(range_gain, range_scale_gain) / (1 + s). So P(m, :) gains
+    // gp P(calibration, :), and its covariance gp's share of the calibration's covariance and of
+    // the calibration's covariance with the vehicle.
+    Eigen::Matrix2d gp;
+    gp << landmark.range_gain, landmark.range_scale_gain;
+    gp /= -(1.0 + x_[kScaleRow]);
+    const auto li = static_cast<Eigen::Index>(l);
+    const Matrix23 calibration_vehicle = p_.block<2, 3>(kOffsetRow, 0);
+    const Matrix2 calibration = diagonal_block<2>(kOffsetRow);
+    p_.block<2, 3>(li, 0) += gp * calibration_vehicle;
+    p_.block<2, 2>(li, kOffsetRow) += gp * calibration;
+    const Eigen::Index after = li - kScaleRow - 1;
+    p_.block(li, kScaleRow + 1, 2, after) += gp * p_.block(kScaleRow + 1, kOffsetRow, after, 2).transpose();
+    const Matrix2 through_vehicle = gx * calibration_vehicle.transpose() * gp.transpose();
+    p_.block<2, 2>(li, li) += through_vehicle + through_vehicle.transpose() + gp * calibration * gp.transpose();
+  }
   return num_landmarks() - 1;
 }
 
@@ -498,8 +556,8 @@ bool JointGaussian::fuse_landmarks(std::span<const LandmarkPair> pairs) {
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     const auto r = 2 * static_cast<Eigen::Index>(i);
     const std::size_t dup = landmark_offset(pairs[i].duplicate), orig = landmark_offset(pairs[i].original);
-    covariance_times_jacobian<2>(dup, no_vehicle, Matrix2::Identity(), pht.middleCols<2>(r));
-    covariance_times_jacobian<2>(orig, no_vehicle, Matrix2::Identity(), original_columns);
+    covariance_times_jacobian<2>(dup, no_vehicle, Matrix2::Identity(), -1, 0.0, pht.middleCols<2>(r));
+    covariance_times_jacobian<2>(orig, no_vehicle, Matrix2::Identity(), -1, 0.0, original_columns);
     pht.middleCols<2>(r) -= original_columns;
     batch_nu_.segment<2>(r) = x_.segment<2>(static_cast<Eigen::Index>(orig)) - x_.segment<2>(static_cast<Eigen::Index>(dup));
   }

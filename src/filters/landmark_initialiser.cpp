@@ -153,11 +153,15 @@ std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector
   out.position = start;
   PoseJacobian hx;
   LandmarkJacobian hm;
+  const int range_row = model_->rows().range;
+  Eigen::VectorXd common_range = Eigen::VectorXd::Zero(model_->dim());
+  if (range_row >= 0) common_range[range_row] = 1.0;
   constexpr int kMaxIterations = 30;
   bool converged = false;
   for (int iteration = 0;; ++iteration) {
     Matrix2 information = Matrix2::Zero();
     Vector2 gradient = Vector2::Zero();
+    Vector2 range_pull = Vector2::Zero(), range_scale_pull = Vector2::Zero();
     out.chi2 = 0.0;
     out.worst_chi2 = -1.0;
     for (std::size_t i = 0; i < views.size(); ++i) {
@@ -171,6 +175,11 @@ std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector
       const Eigen::VectorXd w_residual = llt.solve(residual);
       information += hm.transpose() * w_hm;
       gradient += hm.transpose() * w_residual;
+      // At the optimum sum Hm^T W (z - h(m)) = 0; changes dz of the ranges move m by
+      // information^-1 sum Hm^T W e_range dz: dz = 1 for an offset, dz = r for a scale.
+      const Vector2 pull = hm.transpose() * llt.solve(common_range);
+      range_pull += pull;
+      if (range_row >= 0) range_scale_pull += v.z[range_row] * pull;
       const double chi2 = residual.dot(w_residual);
       out.chi2 += chi2;
       if (chi2 > out.worst_chi2) {
@@ -181,6 +190,8 @@ std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector
     const Eigen::LLT<Matrix2> llt(information);
     if (llt.info() != Eigen::Success || !information.allFinite()) return std::nullopt;
     out.covariance = llt.solve(Matrix2::Identity());
+    out.range_gain = out.covariance * range_pull;
+    out.range_scale_gain = out.covariance * range_scale_pull;
     // The last pass evaluates the information and residuals at the converged position.
     if (converged || iteration == kMaxIterations) break;
     const Vector2 step = llt.solve(gradient);
@@ -192,13 +203,17 @@ std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector
 }
 
 std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
-                                                         const Measurement& z, double t) {
-  std::vector<View>& views = views_[id];
-  views.push_back({x, odometry_covariance, z, t});
-  std::erase_if(views, [&](const View& v) { return v.t < t - options_.window_s; });
-  if (views.size() > static_cast<std::size_t>(options_.max_views)) views.erase(views.begin());
-  if (views.size() < static_cast<std::size_t>(min_views_)) return std::nullopt;
+                                                         const Measurement& z, double t,
+                                                         const RangeCorrection& correction) {
+  std::vector<View>& raw = views_[id];
+  raw.push_back({x, odometry_covariance, z, t});
+  std::erase_if(raw, [&](const View& v) { return v.t < t - options_.window_s; });
+  if (raw.size() > static_cast<std::size_t>(options_.max_views)) raw.erase(raw.begin());
+  if (raw.size() < static_cast<std::size_t>(min_views_)) return std::nullopt;
 
+  std::vector<View> views = raw;
+  if (measures_range_ && (correction.offset_m != 0.0 || correction.scale_error != 0.0))
+    for (View& v : views) v.z[model_->rows().range] = correction.distance(v.z[model_->rows().range]);
   std::vector<Vector2> sensors;
   for (const View& v : views) sensors.push_back(model_->sensor_position(v.pose));
   std::vector<Fit> fits;
@@ -224,7 +239,7 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
         drop = i;
       }
     }
-    views.erase(views.begin() + static_cast<std::ptrdiff_t>(drop));
+    raw.erase(raw.begin() + static_cast<std::ptrdiff_t>(drop));
     return std::nullopt;
   }
   const Eigen::SelfAdjointEigenSolver<Matrix2> eigen(best.covariance);
@@ -251,6 +266,8 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   landmark.mean = best.position;
   landmark.gx = attached_to_pose(x, landmark.mean);
   landmark.covariance = 0.5 * (best.covariance + best.covariance.transpose());
+  landmark.range_gain = best.range_gain;
+  landmark.range_scale_gain = best.range_scale_gain;
   views_.erase(id);
   return landmark;
 }

@@ -50,7 +50,13 @@ std::optional<InitialLandmark> inverted_landmark(const ObservationModel& model, 
     // Fixed-size products, as the filters' kernels: the same bits whatever the caller.
     const Eigen::Matrix<double, 2, D> gz = g->gz;
     const Eigen::Matrix<double, D, D> r = model.noise();
-    return InitialLandmark{g->position, g->gx, gz * r * gz.transpose()};
+    const int range = model.rows().range;
+    InitialLandmark landmark{g->position, g->gx, gz * r * gz.transpose()};
+    if (range >= 0) {
+      landmark.range_gain = gz.col(range);
+      landmark.range_scale_gain = z[range] * landmark.range_gain;
+    }
+    return landmark;
   });
 }
 

@@ -53,6 +53,28 @@ void read_delayed_init(const nlohmann::json& json, const std::string& source, De
   option_detail::read_keys<Delayed>(json, source, "'delayed_init'", kDelayedInitKeys, options);
 }
 
+// The range calibration's prior, run.json's settings.range_calibration (null: not estimated).
+using Calibration = RangeCalibrationPrior;
+const OptionKey<Calibration> kRangeCalibrationKeys[] = {
+    {"offset_m", RealOption<Calibration>{[](Calibration& o) -> double& { return o.offset_m; }, option_ranges::kFinite}},
+    {"offset_std_m",
+     RealOption<Calibration>{[](Calibration& o) -> double& { return o.offset_std_m; }, option_ranges::kFinite}},
+    {"scale_error",
+     RealOption<Calibration>{[](Calibration& o) -> double& { return o.scale_error; }, option_ranges::kFinite}},
+    {"scale_error_std",
+     RealOption<Calibration>{[](Calibration& o) -> double& { return o.scale_error_std; }, option_ranges::kFinite}},
+};
+
+void read_range_calibration(const nlohmann::json& json, const std::string& source,
+                            std::optional<Calibration>& prior) {
+  if (json.is_null()) {
+    prior.reset();
+    return;
+  }
+  if (!prior) prior.emplace();
+  option_detail::read_keys<Calibration>(json, source, "'range_calibration'", kRangeCalibrationKeys, *prior);
+}
+
 template <typename Enum, std::size_t N>
 Enum parse_name(const std::pair<Enum, const char*> (&names)[N], const std::string& name, const char* what) {
   const auto match = std::find_if(std::begin(names), std::end(names), [&](const auto& n) { return name == n.second; });
@@ -108,6 +130,23 @@ void validate(const FilterConfig& config) {
     throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full, fej or invariant");
   validate(config.association);
   validate(config.delayed_init);
+  if (const std::optional<Calibration>& c = config.range_calibration) {
+    if (!(c->offset_std_m > 0.0 && c->offset_std_m <= 1e4))
+      throw std::invalid_argument(
+          fmt::format("range_calibration.offset_std_m must be > 0 and <= 10000, found {}", c->offset_std_m));
+    if (!(c->scale_error > -0.5 && c->scale_error < 0.5))
+      throw std::invalid_argument(
+          fmt::format("range_calibration.scale_error must be > -0.5 and < 0.5, found {}", c->scale_error));
+    if (!(c->scale_error_std > 0.0 && c->scale_error_std <= 1.0))
+      throw std::invalid_argument(
+          fmt::format("range_calibration.scale_error_std must be > 0 and <= 1, found {}", c->scale_error_std));
+    if (config.filter != FilterKind::kEkf || config.ekf_variant == EkfVariant::kCompressed)
+      throw std::invalid_argument(
+          "a range calibration is estimated by the filter 'ekf' with the variant full, fej or invariant");
+    if (config.association.method != AssociationMethod::kKnown)
+      throw std::invalid_argument("a range calibration is estimated with association 'known': nn and jcbb predict "
+                                  "measurements without it");
+  }
   const bool particle_filter = config.filter == FilterKind::kFastSlam1 || config.filter == FilterKind::kFastSlam2;
   if (particle_filter && config.landmark_init == LandmarkInit::kDelayed)
     throw std::invalid_argument(fmt::format("landmark initialisation 'delayed' is for the EKF and the UKF; {} starts "
@@ -134,6 +173,7 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       if (config.landmark_init == LandmarkInit::kImmediate) options.initialisation = LandmarkInitialisation::kImmediate;
       if (config.landmark_init == LandmarkInit::kDelayed) options.initialisation = LandmarkInitialisation::kDelayed;
       options.delayed_initialisation = config.delayed_init;
+      options.range_calibration = config.range_calibration;
       return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
     }
     case FilterKind::kFastSlam1:
@@ -164,6 +204,9 @@ nlohmann::json to_json(const FilterConfig& config) {
           {"ukf_noise", to_string(config.ukf_noise)},
           {"landmark_init", to_string(config.landmark_init)},
           {"delayed_init", options_to_json<Delayed>(config.delayed_init, kDelayedInitKeys)},
+          {"range_calibration", config.range_calibration
+                                    ? options_to_json<Calibration>(*config.range_calibration, kRangeCalibrationKeys)
+                                    : nlohmann::json(nullptr)},
           {"particles", config.particles},
           {"pose_sample_fraction", config.pose_sample_fraction},
           {"resample", to_string(config.resample)},
@@ -217,6 +260,8 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
         config.landmark_init = parse_landmark_init(name());
       else if (key == "delayed_init")
         read_delayed_init(value, source, config.delayed_init);
+      else if (key == "range_calibration")
+        read_range_calibration(value, source, config.range_calibration);
       else if (key == "particles")
         integer(config.particles);
       else if (key == "pose_sample_fraction") {
@@ -230,10 +275,10 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
       else if (key == "threads")
         integer(config.threads);
       else {
-        const std::vector<std::string> keys = {"filter",        "seed",         "association", "ekf_update",
-                                               "ekf_variant",   "ukf_noise",    "landmark_init", "delayed_init",
-                                               "particles",     "pose_sample_fraction", "resample", "resample_when",
-                                               "threads"};
+        const std::vector<std::string> keys = {"filter",        "seed",          "association",  "ekf_update",
+                                               "ekf_variant",   "ukf_noise",     "landmark_init", "delayed_init",
+                                               "range_calibration", "particles", "pose_sample_fraction",
+                                               "resample",      "resample_when", "threads"};
         throw InputError(source, 0,
                          fmt::format("unknown key '{}' in the filter settings{}; expected one of: {}", key,
                                      did_you_mean(key, keys), fmt::join(keys, ", ")));

@@ -27,6 +27,9 @@ namespace {
 
 using namespace option_ranges;
 using Real = RealOption<SimulatorConfig>;
+// Written only when not 0 (see to_json's comment).
+constexpr const char* kRangeOffsetKey = "range_offset_m";
+constexpr const char* kRangeScaleErrorKey = "range_scale_error";
 
 // Beyond 90 degrees the wheels would point backwards.
 constexpr RealRange kSteeringLock{[](double v) { return v > 0.0 && v < kPi / 2.0; }, "> 0 and < 90"};
@@ -42,6 +45,10 @@ constexpr RealRange kPeriod{[](double v) { return v >= 1e-4 && v <= 3600.0; }, "
 constexpr RealRange kSensorNoise{[](double v) { return v > 0.0 && std::isfinite(v); }, "> 0"};
 // Each false detection is drawn, stored and shuffled in; a thousand per scan is already a sensor
 // that sees nothing but clutter.
+// A radio's offset is metres and its scale error percent; a hundred metres or a half would be a
+// sensor measuring something else.
+constexpr RealRange kRangeOffset{[](double v) { return std::abs(v) <= 100.0; }, "from -100 to 100 (m)"};
+constexpr RealRange kRangeScaleError{[](double v) { return std::abs(v) < 0.5; }, "> -0.5 and < 0.5"};
 constexpr RealRange kClutter{[](double v) { return v >= 0.0 && v <= 1000.0; }, ">= 0 and <= 1000"};
 
 const OptionKey<SimulatorConfig> kConfigKeys[] = {
@@ -58,6 +65,8 @@ const OptionKey<SimulatorConfig> kConfigKeys[] = {
     {"max_range_m", Real{[](SimulatorConfig& c) -> double& { return c.max_range; }, kRange}},
     {"fov_deg", Real{[](SimulatorConfig& c) -> double& { return c.fov; }, kFieldOfView, Unit::kDegrees}},
     {"sigma_range_m", Real{[](SimulatorConfig& c) -> double& { return c.sigma_range; }, kSensorNoise}},
+    {kRangeOffsetKey, Real{[](SimulatorConfig& c) -> double& { return c.range_offset; }, kRangeOffset}},
+    {kRangeScaleErrorKey, Real{[](SimulatorConfig& c) -> double& { return c.range_scale_error; }, kRangeScaleError}},
     {"sigma_bearing_deg",
      Real{[](SimulatorConfig& c) -> double& { return c.sigma_bearing; }, kSensorNoise, Unit::kDegrees}},
     {"clutter_rate_per_scan", Real{[](SimulatorConfig& c) -> double& { return c.clutter_rate; }, kClutter}},
@@ -262,6 +271,8 @@ void set_platform(Dataset& dataset, const SimulatorConfig& config) {
 nlohmann::json to_json(const SimulatorConfig& config) {
   nlohmann::json json = options_to_json<SimulatorConfig>(config, kConfigKeys);
   if (config.sensor != SensorKind::kRangeBearing) json[std::string(kSensorKey)] = to_string(config.sensor);
+  if (config.range_offset == 0.0) json.erase(kRangeOffsetKey);
+  if (config.range_scale_error == 0.0) json.erase(kRangeScaleErrorKey);
   return json;
 }
 
@@ -403,7 +414,8 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
       // draws only its noise.
       const double bearing_noise = measures_bearing ? sensor_noise() : 0.0;
       const double range_noise = measures_range ? sensor_noise() : 0.0;
-      const double range = z[0] + config.sigma_range * range_noise;
+      const double range =
+          RangeCorrection{config.range_offset, config.range_scale_error}.range(z[0]) + config.sigma_range * range_noise;
       const double bearing = wrap_angle(z[1] + config.sigma_bearing * bearing_noise);
       if (uniform01(detection_rng) >= config.detection_probability) continue;
       // Only a landmark almost on top of the sensor can come out at a negative range: no real

@@ -5,7 +5,9 @@
 // local area and applies them to the rest of the map when the vehicle leaves it. EkfSlam runs its
 // association and map management over either; tests and benchmarks drive them directly.
 //
-// Storage, shared by both: the state is [x y theta | m1x m1y | m2x m2y | ...]; the covariance is
+// Storage, shared by both: the state is [x y theta | b s | m1x m1y | m2x m2y | ...], the range
+// sensor's offset b and scale error s present only where they are estimated
+// (estimate_range_calibration); the covariance is
 // kept in one dense column-major buffer of which only the LOWER triangle is meaningful. Symmetry
 // therefore holds by construction (no symmetrisation pass), and every update touches half the
 // matrix. Buffers grow by a quarter of their size, so adding a landmark does not reallocate each
@@ -28,6 +30,14 @@
 
 namespace slamkit {
 
+/// Independent Gaussian priors of a range sensor's offset [m] and scale error (RangeCorrection).
+struct RangeCalibrationPrior {
+  double offset_m = 0.0;
+  double offset_std_m = 1.0;
+  double scale_error = 0.0;
+  double scale_error_std = 0.1;
+};
+
 /// One observation of the landmark at a map index.
 struct LandmarkObservation {
   std::size_t index = 0;
@@ -38,7 +48,7 @@ class EkfEstimator : public GaussianMapView {
  public:
   Pose2 pose() const final { return x_.head<3>(); }  // the vehicle's estimate is always current
   std::size_t state_dim() const { return dim_; }
-  std::size_t num_landmarks() const { return (dim_ - 3) / 2; }
+  std::size_t num_landmarks() const { return (dim_ - map_offset()) / 2; }
   virtual Matrix2 landmark_covariance(std::size_t index) const = 0;
   /// landmark_position and landmark_covariance of every landmark, in map order, into `means` and
   /// `covariances` (resized): the whole map at once, as the runner reads it every second.
@@ -49,6 +59,20 @@ class EkfEstimator : public GaussianMapView {
   virtual Eigen::MatrixXd covariance() const = 0;
   /// Predicted measurement and innovation covariance S of landmark `index` (for gating).
   void innovation(std::size_t index, Measurement& zhat, MeasurementCovariance& s) const;
+  /// The observation model's prediction, its range read through the estimated calibration.
+  Measurement predicted_measurement(const Pose2& x, const Vector2& m) const;
+
+  /// Estimates the range sensor's offset b and scale error s (it reads (1 + s) d + b for a distance
+  /// d, RangeCorrection) as state variables, from independent Gaussian priors: radio beacons read
+  /// long by metres. Only before the first landmark. Throws std::invalid_argument for a model
+  /// without a range, a prior that is not finite with positive deviations, or an estimator that does
+  /// not keep them (supports_range_calibration).
+  void estimate_range_calibration(const RangeCalibrationPrior& prior);
+  bool calibrates_ranges() const { return parameters_ > 0; }
+  /// The calibration's estimate (zeros where it is not estimated), and its 2x2 covariance over
+  /// (offset, scale error).
+  RangeCorrection range_correction() const;
+  Matrix2 range_correction_covariance() const;
 
   /// Eqs. (8)-(9): the time update with control u over dt.
   virtual void predict(const Control& u, double dt) = 0;
@@ -93,7 +117,29 @@ class EkfEstimator : public GaussianMapView {
   EkfEstimator(std::shared_ptr<const MotionModel> motion, std::shared_ptr<const ObservationModel> observation,
                const Pose2& initial_pose, const Matrix3& initial_covariance);
 
-  static std::size_t landmark_offset(std::size_t index) { return 3 + 2 * index; }
+  /// Where the range calibration is kept, between the vehicle and the map (static, as a landmark is).
+  static constexpr Eigen::Index kOffsetRow = 3, kScaleRow = 4;
+  /// Whether this estimator's updates carry a range calibration (JointGaussian's do).
+  virtual bool supports_range_calibration() const { return false; }
+  /// The first landmark's row: after the vehicle and the calibration, if estimated.
+  std::size_t map_offset() const { return 3 + parameters_; }
+  std::size_t landmark_offset(std::size_t index) const { return map_offset() + 2 * index; }
+  /// The measurement row the calibration applies to, or -1 where it is not estimated.
+  int calibrated_row() const { return calibrates_ranges() ? observation_->rows().range : -1; }
+  /// The calibration at the state `at` applied to a prediction and its Jacobians at a distance:
+  /// range (1 + s) d + b, its pose and landmark rows times (1 + s). Returns d, the range's
+  /// derivative in s (its derivative in b is 1).
+  template <int D>
+  double calibrate(const Eigen::VectorXd& at, Measurement& zhat, PoseRows<D>& hx, LandmarkRows<D>& hm) const {
+    const int row = calibrated_row();
+    const double distance = zhat[row], scale = 1.0 + at[kScaleRow];
+    zhat[row] = scale * distance + at[kOffsetRow];
+    hx.row(row) *= scale;
+    hm.row(row) *= scale;
+    return distance;
+  }
+  /// P(calibration, vehicle) (as current as pose_covariance).
+  virtual Matrix23 calibration_pose_covariance() const { return p_.block<2, 3>(kOffsetRow, 0); }
   /// Makes room for a state of dimension `dim`, growing the buffers by a quarter at least.
   void reserve(std::size_t dim);
   /// Symmetric 2x2 or 3x3 diagonal block from the lower triangle.
@@ -119,6 +165,7 @@ class EkfEstimator : public GaussianMapView {
   std::shared_ptr<const MotionModel> motion_;
   std::shared_ptr<const ObservationModel> observation_;
   std::size_t dim_ = 3;
+  std::size_t parameters_ = 0;  // state rows between the vehicle and the map (the range calibration: 0 or 2)
   Eigen::VectorXd x_;
   Eigen::MatrixXd p_;  // capacity x capacity; lower triangle of the leading dim_ x dim_ block is P
   Eigen::Matrix<double, Eigen::Dynamic, 3> scratch3_;  // capacity x 3, reused by the time updates

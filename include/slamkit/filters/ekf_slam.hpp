@@ -73,6 +73,9 @@ struct EkfSlamOptions {
   /// identities.
   std::optional<LandmarkInitialisation> initialisation;
   DelayedInitialisationOptions delayed_initialisation;
+  /// Full, first-estimates and invariant variants, known association: estimate the range sensor's
+  /// offset and scale error in the state from this prior (EkfEstimator::estimate_range_calibration).
+  std::optional<RangeCalibrationPrior> range_calibration;
 };
 
 class EkfSlam final : public SlamFilter {

@@ -129,6 +129,11 @@ class JointGaussian : public EkfEstimator {
   void append_landmark(const Vector2& mean, const Matrix23& gx, const Matrix2& covariance);
 
   /// Product of the motion Jacobians not yet applied to the stored P_mv: P_mv = stored * pending^T.
+  bool supports_range_calibration() const override { return true; }
+  Matrix23 calibration_pose_covariance() const override {
+    return p_.block<2, 3>(kOffsetRow, 0) * pending_motion_.transpose();
+  }
+
   Matrix3 pending_motion_ = Matrix3::Identity();
   Eigen::VectorXd batch_nu_;
   Eigen::MatrixXd batch_s_;
@@ -141,9 +146,10 @@ class JointGaussian : public EkfEstimator {
   template <int D>
   bool update_batch(std::span<const LandmarkObservation> batch);
   /// Fills `out` (dim_ x D) with P H^T for an observation Jacobian with blocks hx (vehicle) and hm
-  /// (landmark).
+  /// (landmark), and in row `calibrated` (none if negative) (1, distance) for the range calibration.
   template <int D>
   void covariance_times_jacobian(std::size_t lm_offset, const PoseRows<D>& hx, const LandmarkRows<D>& hm,
+                                 int calibrated, double distance,
                                  Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, D>> out) const;
   /// The observation Jacobians of landmark `index` where linearisation `how` evaluates them, the
   /// state-dependent ones at the point `at` (the estimate, or an iterate of the iterated update).
@@ -184,6 +190,7 @@ class JointGaussian : public EkfEstimator {
     std::vector<LandmarkRows<D>> hm;
   };
   PerMeasurementDim<BatchJacobians> batch_jacobians_;
+  std::vector<double> batch_distances_;  // each observation's distance, where ranges are calibrated
   Eigen::VectorXd transport_u_, transport_b_;  // the invariant variant's rank-2 update
 };
 

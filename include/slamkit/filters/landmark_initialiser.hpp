@@ -20,6 +20,8 @@
 //    explains the observations as well: ranges taken along a straight line fit the landmark and its
 //    mirror image across that line equally, and the start waits until the vehicle turns. A view
 //    whose residual fails the gate is dropped as an outlier.
+// Views keep the raw measurements; the range calibration the filter estimates corrects them when
+// they are fitted, and the fit says how the landmark moves with it (InitialLandmark::range_gain).
 // The landmark joins the state rigidly attached to the current pose (as an inverted measurement
 // does: P(m, :) = [I, J (m - p)] P(v, :)) with the triangulation's covariance on top, the uncertainty
 // relative to that pose; the observations that placed it are not applied again.
@@ -62,9 +64,10 @@ class LandmarkInitialiser {
   /// Observation z of landmark `id` (not yet in the map) from a vehicle estimated at x, at time t:
   /// the landmark to start now, or nothing while it waits. `odometry_covariance` is dead
   /// reckoning's covariance at t, which only grows: its growth between two observations stands for
-  /// the uncertainty of one pose relative to the other.
+  /// the uncertainty of one pose relative to the other. Ranges are read through `correction`, the
+  /// filter's current estimate of the sensor's calibration.
   virtual std::optional<InitialLandmark> offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
-                                               const Measurement& z, double t) = 0;
+                                               const Measurement& z, double t, const RangeCorrection& correction) = 0;
   /// How many landmarks have observations waiting.
   virtual std::size_t waiting() const = 0;
 };
@@ -76,7 +79,7 @@ class DelayedInitialiser final : public LandmarkInitialiser {
   /// bearing-only nor range-bearing (the closed-form start needs one of those).
   DelayedInitialiser(std::shared_ptr<const ObservationModel> model, const DelayedInitialisationOptions& options);
   std::optional<InitialLandmark> offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
-                                       const Measurement& z, double t) override;
+                                       const Measurement& z, double t, const RangeCorrection& correction) override;
   std::size_t waiting() const override { return views_.size(); }
 
  private:
@@ -92,6 +95,8 @@ class DelayedInitialiser final : public LandmarkInitialiser {
     double chi2 = 0.0;
     std::size_t worst = 0;  // the view with the largest residual
     double worst_chi2 = 0.0;
+    Vector2 range_gain = Vector2::Zero();        // InitialLandmark's
+    Vector2 range_scale_gain = Vector2::Zero();  // InitialLandmark's
   };
   /// The best position for `views` weighed against the uncertainty gained since each, by
   /// Gauss-Newton from `start`; nothing if the information stays singular.

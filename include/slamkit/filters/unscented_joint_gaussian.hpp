@@ -55,6 +55,9 @@ class UnscentedJointGaussian final : public JointGaussian {
   std::size_t add_landmark(const Measurement& z) override;
 
  private:
+  // Its sigma points carry the vehicle and the landmarks only.
+  bool supports_range_calibration() const override { return false; }
+
   /// Buffers of one kind of unscented transform (time update, its control noise apart when additive,
   /// scan update, new landmark), kept per kind so that a step reallocates nothing unless its sizes
   /// change (a scan of another size).

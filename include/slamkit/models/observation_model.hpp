@@ -40,6 +40,22 @@ struct InitialLandmark {
   Vector2 mean = Vector2::Zero();
   Matrix23 gx = Matrix23::Zero();
   Matrix2 covariance = Matrix2::Zero();
+  /// How the mean moves with the ranges it was placed from (zero where no range placed it): by
+  /// range_gain per metre added to every one, and by range_scale_gain per unit of a scale error s
+  /// that makes each range r read (1 + s) r. A filter that calibrates its ranges correlates the
+  /// landmark with the calibration through them.
+  Vector2 range_gain = Vector2::Zero();
+  Vector2 range_scale_gain = Vector2::Zero();
+};
+
+/// A range sensor's systematic error: it reads (1 + scale_error) d + offset_m for a distance d
+/// (radio ranging reads long, by an offset of the electronics' delay and a scale of the speed of
+/// the signal assumed). The zero correction is exact.
+struct RangeCorrection {
+  double offset_m = 0.0;
+  double scale_error = 0.0;
+  double distance(double range) const { return (range - offset_m) / (1.0 + scale_error); }
+  double range(double distance) const { return (1.0 + scale_error) * distance + offset_m; }
 };
 
 /// What a measurement says about where its landmark is, for pictures: on the segment from `sensor`

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <nlohmann/json_fwd.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,9 @@ struct FilterConfig {
   // settings.
   LandmarkInit landmark_init = LandmarkInit::kAuto;
   DelayedInitialisationOptions delayed_init;
+  // EKF (full, fej, invariant) with known association: the range sensor's offset and scale error
+  // estimated in the state from this prior; unset: not estimated.
+  std::optional<RangeCalibrationPrior> range_calibration;
   // Particle filters only.
   int particles = 100;
   double pose_sample_fraction = FastSlamConfig{}.pose_sample_fraction;  // FastSLAM 2.0 only

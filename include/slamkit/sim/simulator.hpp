@@ -44,6 +44,10 @@ struct SimulatorConfig {
   double max_range = 30.0;              // m
   double fov = 2.0 * kPi;               // rad, full opening angle centred on the heading
   double sigma_range = 0.1;             // m
+  // A range reads (1 + range_scale_error) d + range_offset for a distance d (RangeCorrection):
+  // radio ranging reads long.
+  double range_offset = 0.0;  // m
+  double range_scale_error = 0.0;
   double sigma_bearing = deg2rad(1.0);  // rad
   // Detection. The defaults make the reference's ideal detector.
   double clutter_rate = 0.0;           // false detections per scan, mean of a Poisson count
@@ -57,7 +61,8 @@ struct SimulatorConfig {
 
 /// The config as JSON: angles in degrees, every key named with its unit (e.g. "sigma_steer_deg");
 /// clutter_rate is "clutter_rate_per_scan". "sensor" is written only for a sensor other than range
-/// and bearing, so that configs written before the choice existed read and write as they did.
+/// and bearing, and "range_offset_m" and "range_scale_error" only when not 0, so that configs written
+/// before they existed read and write as they did.
 nlohmann::json to_json(const SimulatorConfig& config);
 
 /// Reads what to_json writes. Missing keys keep their defaults; an unknown key, a value of the wrong
