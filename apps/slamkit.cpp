@@ -481,16 +481,17 @@ int run_command(int argc, char** argv) {
                     defaults.ukf_noise);
   add_named_setting(run_cmd, "--landmark-init", flag_settings, "/landmark_init", parse_landmark_init,
                     "EKF and UKF: how a landmark starts: immediate (from one measurement's inverse), delayed "
-                    "(triangulated from several observations at well-spread poses; known ids only) or auto "
-                    "(immediate where one measurement places a landmark, delayed for range-only and bearing-only "
-                    "sensors)",
+                    "(triangulated from several observations at well-spread poses; known ids only), ring (range "
+                    "only: a ring of Gaussian hypotheses that collapses as the ranges agree; known ids only) or "
+                    "auto (immediate where one measurement places a landmark, delayed for range-only and "
+                    "bearing-only sensors)",
                     defaults.landmark_init);
   add_setting<double>(run_cmd, "--init-max-std", flag_settings, "/delayed_init/max_std_m",
-                      "Delayed start: the largest standard deviation a triangulated landmark may start with [m]",
+                      "Delayed and ring starts: the largest standard deviation a landmark may start with [m]",
                       fmt::format("{}", defaults.delayed_init.max_std_m))
       ->check(finite_number());
   add_setting<double>(run_cmd, "--init-window", flag_settings, "/delayed_init/window_s",
-                      "Delayed start: how long a landmark's observations are kept while it waits [s]",
+                      "Delayed and ring starts: how long a landmark's observations are kept while it waits [s]",
                       fmt::format("{}", defaults.delayed_init.window_s))
       ->check(finite_number());
   // The range calibration: on with its default prior; a deviation given turns it on too.

@@ -80,13 +80,20 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
   const LandmarkInitialisation initialisation = options.initialisation.value_or(
       estimator_->observation_model().invertible() ? LandmarkInitialisation::kImmediate
                                                    : LandmarkInitialisation::kDelayed);
+  if (initialisation != LandmarkInitialisation::kImmediate && association_.method != AssociationMethod::kKnown)
+    throw std::invalid_argument(
+        "delayed and ring landmark starts gather the observations of one landmark by its identity; they need "
+        "association 'known'");
   if (initialisation == LandmarkInitialisation::kDelayed) {
-    if (association_.method != AssociationMethod::kKnown)
-      throw std::invalid_argument(
-          "delayed landmark initialisation gathers the observations of one landmark by its identity; it needs "
-          "association 'known'");
     initialiser_ =
         std::make_unique<DelayedInitialiser>(estimator_->shared_observation_model(), options.delayed_initialisation);
+  } else if (initialisation == LandmarkInitialisation::kRing) {
+    // Its hypotheses are updated through the calibration of their time, and not correlated with it.
+    if (estimator_->calibrates_ranges())
+      throw std::invalid_argument("the ring landmark start does not carry a range calibration's correlations; with "
+                                  "--range-calibration use the delayed start");
+    initialiser_ = std::make_unique<RingInitialiser>(estimator_->shared_observation_model(),
+                                                     options.delayed_initialisation, options.ring_initialisation);
   } else if (!estimator_->observation_model().invertible()) {
     throw std::invalid_argument("immediate landmark initialisation needs a measurement that places a landmark, which "
                                 "a " + estimator_->observation_model().name() + " measurement does not; use delayed");

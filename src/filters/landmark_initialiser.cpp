@@ -8,6 +8,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "slamkit/core/angles.hpp"
 #include "slamkit/core/chi_square.hpp"
 
 namespace slamkit {
@@ -270,6 +271,134 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   landmark.range_scale_gain = best.range_scale_gain;
   views_.erase(id);
   return landmark;
+}
+
+RingInitialiser::RingInitialiser(std::shared_ptr<const ObservationModel> model,
+                                 const DelayedInitialisationOptions& options, const RingInitialisationOptions& ring)
+    : model_(std::move(model)), options_((validate(options), options)), ring_(ring) {
+  if (!model_) throw std::invalid_argument("the ring landmark start needs an observation model");
+  if (model_->rows().range < 0 || model_->rows().bearing >= 0)
+    throw std::invalid_argument("the ring landmark start is for a range alone; a " + model_->name() +
+                                " measurement is not one");
+  if (ring_.max_hypotheses < 4 || ring_.max_hypotheses > 10000)
+    throw std::invalid_argument(
+        fmt::format("the ring start's max_hypotheses must be from 4 to 10000, found {}", ring_.max_hypotheses));
+}
+
+RingInitialiser::Ring RingInitialiser::draw(const Pose2& x, const Matrix3& odometry_covariance, double distance,
+                                            double t) const {
+  const int row = model_->rows().range;
+  const double sigma = std::sqrt(model_->noise()(row, row));
+  const Vector2 sensor = model_->sensor_position(x);
+  // One range deviation apart along the ring, each hypothesis half a spacing wide along it: the
+  // neighbours overlap at one deviation, so the ring leaves no gap where the landmark could hide.
+  const double circumference = 2.0 * kPi * std::max(distance, sigma);
+  const int n = std::clamp(static_cast<int>(std::ceil(circumference / sigma)), 4, ring_.max_hypotheses);
+  const double along = 0.5 * circumference / n;
+  Ring ring;
+  ring.t0 = t;
+  ring.odometry_covariance = odometry_covariance;
+  ring.hypotheses.reserve(static_cast<std::size_t>(n));
+  for (int k = 0; k < n; ++k) {
+    const double angle = 2.0 * kPi * k / n;
+    const Vector2 radial(std::cos(angle), std::sin(angle)), tangent(-radial[1], radial[0]);
+    ring.hypotheses.push_back({sensor + distance * radial,
+                               sigma * sigma * radial * radial.transpose() + along * along * tangent * tangent.transpose(),
+                               -std::log(static_cast<double>(n)), 0.0});
+  }
+  return ring;
+}
+
+std::optional<InitialLandmark> RingInitialiser::offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
+                                                      const Measurement& z, double t,
+                                                      const RangeCorrection& correction) {
+  const int row = model_->rows().range;
+  Measurement distance = z;
+  distance[row] = correction.distance(z[row]);
+  const auto found = rings_.find(id);
+  if (found == rings_.end() || t - found->second.t0 > options_.window_s) {
+    rings_[id] = draw(x, odometry_covariance, distance[row], t);
+    return std::nullopt;
+  }
+  Ring& ring = found->second;
+  // The hypotheses are kept relative to the current pose, as a landmark joins the state: relative to
+  // it, each drifts by what dead reckoning has gained since the last range.
+  const Matrix3 gained = clipped_psd(odometry_covariance - ring.odometry_covariance);
+  ring.odometry_covariance = odometry_covariance;
+  const MeasurementCovariance r = model_->noise();
+  static const double gate = eval::chi_square_quantile(options_.gate_probability, 1.0);
+  std::vector<Hypothesis> updated = ring.hypotheses;
+  bool explained = false;
+  PoseJacobian hx;
+  LandmarkJacobian hm;
+  for (Hypothesis& h : updated) {
+    const Matrix23 attached = attached_to_pose(x, h.mean);
+    h.covariance += attached * gained * attached.transpose();
+    model_->jacobians(x, h.mean, hx, hm);
+    const Eigen::VectorXd residual = model_->residual(distance, model_->predict(x, h.mean));
+    const Eigen::MatrixXd s = hm * h.covariance * hm.transpose() + r;
+    const Eigen::LLT<Eigen::MatrixXd> llt(s);
+    if (llt.info() != Eigen::Success) return std::nullopt;
+    const Eigen::MatrixXd gain = h.covariance * hm.transpose() * llt.solve(Eigen::MatrixXd::Identity(s.rows(), s.rows()));
+    const double chi2 = residual.dot(llt.solve(residual));
+    explained = explained || chi2 <= gate;
+    h.chi2 += chi2;
+    h.mean += gain * residual;
+    const Matrix2 p = h.covariance - gain * s * gain.transpose();
+    h.covariance = 0.5 * (p + p.transpose());
+    const double log_det = 2.0 * Eigen::MatrixXd(llt.matrixL()).diagonal().array().log().sum();
+    h.log_weight += -0.5 * (chi2 + log_det + static_cast<double>(s.rows()) * std::log(2.0 * kPi));
+  }
+  // A range no hypothesis explains is most likely an outlier: the ring waits for the next.
+  if (!explained) return std::nullopt;
+  ++ring.updates;
+  // Dropped: a hypothesis inconsistent with the ranges on its own, or one that explains them worse
+  // than the best does by more than two degrees of freedom (its position) allow.
+  const double consistent = eval::chi_square_quantile(options_.gate_probability, ring.updates);
+  static const double worse = eval::chi_square_quantile(options_.gate_probability, 2.0);
+  double least = INFINITY;
+  for (const Hypothesis& h : updated) least = std::min(least, h.chi2);
+  std::erase_if(updated, [&](const Hypothesis& h) { return h.chi2 > consistent || h.chi2 > least + worse; });
+  if (updated.empty()) {
+    rings_[id] = draw(x, odometry_covariance, distance[row], t);
+    return std::nullopt;
+  }
+  double best = -INFINITY;
+  for (const Hypothesis& h : updated) best = std::max(best, h.log_weight);
+  double total = 0.0;
+  for (const Hypothesis& h : updated) total += std::exp(h.log_weight - best);
+  for (Hypothesis& h : updated) h.log_weight -= best + std::log(total);
+  ring.hypotheses = std::move(updated);
+
+  // It starts when every live hypothesis, however unlikely, lies near the others: the spread of
+  // them all, equally weighted, within max_std_m. The likelihoods only weigh where it starts (the
+  // mixture's moment-matched Gaussian): hypotheses of different widths are weighed by their own
+  // innovation covariances, which says more about their widths than about which side of a road the
+  // landmark is on.
+  const auto moments = [&](const auto& weight) {
+    Vector2 mean = Vector2::Zero();
+    for (const Hypothesis& h : ring.hypotheses) mean += weight(h) * h.mean;
+    Matrix2 covariance = Matrix2::Zero();
+    for (const Hypothesis& h : ring.hypotheses)
+      covariance += weight(h) * (h.covariance + (h.mean - mean) * (h.mean - mean).transpose());
+    return std::pair{mean, covariance};
+  };
+  const double equal = 1.0 / static_cast<double>(ring.hypotheses.size());
+  const Matrix2 spread = moments([&](const Hypothesis&) { return equal; }).second;
+  const Eigen::SelfAdjointEigenSolver<Matrix2> eigen(spread);
+  if (!(eigen.eigenvalues()[1] <= options_.max_std_m * options_.max_std_m)) return std::nullopt;
+  const auto [mean, covariance] = moments([](const Hypothesis& h) { return std::exp(h.log_weight); });
+  InitialLandmark landmark;
+  landmark.mean = mean;
+  landmark.gx = attached_to_pose(x, mean);
+  landmark.covariance = 0.5 * (covariance + covariance.transpose());
+  rings_.erase(id);
+  return landmark;
+}
+
+std::vector<RingInitialiser::Hypothesis> RingInitialiser::hypotheses(int id) const {
+  const auto found = rings_.find(id);
+  return found == rings_.end() ? std::vector<Hypothesis>{} : found->second.hypotheses;
 }
 
 }  // namespace slamkit

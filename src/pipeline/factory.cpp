@@ -35,7 +35,10 @@ constexpr std::pair<EkfVariant, const char*> kEkfVariantNames[] = {{EkfVariant::
 constexpr std::pair<UkfNoise, const char*> kUkfNoiseNames[] = {{UkfNoise::kAugmented, "augmented"},
                                                                 {UkfNoise::kAdditive, "additive"}};
 constexpr std::pair<LandmarkInit, const char*> kLandmarkInitNames[] = {
-    {LandmarkInit::kAuto, "auto"}, {LandmarkInit::kImmediate, "immediate"}, {LandmarkInit::kDelayed, "delayed"}};
+    {LandmarkInit::kAuto, "auto"},
+    {LandmarkInit::kImmediate, "immediate"},
+    {LandmarkInit::kDelayed, "delayed"},
+    {LandmarkInit::kRing, "ring"}};
 
 // The delayed start's settings, run.json's settings.delayed_init. Their ranges are
 // validate(DelayedInitialisationOptions)'s, checked with the rest of the filter's settings.
@@ -148,9 +151,10 @@ void validate(const FilterConfig& config) {
                                   "measurements without it");
   }
   const bool particle_filter = config.filter == FilterKind::kFastSlam1 || config.filter == FilterKind::kFastSlam2;
-  if (particle_filter && config.landmark_init == LandmarkInit::kDelayed)
-    throw std::invalid_argument(fmt::format("landmark initialisation 'delayed' is for the EKF and the UKF; {} starts "
-                                            "a landmark from one range-bearing measurement", to_string(config.filter)));
+  if (particle_filter && (config.landmark_init == LandmarkInit::kDelayed || config.landmark_init == LandmarkInit::kRing))
+    throw std::invalid_argument(fmt::format("landmark initialisation '{}' is for the EKF and the UKF; {} starts "
+                                            "a landmark from one range-bearing measurement",
+                                            to_string(config.landmark_init), to_string(config.filter)));
   if (particle_filter && config.association.method == AssociationMethod::kJcbb)
     throw std::invalid_argument(fmt::format("association jcbb is for the EKF and the UKF; {} associates per particle with known or nn",
                                             to_string(config.filter)));
@@ -172,6 +176,7 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       options.ukf_noise = config.ukf_noise;
       if (config.landmark_init == LandmarkInit::kImmediate) options.initialisation = LandmarkInitialisation::kImmediate;
       if (config.landmark_init == LandmarkInit::kDelayed) options.initialisation = LandmarkInitialisation::kDelayed;
+      if (config.landmark_init == LandmarkInit::kRing) options.initialisation = LandmarkInitialisation::kRing;
       options.delayed_initialisation = config.delayed_init;
       options.range_calibration = config.range_calibration;
       return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);

@@ -72,7 +72,8 @@ struct EkfSlamOptions {
   /// observation model inverts a measurement, delayed where it does not. Delayed needs known
   /// identities.
   std::optional<LandmarkInitialisation> initialisation;
-  DelayedInitialisationOptions delayed_initialisation;
+  DelayedInitialisationOptions delayed_initialisation;  // the ring start's max_std_m and window_s too
+  RingInitialisationOptions ring_initialisation;
   /// Full, first-estimates and invariant variants, known association: estimate the range sensor's
   /// offset and scale error in the state from this prior (EkfEstimator::estimate_range_calibration).
   std::optional<RangeCalibrationPrior> range_calibration;

@@ -22,6 +22,24 @@
 //    whose residual fails the gate is dropped as an outlier.
 // Views keep the raw measurements; the range calibration the filter estimates corrects them when
 // they are fitted, and the fit says how the landmark moves with it (InitialLandmark::range_gain).
+// The ring start (range only; Kantor and Singh 2002, Djugash et al.'s range-only SLAM), per landmark:
+//  - its first range puts it on a circle about the sensor, held as a ring of Gaussians spread evenly
+//    around it (each as wide across the ring as the range noise, along it half the spacing, at
+//    most max_hypotheses of them), all equally likely;
+//  - the hypotheses are held relative to the current pose: between two ranges each gains, as a
+//    landmark attached to the vehicle would, the pose uncertainty dead reckoning has gained;
+//  - each range updates every hypothesis (an EKF update of its position) and weighs it by how well
+//    it predicted the range.
+//    A hypothesis is dropped when its innovations' summed chi-square fails the gate for their
+//    number, or exceeds the best hypothesis's by more than the gate for two degrees of freedom
+//    allows (a significance test, not odds: dead reckoning bends a straight road a little, and
+//    hundreds of ranges would turn that bend into overwhelming odds for one side);
+//  - the landmark starts when the live hypotheses, equally weighted, spread no standard deviation
+//    beyond max_std_m, at the mixture's moment-matched Gaussian: until the vehicle's motion rules
+//    out all but one place, every hypothesis consistent with the ranges stays alive (a vehicle on a
+//    straight keeps the landmark and its mirror image). A range no hypothesis explains
+//    is passed over as an outlier; a ring none of whose hypotheses stays consistent, or that has
+//    not collapsed within window_s, is drawn afresh from the latest range.
 // The landmark joins the state rigidly attached to the current pose (as an inverted measurement
 // does: P(m, :) = [I, J (m - p)] P(v, :)) with the triangulation's covariance on top, the uncertainty
 // relative to that pose; the observations that placed it are not applied again.
@@ -41,6 +59,7 @@ namespace slamkit {
 enum class LandmarkInitialisation {
   kImmediate,  ///< one measurement places the landmark (needs a model that inverts it)
   kDelayed,    ///< triangulation from several observations at well-spread poses
+  kRing,       ///< range only: a ring of Gaussian hypotheses that collapses as the ranges agree
 };
 
 struct DelayedInitialisationOptions {
@@ -53,6 +72,11 @@ struct DelayedInitialisationOptions {
 
 /// Throws std::invalid_argument naming the first setting out of its range.
 void validate(const DelayedInitialisationOptions& options);
+
+/// The ring start's own setting; it shares max_std_m and window_s with the delayed start.
+struct RingInitialisationOptions {
+  int max_hypotheses = 120;  ///< on one ring; a wider ring spaces them further apart
+};
 
 /// dm/dx of a landmark at m attached rigidly to a vehicle at x, as an inverted measurement is:
 /// [I, J (m - p)], J the quarter turn.
@@ -111,6 +135,41 @@ class DelayedInitialiser final : public LandmarkInitialiser {
   bool measures_bearing_;
   int min_views_;
   std::map<int, std::vector<View>> views_;  // by landmark id; ordered, so the order of work is fixed
+};
+
+/// Ring: multiple hypotheses (see the file's comment).
+class RingInitialiser final : public LandmarkInitialiser {
+ public:
+  /// Throws std::invalid_argument for invalid options or a model that does not measure range alone.
+  RingInitialiser(std::shared_ptr<const ObservationModel> model, const DelayedInitialisationOptions& options,
+                  const RingInitialisationOptions& ring = {});
+  std::optional<InitialLandmark> offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
+                                       const Measurement& z, double t, const RangeCorrection& correction) override;
+  std::size_t waiting() const override { return rings_.size(); }
+
+  struct Hypothesis {
+    Vector2 mean;
+    Matrix2 covariance;
+    double log_weight = 0.0;
+    double chi2 = 0.0;  // of its innovations so far
+  };
+  /// The live hypotheses of landmark `id`'s ring (empty if it has none), their weights normalised.
+  std::vector<Hypothesis> hypotheses(int id) const;
+
+ private:
+  struct Ring {
+    double t0 = 0.0;
+    Matrix3 odometry_covariance;  // dead reckoning's at the last range
+    int updates = 0;               // ranges applied since
+    std::vector<Hypothesis> hypotheses;
+  };
+  /// A ring about the sensor at pose x for the distance `distance`.
+  Ring draw(const Pose2& x, const Matrix3& odometry_covariance, double distance, double t) const;
+
+  std::shared_ptr<const ObservationModel> model_;
+  DelayedInitialisationOptions options_;
+  RingInitialisationOptions ring_;
+  std::map<int, Ring> rings_;  // by landmark id
 };
 
 }  // namespace slamkit

@@ -29,9 +29,10 @@ enum class EkfUpdate {
 };
 
 /// How the EKF and the UKF start a landmark: auto (immediately where the dataset's observation model
-/// inverts a measurement, delayed where it does not), immediate, or delayed (triangulated from
-/// several observations; needs known identities).
-enum class LandmarkInit { kAuto, kImmediate, kDelayed };
+/// inverts a measurement, delayed where it does not), immediate, delayed (triangulated from several
+/// observations) or ring (range only: a ring of hypotheses that collapses); the last two need known
+/// identities.
+enum class LandmarkInit { kAuto, kImmediate, kDelayed, kRing };
 
 struct FilterConfig {
   FilterKind filter = FilterKind::kEkf;
@@ -73,7 +74,7 @@ std::string to_string(EkfVariant variant);
 /// "augmented" or "additive"; throws std::invalid_argument naming the accepted values.
 UkfNoise parse_ukf_noise(const std::string& name);
 std::string to_string(UkfNoise noise);
-/// "auto", "immediate" or "delayed"; throws std::invalid_argument naming the accepted values.
+/// "auto", "immediate", "delayed" or "ring"; throws std::invalid_argument naming the accepted values.
 LandmarkInit parse_landmark_init(const std::string& name);
 std::string to_string(LandmarkInit init);
 
