@@ -203,7 +203,7 @@ Metrics run_on(SensorKind sensor, EkfVariant variant, std::uint64_t seed,
 }  // namespace
 
 // The ring start on the same world: it beats dead reckoning by far and stays consistent, though the
-// delayed start does better there (docs/sensing.md: over 20 seeds ATE 1.31 m against 1.06 m).
+// delayed start does better there (docs/results.md: over 50 seeds ATE 1.32 m against 0.89 m).
 TEST(RingStart, RangeOnlyEkfSlamBeatsDeadReckoningAndStaysConsistent) {
   const Metrics m = run_on(SensorKind::kRangeOnly, EkfVariant::kFirstEstimates, 1, LandmarkInitialisation::kRing);
   ASSERT_TRUE(m.ate_rmse_m && m.dead_reckoning_ate_rmse_m && m.nees_pose);
