@@ -781,6 +781,8 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"run --range-calibration --assoc nn" + data, 2,
        "a range calibration is estimated with association 'known': nn and jcbb predict measurements without it"},
       {"run --range-offset-std 0" + data, 2, "range_calibration.offset_std_m must be > 0 and <= 10000, found 0"},
+      {"run --landmark-init ring --range-calibration" + data, 2,
+       "the ring landmark start does not carry a range calibration's correlations"},
       {"run --range-scale-std x" + data, 2, "--range-scale-std: expected a finite number, found x"},
       {"run --assoc-config /nonexistent/a.json" + data, 1,
        "/nonexistent/a.json: cannot open file for reading (No such file or directory)"},

@@ -275,7 +275,11 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
 
 RingInitialiser::RingInitialiser(std::shared_ptr<const ObservationModel> model,
                                  const DelayedInitialisationOptions& options, const RingInitialisationOptions& ring)
-    : model_(std::move(model)), options_((validate(options), options)), ring_(ring) {
+    : model_(std::move(model)),
+      options_((validate(options), options)),
+      ring_(ring),
+      range_gate_(eval::chi_square_quantile(options_.gate_probability, 1.0)),
+      worse_gate_(eval::chi_square_quantile(options_.gate_probability, 2.0)) {
   if (!model_) throw std::invalid_argument("the ring landmark start needs an observation model");
   if (model_->rows().range < 0 || model_->rows().bearing >= 0)
     throw std::invalid_argument("the ring landmark start is for a range alone; a " + model_->name() +
@@ -293,7 +297,8 @@ RingInitialiser::Ring RingInitialiser::draw(const Pose2& x, const Matrix3& odome
   // One range deviation apart along the ring, each hypothesis half a spacing wide along it: the
   // neighbours overlap at one deviation, so the ring leaves no gap where the landmark could hide.
   const double circumference = 2.0 * kPi * std::max(distance, sigma);
-  const int n = std::clamp(static_cast<int>(std::ceil(circumference / sigma)), 4, ring_.max_hypotheses);
+  const int n = static_cast<int>(
+      std::clamp(std::ceil(circumference / sigma), 4.0, static_cast<double>(ring_.max_hypotheses)));
   const double along = 0.5 * circumference / n;
   Ring ring;
   ring.t0 = t;
@@ -302,9 +307,9 @@ RingInitialiser::Ring RingInitialiser::draw(const Pose2& x, const Matrix3& odome
   for (int k = 0; k < n; ++k) {
     const double angle = 2.0 * kPi * k / n;
     const Vector2 radial(std::cos(angle), std::sin(angle)), tangent(-radial[1], radial[0]);
-    ring.hypotheses.push_back({sensor + distance * radial,
-                               sigma * sigma * radial * radial.transpose() + along * along * tangent * tangent.transpose(),
-                               -std::log(static_cast<double>(n)), 0.0});
+    const Matrix2 covariance =
+        sigma * sigma * radial * radial.transpose() + along * along * tangent * tangent.transpose();
+    ring.hypotheses.push_back({sensor + distance * radial, covariance, -std::log(static_cast<double>(n)), 0.0});
   }
   return ring;
 }
@@ -315,6 +320,8 @@ std::optional<InitialLandmark> RingInitialiser::offer(int id, const Pose2& x, co
   const int row = model_->rows().range;
   Measurement distance = z;
   distance[row] = correction.distance(z[row]);
+  // Nothing a ring could be drawn from (or updated with).
+  if (!(distance[row] > 0.0)) return std::nullopt;
   const auto found = rings_.find(id);
   if (found == rings_.end() || t - found->second.t0 > options_.window_s) {
     rings_[id] = draw(x, odometry_covariance, distance[row], t);
@@ -324,9 +331,7 @@ std::optional<InitialLandmark> RingInitialiser::offer(int id, const Pose2& x, co
   // The hypotheses are kept relative to the current pose, as a landmark joins the state: relative to
   // it, each drifts by what dead reckoning has gained since the last range.
   const Matrix3 gained = clipped_psd(odometry_covariance - ring.odometry_covariance);
-  ring.odometry_covariance = odometry_covariance;
   const MeasurementCovariance r = model_->noise();
-  static const double gate = eval::chi_square_quantile(options_.gate_probability, 1.0);
   std::vector<Hypothesis> updated = ring.hypotheses;
   bool explained = false;
   PoseJacobian hx;
@@ -339,9 +344,9 @@ std::optional<InitialLandmark> RingInitialiser::offer(int id, const Pose2& x, co
     const Eigen::MatrixXd s = hm * h.covariance * hm.transpose() + r;
     const Eigen::LLT<Eigen::MatrixXd> llt(s);
     if (llt.info() != Eigen::Success) return std::nullopt;
-    const Eigen::MatrixXd gain = h.covariance * hm.transpose() * llt.solve(Eigen::MatrixXd::Identity(s.rows(), s.rows()));
+    const Eigen::MatrixXd gain = h.covariance * hm.transpose() * llt.solve(Eigen::MatrixXd::Identity(s.rows(), s.cols()));
     const double chi2 = residual.dot(llt.solve(residual));
-    explained = explained || chi2 <= gate;
+    explained = explained || chi2 <= range_gate_;
     h.chi2 += chi2;
     h.mean += gain * residual;
     const Matrix2 p = h.covariance - gain * s * gain.transpose();
@@ -355,10 +360,11 @@ std::optional<InitialLandmark> RingInitialiser::offer(int id, const Pose2& x, co
   // Dropped: a hypothesis inconsistent with the ranges on its own, or one that explains them worse
   // than the best does by more than two degrees of freedom (its position) allow.
   const double consistent = eval::chi_square_quantile(options_.gate_probability, ring.updates);
-  static const double worse = eval::chi_square_quantile(options_.gate_probability, 2.0);
   double least = INFINITY;
   for (const Hypothesis& h : updated) least = std::min(least, h.chi2);
-  std::erase_if(updated, [&](const Hypothesis& h) { return h.chi2 > consistent || h.chi2 > least + worse; });
+  // Written so that a NaN fails too.
+  std::erase_if(updated,
+                [&](const Hypothesis& h) { return !(h.chi2 <= consistent && h.chi2 <= least + worse_gate_); });
   if (updated.empty()) {
     rings_[id] = draw(x, odometry_covariance, distance[row], t);
     return std::nullopt;
@@ -369,6 +375,7 @@ std::optional<InitialLandmark> RingInitialiser::offer(int id, const Pose2& x, co
   for (const Hypothesis& h : updated) total += std::exp(h.log_weight - best);
   for (Hypothesis& h : updated) h.log_weight -= best + std::log(total);
   ring.hypotheses = std::move(updated);
+  ring.odometry_covariance = odometry_covariance;
 
   // It starts when every live hypothesis, however unlikely, lies near the others: the spread of
   // them all, equally weighted, within max_std_m. The likelihoods only weigh where it starts (the

@@ -149,6 +149,9 @@ void validate(const FilterConfig& config) {
     if (config.association.method != AssociationMethod::kKnown)
       throw std::invalid_argument("a range calibration is estimated with association 'known': nn and jcbb predict "
                                   "measurements without it");
+    if (config.landmark_init == LandmarkInit::kRing)
+      throw std::invalid_argument("the ring landmark start does not carry a range calibration's correlations; with "
+                                  "--range-calibration use the delayed start");
   }
   const bool particle_filter = config.filter == FilterKind::kFastSlam1 || config.filter == FilterKind::kFastSlam2;
   if (particle_filter && (config.landmark_init == LandmarkInit::kDelayed || config.landmark_init == LandmarkInit::kRing))

@@ -128,11 +128,12 @@ class JointGaussian : public EkfEstimator {
   /// correlations all through the vehicle's (pending motion applied, room reserved).
   void append_landmark(const Vector2& mean, const Matrix23& gx, const Matrix2& covariance);
 
-  /// Product of the motion Jacobians not yet applied to the stored P_mv: P_mv = stored * pending^T.
   bool supports_range_calibration() const override { return true; }
   Matrix23 calibration_pose_covariance() const override {
     return p_.block<2, 3>(kOffsetRow, 0) * pending_motion_.transpose();
   }
+
+  /// Product of the motion Jacobians not yet applied to the stored P_mv: P_mv = stored * pending^T.
 
   Matrix3 pending_motion_ = Matrix3::Identity();
   Eigen::VectorXd batch_nu_;

@@ -169,6 +169,8 @@ class RingInitialiser final : public LandmarkInitialiser {
   std::shared_ptr<const ObservationModel> model_;
   DelayedInitialisationOptions options_;
   RingInitialisationOptions ring_;
+  double range_gate_;  // one range's chi-square gate
+  double worse_gate_;  // how much worse than the best a hypothesis may explain the ranges (2 dof)
   std::map<int, Ring> rings_;  // by landmark id
 };
 
