@@ -18,6 +18,7 @@
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/pipeline/runner.hpp"
 #include "slamkit/sim/simulator.hpp"
+#include "sim_test_support.hpp"
 #include "test_data.hpp"
 
 using namespace slamkit;
@@ -190,11 +191,7 @@ Metrics run_on(SensorKind sensor, EkfVariant variant, std::uint64_t seed,
   s.config.sensor = sensor;
   s.config.seed = seed;
   const Dataset d = simulate(s.world, s.config);
-  EkfSlamOptions options;
-  options.initial_pose = d.initial_pose;
-  options.sensor = d.sensor;
-  options.variant = variant;
-  options.threads = 1;
+  EkfSlamOptions options = test_sim::ekf_options_for(d, variant);
   options.initialisation = start;
   EkfSlam filter(d.motion, d.observation, options);
   return evaluate_run(run_filter(filter, d), d.truth);
@@ -287,12 +284,7 @@ TEST(DelayedStart, Plaza1BeaconsStartFromRangesAloneAndTheEkfBeatsDeadReckoning)
   const std::filesystem::path dir = test_data::shared_dataset("plaza_range_only");
   SLAMKIT_REQUIRE_DATASET(dir);
   const Dataset d = load_dataset("plaza:" + dir.string() + ":Plaza1");
-  EkfSlamOptions options;
-  options.initial_pose = d.initial_pose;
-  options.sensor = d.sensor;
-  options.variant = EkfVariant::kFirstEstimates;
-  options.threads = 1;
-  EkfSlam filter(d.motion, d.observation, options);
+  EkfSlam filter(d.motion, d.observation, test_sim::ekf_options_for(d, EkfVariant::kFirstEstimates));
   const Metrics m = evaluate_run(run_filter(filter, d), d.truth);
   ASSERT_TRUE(m.ate_rmse_m && m.dead_reckoning_ate_rmse_m && m.map_rmse_m);
   EXPECT_EQ(m.landmarks, 4u);

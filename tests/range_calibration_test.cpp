@@ -220,11 +220,7 @@ CalibratedRun run_long_reading(SensorKind sensor, EkfVariant variant, bool calib
   s.config.range_scale_error = kScaleError;
   s.config.seed = seed;
   const Dataset d = simulate(s.world, s.config);
-  EkfSlamOptions options;
-  options.initial_pose = d.initial_pose;
-  options.sensor = d.sensor;
-  options.variant = variant;
-  options.threads = 1;
+  EkfSlamOptions options = test_sim::ekf_options_for(d, variant);
   if (calibrate) options.range_calibration = RangeCalibrationPrior{.offset_std_m = 3.0, .scale_error_std = 0.1};
   EkfSlam filter(d.motion, d.observation, options);
   CalibratedRun out;
@@ -268,11 +264,7 @@ TEST(RangeCalibration, Plaza1BeaconsLandWithinHalfAMetreOfTheSurvey) {
   const Dataset d = load_dataset("plaza:" + dir.string() + ":Plaza1");
   for (const EkfVariant variant : {EkfVariant::kFirstEstimates, EkfVariant::kInvariant}) {
     SCOPED_TRACE(variant == EkfVariant::kInvariant ? "invariant" : "fej");
-    EkfSlamOptions options;
-    options.initial_pose = d.initial_pose;
-    options.sensor = d.sensor;
-    options.variant = variant;
-    options.threads = 1;
+    EkfSlamOptions options = test_sim::ekf_options_for(d, variant);
     options.range_calibration = RangeCalibrationPrior{};
     EkfSlam filter(d.motion, d.observation, options);
     const RunResult run = run_filter(filter, d);

@@ -1,6 +1,7 @@
 #pragma once
-// What the simulator tests share: a dataset's scans and controls, the sensor's sweeps, and a
-// fingerprint of everything a run produces, for "bit for bit" comparisons.
+// What the simulator tests share: a dataset's scans and controls, the sensor's sweeps, EkfSlam's
+// settings for a dataset, and a fingerprint of everything a run produces, for "bit for bit"
+// comparisons.
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -8,9 +9,20 @@
 #include <vector>
 
 #include "slamkit/core/dataset.hpp"
+#include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/sim/simulator.hpp"
 
 namespace slamkit::test_sim {
+
+/// EkfSlam's settings for a run on `d`: its start and sensor, the EKF variant, one thread.
+inline EkfSlamOptions ekf_options_for(const Dataset& d, EkfVariant variant) {
+  EkfSlamOptions options;
+  options.initial_pose = d.initial_pose;
+  options.sensor = d.sensor;
+  options.variant = variant;
+  options.threads = 1;
+  return options;
+}
 
 inline std::vector<ScanEvent> scans_of(const Dataset& d) {
   std::vector<ScanEvent> out;

@@ -343,7 +343,7 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
   auto pht = pht_.topLeftCorner(n, k);
   auto nu = batch_nu_.head(k);
   const int calibrated = calibrated_row();
-  batch_distances_.resize(batch.size());
+  if (calibrated >= 0) batch_distances_.resize(batch.size());
   for (std::size_t i = 0; i < batch.size(); ++i) {
     const auto l = static_cast<Eigen::Index>(landmark_offset(batch[i].index));
     const auto r = D * static_cast<Eigen::Index>(i);
@@ -351,7 +351,7 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
     Measurement zhat = observation_->predict(xv, m);
     observation_jacobians<D>(batch[i].index, at, how, batch_hx[i], batch_hm[i]);
     const double distance = calibrated >= 0 ? calibrate<D>(at, zhat, batch_hx[i], batch_hm[i]) : 0.0;
-    batch_distances_[i] = distance;
+    if (calibrated >= 0) batch_distances_[i] = distance;
     // Zero at the estimate; at an iterate, h(x) ~ h(at) + H (x - at) carries it back to the estimate.
     MeasurementVector<D> to_estimate;
     if (on_group) {

@@ -212,9 +212,13 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   if (raw.size() > static_cast<std::size_t>(options_.max_views)) raw.erase(raw.begin());
   if (raw.size() < static_cast<std::size_t>(min_views_)) return std::nullopt;
 
-  std::vector<View> views = raw;
-  if (measures_range_ && (correction.offset_m != 0.0 || correction.scale_error != 0.0))
-    for (View& v : views) v.z[model_->rows().range] = correction.distance(v.z[model_->rows().range]);
+  // The views read through the calibration, copied only where there is one.
+  std::vector<View> corrected;
+  if (measures_range_ && (correction.offset_m != 0.0 || correction.scale_error != 0.0)) {
+    corrected = raw;
+    for (View& v : corrected) v.z[model_->rows().range] = correction.distance(v.z[model_->rows().range]);
+  }
+  const std::vector<View>& views = corrected.empty() ? raw : corrected;
   std::vector<Vector2> sensors;
   for (const View& v : views) sensors.push_back(model_->sensor_position(v.pose));
   std::vector<Fit> fits;
