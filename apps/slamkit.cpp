@@ -480,7 +480,7 @@ int run_command(int argc, char** argv) {
                     "noise, for noise that is an allowance for model error)",
                     defaults.ukf_noise);
   add_named_setting(run_cmd, "--landmark-init", flag_settings, "/landmark_init", parse_landmark_init,
-                    "EKF and UKF: how a landmark starts: immediate (from one measurement's inverse), delayed "
+                    "How a landmark starts: immediate (from one measurement's inverse), delayed "
                     "(triangulated from several observations at well-spread poses; known ids only), ring (range "
                     "only: a ring of Gaussian hypotheses that collapses as the ranges agree; known ids only) or "
                     "auto (immediate where one measurement places a landmark, delayed for range-only and "
@@ -502,8 +502,9 @@ int run_command(int argc, char** argv) {
         nlohmann::json& calibration = flag_settings["range_calibration"];
         if (!calibration.is_object()) calibration = nlohmann::json::object();
       },
-      fmt::format("EKF (full, fej, invariant), known ids: estimate the range sensor's offset and scale error (it "
-                  "reads (1 + s) d + b; radio beacons read long) in the state, from priors 0 +- {} m and 0 +- {}",
+      fmt::format("EKF (full, fej, invariant) or fastslam2 (with the delayed start), known ids: estimate the "
+                  "range sensor's offset and scale error (it reads (1 + s) d + b; radio beacons read long), from "
+                  "priors 0 +- {} m and 0 +- {}",
                   calibration_prior.offset_std_m, calibration_prior.scale_error_std));
   add_setting<double>(run_cmd, "--range-offset-std", flag_settings, "/range_calibration/offset_std_m",
                       "The range calibration's prior standard deviation of the offset [m] (implies "

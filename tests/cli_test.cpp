@@ -783,6 +783,11 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"run --range-offset-std 0" + data, 2, "range_calibration.offset_std_m must be > 0 and <= 10000, found 0"},
       {"run --landmark-init ring --range-calibration" + data, 2,
        "the ring landmark start does not carry a range calibration's correlations"},
+      {"run --filter fastslam1 --range-calibration" + data, 2,
+       "a range calibration is estimated by the filter 'ekf' with the variant full, fej or invariant, or by "
+       "'fastslam2'"},
+      {"run --filter fastslam2 --range-calibration" + data, 1,
+       "FastSLAM starts a landmark that moves with the range calibration through the delayed start"},
       {"run --range-scale-std x" + data, 2, "--range-scale-std: expected a finite number, found x"},
       {"run --assoc-config /nonexistent/a.json" + data, 1,
        "/nonexistent/a.json: cannot open file for reading (No such file or directory)"},

@@ -3,6 +3,8 @@
 // filters run on range-only and bearing-only data end to end.
 #include <gtest/gtest.h>
 
+#include <Eigen/LU>
+
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -175,12 +177,17 @@ TEST(LandmarkInitialiser, SearchingAssociationAndImmediateStartsRefuseASensorTha
   immediate.initialisation = LandmarkInitialisation::kImmediate;
   EXPECT_THROW((EkfSlam{motion, bearing_only(), immediate}), std::invalid_argument);
   FastSlamConfig fs;
+  fs.association.method = AssociationMethod::kNearestNeighbour;
   try {
     FastSlam{motion, range_only(), fs};
     ADD_FAILURE() << "expected std::invalid_argument";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("EKF"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("known"), std::string::npos) << e.what();
   }
+  FastSlamConfig fs_immediate;
+  fs_immediate.association.method = AssociationMethod::kKnown;
+  fs_immediate.initialisation = LandmarkInitialisation::kImmediate;
+  EXPECT_THROW((FastSlam{motion, bearing_only(), fs_immediate}), std::invalid_argument);
 }
 
 namespace {
@@ -233,6 +240,63 @@ TEST(DelayedStart, RangeOnlyAndBearingOnlyEkfSlamBeatDeadReckoningAndStayConsist
     EXPECT_LT(*m.ate_rmse_m, 0.5 * *m.dead_reckoning_ate_rmse_m);
     EXPECT_GE(m.nees_pose->in_interval_fraction, 0.8);
     EXPECT_GE(m.landmarks, 50u) << "most of the world's 100 landmarks start";
+  }
+}
+
+// FastSLAM starts a landmark the initialiser placed in dead reckoning's frame where it lies relative
+// to each particle: a particle at another pose and heading holds it at the same range and bearing.
+TEST(DeadReckoning, CarriesAPlacedLandmarkToTheSamePlaceRelativeToAnyVehicle) {
+  DeadReckoning dr;
+  dr.pose = Pose2(2.0, -1.0, 0.3);
+  InitialLandmark placed;
+  placed.mean = Vector2(7.0, 3.0);
+  placed.covariance << 0.5, 0.1, 0.1, 0.2;
+  placed.range_gain = Vector2(0.8, 0.6);
+  const Pose2 x(-4.0, 5.0, -1.2);
+  const InitialLandmark here = dr.carried_to(x, placed);
+  const RangeBearingModel sensor;
+  EXPECT_TRUE(sensor.predict(x, here.mean).isApprox(sensor.predict(dr.pose, placed.mean), 1e-12));
+  // The covariance and the gains turn with the heading; the spread is unchanged.
+  EXPECT_NEAR(here.covariance.trace(), placed.covariance.trace(), 1e-12);
+  EXPECT_NEAR(here.covariance.determinant(), placed.covariance.determinant(), 1e-12);
+  EXPECT_NEAR(here.range_gain.norm(), 1.0, 1e-12);
+  EXPECT_TRUE(here.gx.isApprox(attached_to_pose(x, here.mean)));
+}
+
+// FastSLAM 1.0 and 2.0 with a radio and with a camera on the reference world, every landmark started
+// by the shared delayed start (and the ring for the radio): each beats dead reckoning, the delayed
+// start by far with its map near the truth. (The ring lets a landmark or two collapse onto their
+// mirror images on this seed, as it does in the EKF: docs/results.md.)
+TEST(DelayedStart, RangeOnlyAndBearingOnlyFastSlamBeatDeadReckoning) {
+  Scenario s = scenario("default");
+  s.config.seed = 1;
+  for (const SensorKind sensor : {SensorKind::kRangeOnly, SensorKind::kBearingOnly}) {
+    s.config.sensor = sensor;
+    const Dataset d = simulate(s.world, s.config);
+    for (const int version : {1, 2})
+      for (const LandmarkInitialisation start : {LandmarkInitialisation::kDelayed, LandmarkInitialisation::kRing}) {
+        if (start == LandmarkInitialisation::kRing && sensor != SensorKind::kRangeOnly) continue;
+        SCOPED_TRACE(to_string(sensor) + " fastslam" + std::to_string(version) +
+                     (start == LandmarkInitialisation::kRing ? " ring" : " delayed"));
+        FastSlamConfig c;
+        c.version = version;
+        c.particles = 30;
+        c.initial_pose = d.initial_pose;
+        c.sensor = d.sensor;
+        c.threads = 1;
+        c.initialisation = start;
+        FastSlam filter(d.motion, d.observation, c);
+        const Metrics m = evaluate_run(run_filter(filter, d), d.truth);
+        ASSERT_TRUE(m.ate_rmse_m && m.dead_reckoning_ate_rmse_m && m.map_rmse_m);
+        if (start == LandmarkInitialisation::kDelayed) {
+          EXPECT_LT(*m.ate_rmse_m, 0.7 * *m.dead_reckoning_ate_rmse_m);
+          EXPECT_LT(*m.map_rmse_m, 1.5);
+        } else {
+          EXPECT_LT(*m.ate_rmse_m, *m.dead_reckoning_ate_rmse_m);
+        }
+        EXPECT_GE(m.landmarks, 40u);
+        EXPECT_GT(filter.statistics().at("observations_pending"), 0.0);
+      }
   }
 }
 

@@ -9,6 +9,7 @@
 
 #include "slamkit/eval/evaluation.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
+#include "slamkit/filters/fastslam.hpp"
 #include "slamkit/filters/joint_gaussian.hpp"
 #include "slamkit/io/load_dataset.hpp"
 #include "slamkit/models/motion_model.hpp"
@@ -253,6 +254,25 @@ TEST(RangeCalibration, ARadioThatReadsLongIsCalibratedWhileItMaps) {
   }
 }
 
+namespace {
+
+/// Every one of Plaza1's four beacons within 0.5 m of the survey, the scale error near the data's
+/// 7%, and what the calibration adds at the ranges' median distance near their median excess.
+void expect_plaza1_beacons_and_calibration(const RunResult& run, const Metrics& m, const Dataset& d) {
+  ASSERT_EQ(run.map.size(), 4u);
+  for (const Landmark& beacon : run.map) {
+    const auto surveyed = std::find_if(d.truth.landmarks.begin(), d.truth.landmarks.end(),
+                                       [&](const Landmark& t) { return t.id == beacon.id; });
+    ASSERT_NE(surveyed, d.truth.landmarks.end());
+    EXPECT_LT((m.alignment.apply(beacon.position) - surveyed->position).norm(), 0.5) << "beacon " << beacon.id;
+  }
+  const auto& st = m.filter_statistics;
+  EXPECT_NEAR(st.at("range_scale_error"), 0.07, 0.01);
+  EXPECT_NEAR(st.at("range_offset_m") + 40.9 * st.at("range_scale_error"), 2.85, 0.4);
+}
+
+}  // namespace
+
 // CMU Plaza1: four radio beacons, started with no prior from ranges alone, which read 7% long
 // (range minus true distance: median +2.85 m at a median distance of 40.9 m; fitted against the
 // ground truth, 1.069 times the distance plus 0.03 m, each beacon alike). Calibrated, the
@@ -272,17 +292,86 @@ TEST(RangeCalibration, Plaza1BeaconsLandWithinHalfAMetreOfTheSurvey) {
     ASSERT_TRUE(m.ate_rmse_m && m.dead_reckoning_ate_rmse_m);
     EXPECT_LT(*m.ate_rmse_m, 0.5);
     EXPECT_LT(*m.ate_rmse_m, 0.35 * *m.dead_reckoning_ate_rmse_m);
-    ASSERT_EQ(run.map.size(), 4u);
-    for (const Landmark& beacon : run.map) {
-      const auto surveyed = std::find_if(d.truth.landmarks.begin(), d.truth.landmarks.end(),
-                                         [&](const Landmark& t) { return t.id == beacon.id; });
-      ASSERT_NE(surveyed, d.truth.landmarks.end());
-      EXPECT_LT((m.alignment.apply(beacon.position) - surveyed->position).norm(), 0.5) << "beacon " << beacon.id;
-    }
-    const auto& st = m.filter_statistics;
-    EXPECT_NEAR(st.at("range_scale_error"), 0.07, 0.01);
-    EXPECT_LT(std::abs(st.at("range_offset_m")), 0.5);
-    // What the calibration adds at the median distance, against the data's median excess.
-    EXPECT_NEAR(st.at("range_offset_m") + 40.9 * st.at("range_scale_error"), 2.85, 0.4);
+    expect_plaza1_beacons_and_calibration(run, m, d);
+    EXPECT_LT(std::abs(m.filter_statistics.at("range_offset_m")), 0.5);
   }
+}
+
+namespace {
+
+FastSlamConfig fastslam_for(const Dataset& d, int particles) {
+  FastSlamConfig c;
+  c.particles = particles;
+  c.initial_pose = d.initial_pose;
+  c.sensor = d.sensor;
+  c.threads = 1;
+  c.initialisation = LandmarkInitialisation::kDelayed;
+  return c;
+}
+
+}  // namespace
+
+TEST(RangeCalibration, FastSlamKeepsItOnlyWhereItsProposalAndTheDelayedStartCan) {
+  const auto range_only = std::make_shared<RangeOnlyModel>();
+  FastSlamConfig c;
+  c.initialisation = LandmarkInitialisation::kDelayed;
+  c.range_calibration = RangeCalibrationPrior{};
+  EXPECT_NO_THROW(FastSlam(motion(), range_only, c));
+  FastSlamConfig one = c;
+  one.version = 1;
+  EXPECT_THROW(FastSlam(motion(), range_only, one), std::invalid_argument) << "FastSLAM 1.0 proposes from the motion";
+  FastSlamConfig ring = c;
+  ring.initialisation = LandmarkInitialisation::kRing;
+  EXPECT_THROW(FastSlam(motion(), range_only, ring), std::invalid_argument);
+  FastSlamConfig immediate = c;
+  immediate.initialisation = LandmarkInitialisation::kImmediate;
+  EXPECT_THROW(FastSlam(motion(), std::make_shared<RangeBearingModel>(), immediate), std::invalid_argument);
+  FastSlamConfig nn = c;
+  nn.initialisation.reset();
+  nn.association.method = AssociationMethod::kNearestNeighbour;
+  EXPECT_THROW(FastSlam(motion(), std::make_shared<RangeBearingModel>(), nn), std::invalid_argument);
+  EXPECT_THROW(FastSlam(motion(), std::make_shared<BearingOnlyModel>(), c), std::invalid_argument);
+}
+
+// FastSLAM 2.0 with the radio that reads 5% plus 1.5 m long, seen with bearings: each particle's
+// calibration, with its landmarks' Gaussians given it, finds the offset within 0.1 m and the scale
+// error within half of itself, and its map is at most half as far off as that of FastSLAM 2.0
+// ignoring them. (Given a particle's path the calibration is learnt as if that path were true, so
+// the scale error comes out short by a tenth to a third and its deviation far too small: the
+// FastSLAM inconsistency resampling brings about; docs/sensing.md.)
+TEST(RangeCalibration, FastSlamCalibratesARadioThatReadsLongWhileItMaps) {
+  Scenario s = scenario("default");
+  s.config.range_offset = kOffset;
+  s.config.range_scale_error = kScaleError;
+  s.config.seed = 2;
+  const Dataset d = simulate(s.world, s.config);
+  FastSlam ignoring(d.motion, d.observation, fastslam_for(d, 30));
+  const Metrics ignored = evaluate_run(run_filter(ignoring, d), d.truth);
+  FastSlamConfig c = fastslam_for(d, 30);
+  c.range_calibration = RangeCalibrationPrior{.offset_std_m = 3.0, .scale_error_std = 0.1};
+  FastSlam calibrating(d.motion, d.observation, c);
+  const Metrics calibrated = evaluate_run(run_filter(calibrating, d), d.truth);
+  const auto& st = calibrated.filter_statistics;
+  EXPECT_NEAR(st.at("range_offset_m"), kOffset, 0.1);
+  EXPECT_NEAR(st.at("range_scale_error"), kScaleError, 0.5 * kScaleError);
+  ASSERT_TRUE(calibrated.map_rmse_m && ignored.map_rmse_m && calibrated.ate_rmse_m && ignored.ate_rmse_m);
+  EXPECT_LT(*calibrated.map_rmse_m, 0.5 * *ignored.map_rmse_m);
+  EXPECT_LT(*calibrated.ate_rmse_m, *ignored.ate_rmse_m);
+}
+
+// Plaza1 with FastSLAM 2.0 (100 particles, the proposal sampled in full: the defaults), beacons
+// started with no prior: it beats dead reckoning, every beacon lands within 0.5 m of the survey,
+// and the calibration adds what the ranges' excess is at their median distance.
+TEST(RangeCalibration, Plaza1FastSlamBeaconsLandWithinHalfAMetreOfTheSurvey) {
+  const std::filesystem::path dir = test_data::shared_dataset("plaza_range_only");
+  SLAMKIT_REQUIRE_DATASET(dir);
+  const Dataset d = load_dataset("plaza:" + dir.string() + ":Plaza1");
+  FastSlamConfig c = fastslam_for(d, 100);
+  c.range_calibration = RangeCalibrationPrior{};
+  FastSlam filter(d.motion, d.observation, c);
+  const RunResult run = run_filter(filter, d);
+  const Metrics m = evaluate_run(run, d.truth);
+  ASSERT_TRUE(m.ate_rmse_m && m.dead_reckoning_ate_rmse_m);
+  EXPECT_LT(*m.ate_rmse_m, *m.dead_reckoning_ate_rmse_m);
+  expect_plaza1_beacons_and_calibration(run, m, d);
 }

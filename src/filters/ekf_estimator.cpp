@@ -69,17 +69,10 @@ Measurement EkfEstimator::predicted_measurement(const Pose2& x, const Vector2& m
 }
 
 void EkfEstimator::estimate_range_calibration(const RangeCalibrationPrior& prior) {
-  if (observation_->rows().range < 0)
-    throw std::invalid_argument("a range calibration needs a sensor that measures range; a " + observation_->name() +
-                                " measurement does not");
+  validate(prior, *observation_);
   if (!supports_range_calibration())
     throw std::invalid_argument("this estimator does not keep a range calibration (the full-covariance EKF, its "
                                 "FEJ, invariant and iterated variants do)");
-  const auto deviation = [](double std) { return std > 0.0 && std::isfinite(std); };
-  if (!std::isfinite(prior.offset_m) || !deviation(prior.offset_std_m) ||
-      !(prior.scale_error > -0.5 && prior.scale_error < 0.5) || !deviation(prior.scale_error_std))
-    throw std::invalid_argument("the range calibration's prior needs a finite offset, a scale error between -0.5 and "
-                                "0.5, and positive, finite standard deviations");
   if (num_landmarks() > 0 || calibrates_ranges())
     throw std::logic_error("the range calibration joins the state before the first landmark, once");
   reserve(dim_ + 2);

@@ -77,27 +77,13 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
   if (estimator_->calibrates_ranges() && association_.method != AssociationMethod::kKnown)
     throw std::invalid_argument("a range calibration is estimated with association 'known': nn and jcbb predict "
                                 "measurements without it");
-  const LandmarkInitialisation initialisation = options.initialisation.value_or(
-      estimator_->observation_model().invertible() ? LandmarkInitialisation::kImmediate
-                                                   : LandmarkInitialisation::kDelayed);
-  if (initialisation != LandmarkInitialisation::kImmediate && association_.method != AssociationMethod::kKnown)
-    throw std::invalid_argument(
-        "delayed and ring landmark starts gather the observations of one landmark by its identity; they need "
-        "association 'known'");
-  if (initialisation == LandmarkInitialisation::kDelayed) {
-    initialiser_ =
-        std::make_unique<DelayedInitialiser>(estimator_->shared_observation_model(), options.delayed_initialisation);
-  } else if (initialisation == LandmarkInitialisation::kRing) {
-    // Its hypotheses are updated through the calibration of their time, and not correlated with it.
-    if (estimator_->calibrates_ranges())
-      throw std::invalid_argument("the ring landmark start does not carry a range calibration's correlations; with "
-                                  "--range-calibration use the delayed start");
-    initialiser_ = std::make_unique<RingInitialiser>(estimator_->shared_observation_model(),
-                                                     options.delayed_initialisation, options.ring_initialisation);
-  } else if (!estimator_->observation_model().invertible()) {
-    throw std::invalid_argument("immediate landmark initialisation needs a measurement that places a landmark, which "
-                                "a " + estimator_->observation_model().name() + " measurement does not; use delayed");
-  }
+  // The ring's hypotheses are updated through the calibration of their time, and not correlated with it.
+  if (options.initialisation == LandmarkInitialisation::kRing && estimator_->calibrates_ranges())
+    throw std::invalid_argument("the ring landmark start does not carry a range calibration's correlations; with "
+                                "--range-calibration use the delayed start");
+  initialiser_ = make_landmark_initialiser(options.initialisation, estimator_->shared_observation_model(),
+                                           association_.method == AssociationMethod::kKnown,
+                                           options.delayed_initialisation, options.ring_initialisation);
   if (ids.size() != estimator_->num_landmarks())
     throw std::invalid_argument("EkfSlam: one id per landmark of the estimator");
   for (const int id : ids) {
@@ -107,7 +93,7 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
     next_id_ = std::max(next_id_, id + 1);
   }
   first_started_id_ = next_id_;
-  dead_reckoned_pose_ = estimator_->pose();
+  dead_reckoning_.pose = estimator_->pose();
 }
 
 std::vector<Landmark> EkfSlam::landmarks() const {
@@ -171,17 +157,7 @@ long EkfSlam::find_landmark(int id) const {
 }
 
 void EkfSlam::predict(const ControlEvent& control) {
-  if (initialiser_) {
-    // Dead reckoning, which no update corrects: the delayed start triangulates in its frame, where
-    // the poses of a landmark's observations are consistent with each other (the estimate's jump at
-    // a correction would bend their geometry), and its covariance's growth between two observations
-    // stands for how uncertain one pose is relative to the other.
-    const MotionModel& motion = estimator_->motion_model();
-    const Matrix3 f = motion.jacobian_state(dead_reckoned_pose_, control.u, control.dt);
-    dead_reckoned_ = f * dead_reckoned_ * f.transpose() +
-                     motion.process_noise(dead_reckoned_pose_, control.u, control.dt);
-    dead_reckoned_pose_ = motion.predict(dead_reckoned_pose_, control.u, control.dt);
-  }
+  if (initialiser_) dead_reckoning_.advance(estimator_->motion_model(), control.u, control.dt);
   estimator_->predict(control.u, control.dt);
 }
 
@@ -189,19 +165,6 @@ void EkfSlam::add_landmark(const Measurement& z, int id) {
   estimator_->add_landmark(z);
   register_landmark(id, association_.method == AssociationMethod::kKnown ? existence_rule_.given()
                                                                          : existence_rule_.first_observed());
-}
-
-InitialLandmark EkfSlam::in_estimate_frame(const InitialLandmark& placed) const {
-  // Where the landmark is relative to the dead-reckoned pose, it is relative to the estimate.
-  const Pose2 x = estimator_->pose();
-  const Matrix2 r = Eigen::Rotation2Dd(x[2] - dead_reckoned_pose_[2]).toRotationMatrix();
-  InitialLandmark landmark;
-  landmark.mean = x.head<2>() + r * (placed.mean - dead_reckoned_pose_.head<2>());
-  landmark.gx = attached_to_pose(x, landmark.mean);
-  landmark.covariance = r * placed.covariance * r.transpose();
-  landmark.range_gain = r * placed.range_gain;
-  landmark.range_scale_gain = r * placed.range_scale_gain;
-  return landmark;
 }
 
 void EkfSlam::register_landmark(int id, const LandmarkExistence& existence) {
@@ -327,9 +290,9 @@ void EkfSlam::update_known(const ScanEvent& scan) {
       add_landmark(obs.z, obs.id);
       last_associations_[k] = {AssociationDecision::kNew, obs.id};
     } else if (const std::optional<InitialLandmark> placed =
-                   initialiser_->offer(obs.id, dead_reckoned_pose_, dead_reckoned_, obs.z, now_,
+                   initialiser_->offer(obs.id, dead_reckoning_.pose, dead_reckoning_.covariance, obs.z, now_,
                                        estimator_->range_correction())) {
-      estimator_->add_landmark(in_estimate_frame(*placed));
+      estimator_->add_landmark(dead_reckoning_.carried_to(estimator_->pose(), *placed));
       register_landmark(obs.id, existence_rule_.given());
       last_associations_[k] = {AssociationDecision::kNew, obs.id};
     } else {

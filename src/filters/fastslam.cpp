@@ -75,11 +75,11 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
     : config((validate(cfg), cfg)),
       pool(thread_count(cfg.threads)),
       map_nodes(pool),
+      link_nodes(pool),
       path_nodes(pool),
       motion(std::move(motion_model)),
       observation(observation_model ? std::move(observation_model)
                                     : throw std::invalid_argument("FastSLAM needs a motion and an observation model")),
-      measurements{observation.get()},
       gates(Gates::from(cfg.association, observation->dim())),
       gate_known(cfg.association.gate_known.value_or(false)),
       association_view(slamkit::association_view(cfg.sensor, cfg.association)),
@@ -90,16 +90,40 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
       grid(std::max(5.0, 0.5 * cfg.sensor.max_range)),
       relocalise_association(cfg.association) {
   if (!motion) throw std::invalid_argument("FastSLAM needs a motion and an observation model");
-  if (observation->dim() != 2 || !observation->invertible())
-    throw std::invalid_argument("FastSLAM reads range-bearing measurements; a " + observation->name() +
-                                " sensor runs with the EKF family (ekf, fej, invariant, compressed, ukf)");
+  require_searchable(config.association, *observation);
+  if (!known() && observation->dim() != 2)
+    throw std::invalid_argument("FastSLAM's search for pairings reads range and bearing; a " + observation->name() +
+                                " sensor needs association 'known'");
+  initialiser = make_landmark_initialiser(config.initialisation, observation, known(), config.delayed_initialisation,
+                                          config.ring_initialisation);
+  dead_reckoning.pose = config.initial_pose;
+  range_row = observation->rows().range;
+  if (calibrating()) {
+    validate(*config.range_calibration, *observation);
+    if (config.version != 2 || !known())
+      throw std::invalid_argument("a range calibration is estimated by FastSLAM 2.0's proposal with association "
+                                  "'known': FastSLAM 1.0 proposes from the motion alone, and nn predicts measurements "
+                                  "without it");
+    if (config.initialisation == LandmarkInitialisation::kRing)
+      throw std::invalid_argument("the ring landmark start does not carry a range calibration's correlations; with "
+                                  "--range-calibration use the delayed start");
+    if (!initialiser)
+      throw std::invalid_argument("FastSLAM starts a landmark that moves with the range calibration through the "
+                                  "delayed start; with --range-calibration use --landmark-init delayed");
+  }
   relocalise_association.method = AssociationMethod::kJcbb;
-  r = observation->noise();
-  Matrix2 unused;
-  double log_det_2r = 0.0;
-  if (!invert_spd(2.0 * r, unused, log_det_2r))
-    throw std::invalid_argument("FastSLAM needs a positive definite measurement noise R");
-  log_p0 = -0.5 * gates.new_landmark - kLog2Pi - 0.5 * log_det_2r;
+  with_measurement_dim(observation->dim(), [&]<int D>(std::integral_constant<int, D>) {
+    MeasurementKernels<D>& k = kernels.get<D>();
+    k.model = observation.get();
+    k.r = observation->noise();
+    MeasurementSquare<D> unused;
+    double log_det_2r = 0.0;
+    if (!invert_spd(MeasurementSquare<D>(2.0 * k.r), unused, log_det_2r))
+      throw std::invalid_argument("FastSLAM needs a positive definite measurement noise R");
+    // A new landmark's likelihood: that of an innovation on the new-landmark gate of a landmark seen
+    // once (S = 2R).
+    log_p0 = -0.5 * gates.new_landmark - kLogGaussianConstant<D> - 0.5 * log_det_2r;
+  });
 
   const auto n = static_cast<std::size_t>(config.particles);
   particles.resize(n);
@@ -110,6 +134,12 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
     p.pose = config.initial_pose;
     p.pose[2] = wrap_angle(p.pose[2]);
     p.log_weight = -std::log(static_cast<double>(n));
+    if (const std::optional<RangeCalibrationPrior>& prior = config.range_calibration) {
+      p.links = CalibrationLinks(&link_nodes);
+      p.calibration = Vector2(prior->offset_m, prior->scale_error);
+      p.calibration_cov = Vector2(prior->offset_std_m * prior->offset_std_m,
+                                  prior->scale_error_std * prior->scale_error_std).asDiagonal();
+    }
   }
   slots.resize(n);
   for (std::size_t i = 0; i < n; ++i) slots[i].rng.seed(splitmix64(splitmix64(config.seed) ^ i));
@@ -140,17 +170,39 @@ void FastSlam::Impl::plan_known_association(const ScanEvent& scan, std::size_t s
   auto next_index = static_cast<std::uint32_t>(particles.front().map.size());
   make_room(known_plan, scan.observations.size());
   known_plan.assign(scan.observations.size(), Pairing{});
+  if (initialiser) {
+    make_room(placements, scan.observations.size());
+    placements.resize(scan.observations.size());
+    if (calibrating()) placement_calibration = mean_calibration();
+  }
   for (std::size_t k = 0; k < scan.observations.size(); ++k) {
     const int id = scan.observations[k].id;
     if (!valid[k] || id == kUnknownId) continue;
-    const auto [it, inserted] = known_index.try_emplace(id, next_index);
-    if (inserted) {
-      known_plan[k] = {AssociationDecision::kNew, next_index++};
-      set_origin(id, {scan_index, k});
-    } else {
+    if (const auto it = known_index.find(id); it != known_index.end()) {
       known_plan[k] = {AssociationDecision::kUpdate, it->second};
+      continue;
     }
+    if (initialiser) {
+      std::optional<InitialLandmark> placed =
+          initialiser->offer(id, dead_reckoning.pose, dead_reckoning.covariance, scan.observations[k].z, scan.t,
+                             RangeCorrection{placement_calibration[0], placement_calibration[1]});
+      if (!placed) {
+        known_plan[k] = {AssociationDecision::kPending, 0};
+        ++observations_waiting;
+        continue;
+      }
+      placements[k] = *placed;
+    }
+    known_index.emplace(id, next_index);
+    known_plan[k] = {AssociationDecision::kNew, next_index++};
+    set_origin(id, {scan_index, k});
   }
+}
+
+Vector2 FastSlam::Impl::mean_calibration() const {
+  Vector2 mean = Vector2::Zero();
+  for (std::size_t i = 0; i < particles.size(); ++i) mean += weights[i] * particles[i].calibration;
+  return mean;
 }
 
 namespace {
@@ -246,16 +298,18 @@ void FastSlam::Impl::assign_new_ids(std::size_t observations, std::size_t scan_i
         particles[i].map.mutate(slots[i].pairings[k].index).id = new_ids[k];
 }
 
-void FastSlam::Impl::record_associations(std::size_t slot) {
+void FastSlam::Impl::record_associations(std::size_t slot, const ScanEvent& scan) {
   const std::vector<Pairing>& pairings = slots[slot].pairings;
   make_room(last_records, pairings.size());
   last_records.assign(pairings.size(), AssociationRecord{});
   for (std::size_t k = 0; k < pairings.size(); ++k)
-    if (pairings[k].decision != AssociationDecision::kDiscard)
+    if (pairings[k].decision == AssociationDecision::kPending)
+      last_records[k] = {AssociationDecision::kPending, scan.observations[k].id};
+    else if (pairings[k].decision != AssociationDecision::kDiscard)
       last_records[k] = {pairings[k].decision, particles[slot].map[pairings[k].index].id};
 }
 
-void FastSlam::Impl::reweight_and_resample() {
+void FastSlam::Impl::reweight_and_resample(const ScanEvent& scan) {
   const std::size_t n = particles.size();
   log_weights.resize(n);
   for (std::size_t i = 0; i < n; ++i) log_weights[i] = particles[i].log_weight + slots[i].log_likelihood;
@@ -263,7 +317,7 @@ void FastSlam::Impl::reweight_and_resample() {
   const double ess = effective_sample_size(weights);
   ess_sum += ess;
   best = static_cast<std::size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
-  record_associations(best);
+  record_associations(best, scan);
   if (slots[best].relocalised) ++relocalisations;
 
   if (config.policy.should_resample(scans, ess, n)) {
@@ -356,6 +410,7 @@ void FastSlam::predict(const ControlEvent& control) {
   s.pool.run(s.particles.size(), kPredictGrain, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) s.predict_particle(i, control);
   });
+  if (s.initialiser) s.dead_reckoning.advance(*s.motion, control.u, control.dt);
   if (s.relocalising()) s.drift.add(q, s.particles[s.best].pose.head<2>());
 }
 
@@ -384,8 +439,10 @@ void FastSlam::update(const ScanEvent& scan) {
     });
     if (s.pending.active()) s.decide_new_landmarks(scan);
   }
-  s.pool.run(s.particles.size(), kUpdateGrain, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) s.update_particle(i, scan);
+  with_measurement_dim(s.observation->dim(), [&]<int D>(std::integral_constant<int, D>) {
+    s.pool.run(s.particles.size(), kUpdateGrain, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) s.update_particle<D>(i, scan);
+    });
   });
   if (!s.known()) {
     s.assign_new_ids(n_obs, scan_index);
@@ -398,7 +455,7 @@ void FastSlam::update(const ScanEvent& scan) {
     }
     s.gate_tally.add_scan(scan.t, judged, rejected);
   }
-  s.reweight_and_resample();
+  s.reweight_and_resample(scan);
   if (!s.known() && ++s.scans_since_prune >= kGridPruneScans) s.prune_grid();
 }
 
@@ -434,11 +491,21 @@ std::size_t FastSlam::num_landmarks() const {
   return n;
 }
 
-// Confirmed landmarks only, as the EKF reports them: a provisional one may still be clutter.
+// Confirmed landmarks only, as the EKF reports them: a provisional one may still be clutter. With a
+// range calibration, each at the particle's calibration, with that calibration's uncertainty.
 std::vector<Landmark> FastSlam::landmarks() const {
+  const Impl& s = *impl_;
+  const Impl::Particle& p = s.best_particle();
   std::vector<Landmark> out;
-  impl_->best_particle().map.for_each([&](std::size_t, const LandmarkGaussian& lm) {
-    if (!lm.removed && impl_->existence.confirmed(lm.existence)) out.push_back({lm.id, lm.mean, lm.covariance});
+  p.map.for_each([&](std::size_t index, const LandmarkGaussian& lm) {
+    if (lm.removed || !s.existence.confirmed(lm.existence)) return;
+    if (!s.calibrating()) {
+      out.push_back({lm.id, lm.mean, lm.covariance});
+      return;
+    }
+    const Matrix2& gain = p.links[index].gain;
+    out.push_back({lm.id, s.mean_at(p, static_cast<std::uint32_t>(index), p.calibration),
+                   symmetric(lm.covariance + gain * p.calibration_cov * gain.transpose())});
   });
   return out;
 }
@@ -480,6 +547,23 @@ std::map<std::string, double> FastSlam::statistics() const {
     statistics["observations_pending"] = static_cast<double>(s.pending_observations);
     statistics["landmarks_pending"] = static_cast<double>(s.pending.size());
   }
+  if (s.initialiser) {
+    statistics["observations_pending"] = static_cast<double>(s.observations_waiting);
+    statistics["landmarks_pending"] = static_cast<double>(s.initialiser->waiting());
+  }
+  if (s.calibrating()) {
+    // The mixture of the particles' Gaussians: their weighted covariance plus their means' spread.
+    const Vector2 mean = s.mean_calibration();
+    Matrix2 cov = Matrix2::Zero();
+    for (std::size_t i = 0; i < s.particles.size(); ++i) {
+      const Vector2 d = s.particles[i].calibration - mean;
+      cov += s.weights[i] * (s.particles[i].calibration_cov + d * d.transpose());
+    }
+    statistics["range_offset_m"] = mean[0];
+    statistics["range_offset_std_m"] = std::sqrt(cov(0, 0));
+    statistics["range_scale_error"] = mean[1];
+    statistics["range_scale_error_std"] = std::sqrt(cov(1, 1));
+  }
   // Summed over the particles: each judges its own landmarks.
   if (s.known() && s.gate_known) s.gate_tally.add_statistics(statistics);
   return statistics;
@@ -506,7 +590,14 @@ void FastSlam::set_initial_map(const std::vector<Landmark>& map) {
     tree.push_back(g);
   }
   s.first_started_id = s.next_id;
-  for (Impl::Particle& p : s.particles) p.map = tree;
+  // A given landmark does not move with the range calibration.
+  CalibrationLinks links(&s.link_nodes);
+  if (s.calibrating())
+    for (std::size_t i = 0; i < tree.size(); ++i) links.push_back({Matrix2::Zero(), s.particles.front().calibration});
+  for (Impl::Particle& p : s.particles) {
+    p.map = tree;
+    p.links = links;
+  }
 }
 
 std::optional<LandmarkOrigin> FastSlam::landmark_origin(int id) const {

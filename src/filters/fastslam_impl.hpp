@@ -2,10 +2,12 @@
 // FastSLAM's private state, shared by fastslam.cpp (the filter: particles, threads, candidates,
 // resampling, map ids, the public interface) and fastslam_particle.cpp (one particle's scan:
 // association, the proposal and the landmark updates, eqs. 15-18).
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <random>
 #include <tuple>
@@ -20,6 +22,7 @@
 #include "slamkit/assoc/pending_landmarks.hpp"
 #include "slamkit/assoc/sensor_view.hpp"
 #include "slamkit/filters/fastslam.hpp"
+#include "slamkit/filters/landmark_initialiser.hpp"
 #include "slamkit/filters/landmark_tree.hpp"
 #include "slamkit/filters/particle_path.hpp"
 #include "slamkit/filters/worker_pool.hpp"
@@ -31,7 +34,15 @@ namespace fastslam_detail {
 constexpr double kLog2Pi = 1.8378770664093454836;
 constexpr double kMinusInf = -std::numeric_limits<double>::infinity();
 
-/// Inverse and log-determinant of a 2x2 covariance; false if it is not positive definite.
+/// Inverse and log-determinant of a measurement's covariance (one per measurement dimension);
+/// false if it is not positive definite.
+inline bool invert_spd(const Eigen::Matrix<double, 1, 1>& s, Eigen::Matrix<double, 1, 1>& inverse, double& log_det) {
+  if (!(s(0, 0) > 0.0) || !std::isfinite(s(0, 0))) return false;
+  inverse(0, 0) = 1.0 / s(0, 0);
+  log_det = std::log(s(0, 0));
+  return true;
+}
+
 inline bool invert_spd(const Matrix2& s, Matrix2& inverse, double& log_det) {
   const double det = s(0, 0) * s(1, 1) - s(0, 1) * s(1, 0);
   if (!(det > 0.0) || !(s(0, 0) > 0.0) || !std::isfinite(det)) return false;
@@ -40,6 +51,18 @@ inline bool invert_spd(const Matrix2& s, Matrix2& inverse, double& log_det) {
   log_det = std::log(det);
   return true;
 }
+
+inline bool invert_spd(const Matrix3& s, Matrix3& inverse, double& log_det) {
+  const Eigen::LLT<Matrix3> llt(s);
+  if (llt.info() != Eigen::Success || !s.allFinite()) return false;
+  inverse = llt.solve(Matrix3::Identity());
+  log_det = 2.0 * llt.matrixL().toDenseMatrix().diagonal().array().log().sum();
+  return true;
+}
+
+/// log((2 pi)^(D/2)): the constant of a D-dimensional Gaussian's log density.
+template <int D>
+constexpr double kLogGaussianConstant = 0.5 * D * kLog2Pi;
 
 /// The symmetric part of a covariance expression: rounding breaks symmetry, and a 2x2 inverse and
 /// an LDLT read both triangles.
@@ -102,6 +125,43 @@ inline Matrix3 drift_between(const DriftSums& from, const DriftSums& to, const V
   return symmetric(d);
 }
 
+/// An observation model's answers in types fixed at its measurement dimension D.
+template <int D>
+struct MeasurementKernels {
+  using Vector = MeasurementVector<D>;
+  using Square = MeasurementSquare<D>;
+  const ObservationModel* model = nullptr;
+  Square r = Square::Zero();  // the measurement noise
+
+  Vector predict(const Pose2& x, const Vector2& m) const { return model->predict(x, m); }
+  void jacobians(const Pose2& x, const Vector2& m, PoseRows<D>& hx, LandmarkRows<D>& hm) const {
+    PoseJacobian pose_rows;
+    LandmarkJacobian landmark_rows;
+    model->jacobians(x, m, pose_rows, landmark_rows);
+    hx = pose_rows;
+    hm = landmark_rows;
+  }
+  Vector residual(const Vector& z, const Vector& zhat) const { return model->residual(z, zhat); }
+  Vector2 inverse(const Pose2& x, const Vector& z) const { return model->invert(x, z)->position; }
+  void inverse_jacobians(const Pose2& x, const Vector& z, Matrix23& gx, Eigen::Matrix<double, 2, D>& gz) const {
+    const InverseObservation g = *model->invert(x, z);
+    gx = g.gx;
+    gz = g.gz;
+  }
+};
+
+/// The Jacobian of a measurement in the range calibration (offset, scale error).
+template <int D>
+using CalibrationRows = Eigen::Matrix<double, D, 2>;
+
+/// With a range calibration c, a landmark's Gaussian given c: its mean moves with c, mean + gain
+/// (c - at), about the covariance the map's LandmarkGaussian keeps (see fastslam.hpp).
+struct CalibrationLink {
+  Matrix2 gain = Matrix2::Zero();  // dm/dc
+  Vector2 at = Vector2::Zero();    // the calibration at which the map's mean holds
+};
+using CalibrationLinks = BasicLandmarkTree<kLandmarkTreeFanOut, CalibrationLink>;
+
 /// A particle's pose error relative to its old map, as of the scan at which a landmark it saw again
 /// after the window, or its relocalisation, tied its pose to that map (see drift_of()).
 struct Anchor {
@@ -119,6 +179,10 @@ struct FastSlam::Impl {
     // sampled (FastSlamConfig::pose_sample_fraction), plus the motion noise since.
     Matrix3 pose_cov = Matrix3::Zero();
     double log_weight = 0.0;             // log of the normalised weight
+    // With a range calibration: the particle's Gaussian of (offset, scale error).
+    Vector2 calibration = Vector2::Zero();
+    Matrix2 calibration_cov = Matrix2::Zero();
+    fastslam_detail::CalibrationLinks links;  // one per landmark of `map`
     LandmarkTree map;
     ParticlePath path;
     // Relocalisation: the particle's latest anchor, and the scan of its last relocalisation (see
@@ -176,23 +240,55 @@ struct FastSlam::Impl {
        const FastSlamConfig& cfg);
 
   bool known() const { return config.association.method == AssociationMethod::kKnown; }
+  bool calibrating() const { return config.range_calibration.has_value(); }
 
   void start(double t);
   void predict_particle(std::size_t i, const ControlEvent& control);
   void plan_known_association(const ScanEvent& scan, std::size_t scan_index);
   void gather_candidates();
   void associate(const Particle& p, Slot& s, const ScanEvent& scan) const;
+  template <int D>
   void reject_known_outliers(const Particle& p, Slot& s, const ScanEvent& scan) const;
   /// The covariance of the innovation of landmark lm as particle p predicts it, and the Jacobians.
-  Matrix2 innovation_covariance(const Particle& p, const LandmarkGaussian& lm, Matrix23& hx, Matrix2& hm) const;
-  /// Whether z lies beyond the new-landmark gate of landmark lm as particle p predicts it; the verdict
-  /// is counted in the slot.
-  bool beyond_gate(const Particle& p, const LandmarkGaussian& lm, const Vector2& z, Slot& s) const;
+  template <int D>
+  MeasurementSquare<D> innovation_covariance(const Particle& p, const LandmarkGaussian& lm, PoseRows<D>& hx,
+                                             LandmarkRows<D>& hm) const;
+  /// Whether z lies beyond the new-landmark gate of landmark `index` as particle p predicts it; the
+  /// verdict is counted in the slot.
+  template <int D>
+  bool beyond_gate(const Particle& p, std::uint32_t index, const MeasurementVector<D>& z, Slot& s) const;
+  /// With a range calibration: the mean of landmark `index` of particle p given the calibration c.
+  Vector2 mean_at(const Particle& p, std::uint32_t index, const Vector2& c) const;
+  /// With a range calibration: that landmark's measurement predicted from x and read through c, with
+  /// its Jacobians in the pose, the landmark and (through the range row alone) c.
+  template <int D>
+  MeasurementVector<D> predict_given(const Particle& p, std::uint32_t index, const Pose2& x, const Vector2& c,
+                                     PoseRows<D>& hx, LandmarkRows<D>& hm,
+                                     fastslam_detail::CalibrationRows<D>& hc) const;
+  /// Particle i's scan update, with measurements of dimension D (the model's).
+  template <int D>
   void update_particle(std::size_t i, const ScanEvent& scan);
   /// Landmark updates and new landmarks at pose x with covariance x_cov (FastSLAM 2.0: what the particle
   /// carries of its pose uncertainty, see FastSlamConfig::pose_sample_fraction; else zero).
-  double update_landmark(LandmarkGaussian& lm, const Pose2& x, const Matrix3& x_cov, const Vector2& z) const;
-  LandmarkGaussian new_landmark(const Pose2& x, const Matrix3& x_cov, const Vector2& z, int id) const;
+  /// FastSLAM 2.0's proposal (eq. 18) for particle p, the landmarks paired in its slot below map
+  /// index old_size: the prediction refined by each paired observation in turn, over the pose, or
+  /// (N = 5) the pose and the range calibration; the pose is then drawn. Returns the log of the
+  /// proposal's normalising constant, the particle's weight factor.
+  template <int D, int N>
+  double propose(Particle& p, Slot& s, const ScanEvent& scan, std::size_t old_size) const;
+  template <int D>
+  double update_landmark(LandmarkGaussian& lm, const Particle& p, const MeasurementVector<D>& z) const;
+  /// With a range calibration: the update of landmark `index` and particle p's calibration, jointly.
+  template <int D>
+  double update_calibrated(Particle& p, std::uint32_t index, const MeasurementVector<D>& z) const;
+  template <int D>
+  LandmarkGaussian new_landmark(const Pose2& x, const Matrix3& x_cov, const MeasurementVector<D>& z, int id) const;
+  /// Particle p starts the landmark the initialiser placed (placements, in dead reckoning's frame):
+  /// the same place relative to the particle, and with a range calibration moving with it from
+  /// where it was placed (placement_calibration).
+  void start_placed(Particle& p, const InitialLandmark& placed, int id) const;
+  /// The particles' weighted mean range calibration.
+  Vector2 mean_calibration() const;
   void count_misses(Particle& p, Slot& s) const;
   /// Whether the existence rule expects particle p to see landmark lm from its pose.
   bool expected_in_view(const Particle& p, const LandmarkGaussian& lm) const;
@@ -217,8 +313,8 @@ struct FastSlam::Impl {
   /// start landmarks (start_detections), and the particles' pairings to match.
   void decide_new_landmarks(const ScanEvent& scan);
   void assign_new_ids(std::size_t observations, std::size_t scan_index);
-  void record_associations(std::size_t slot);
-  void reweight_and_resample();
+  void record_associations(std::size_t slot, const ScanEvent& scan);
+  void reweight_and_resample(const ScanEvent& scan);
   void index_grid_entries();
   void prune_grid();
   void set_origin(int id, const LandmarkOrigin& origin);
@@ -229,31 +325,17 @@ struct FastSlam::Impl {
   // map and path, i.e. the particles.
   WorkerPool pool;
   LandmarkTree::NodeStorage map_nodes;
+  fastslam_detail::CalibrationLinks::NodeStorage link_nodes;
   ParticlePath::NodeStorage path_nodes;
   bool keep_paths = true;
   std::shared_ptr<const MotionModel> motion;
   std::shared_ptr<const ObservationModel> observation;
-  /// The model's answers in fixed-size types: the particle kernels are written for range and
-  /// bearing, two measurement rows (the constructor refuses other models).
-  struct RangeBearingKernels {
-    const ObservationModel* model = nullptr;
-    Vector2 predict(const Pose2& x, const Vector2& m) const { return model->predict(x, m); }
-    void jacobians(const Pose2& x, const Vector2& m, Matrix23& hx, Matrix2& hm) const {
-      PoseJacobian pose_rows;
-      LandmarkJacobian landmark_rows;
-      model->jacobians(x, m, pose_rows, landmark_rows);
-      hx = pose_rows;
-      hm = landmark_rows;
-    }
-    Vector2 residual(const Vector2& z, const Vector2& zhat) const { return model->residual(z, zhat); }
-    Vector2 inverse(const Pose2& x, const Vector2& z) const { return model->invert(x, z)->position; }
-    void inverse_jacobians(const Pose2& x, const Vector2& z, Matrix23& gx, Matrix2& gz) const {
-      const InverseObservation g = *model->invert(x, z);
-      gx = g.gx;
-      gz = g.gz;
-    }
-  } measurements;
-  Matrix2 r;
+  /// The model's kernels at its measurement dimension (only that one is set): a scan's particle
+  /// updates are dispatched once to the code fixed at it.
+  PerMeasurementDim<fastslam_detail::MeasurementKernels> kernels;
+  /// The two-row kernels of range and bearing: the search for pairings (nn) and relocalisation
+  /// need a measurement that places a landmark, which only range and bearing is.
+  const fastslam_detail::MeasurementKernels<2>& measurements = kernels.two;
   Gates gates;
   bool gate_known;
   GateTally gate_tally;  // over every particle's verdicts
@@ -282,6 +364,16 @@ struct FastSlam::Impl {
 
   std::vector<char> valid;  // per observation of the current scan: finite measurement
   std::vector<Pairing> known_plan;
+  // Where one measurement does not place a landmark (or a setting asks for it), the observations of
+  // a landmark not yet mapped wait in the initialiser, which works in dead reckoning's frame, shared
+  // by every particle; a landmark it places is started by each particle where it lies relative to
+  // the particle (placements: per observation of the current scan, for those it placed).
+  std::unique_ptr<LandmarkInitialiser> initialiser;
+  DeadReckoning dead_reckoning;
+  std::vector<InitialLandmark> placements;
+  Vector2 placement_calibration = Vector2::Zero();  // what the current scan's placements read ranges through
+  int range_row = -1;  // of the measurement
+  std::size_t observations_waiting = 0;
   std::unordered_map<int, std::uint32_t> known_index;
   LandmarkGrid grid;
   std::size_t scans_since_prune = 0;

@@ -30,36 +30,87 @@ Pose2 sample_gaussian(const Pose2& mean, const Matrix3& cov, std::mt19937_64& rn
   return x;
 }
 
+/// A predicted measurement read through a range calibration c = (offset b, scale error s): its range
+/// row, a distance d, becomes (1 + s) d + b, that row's Jacobians scale with it, and hc, the
+/// Jacobian in c, is (1, d) there.
+template <int D>
+void read_through(const Vector2& c, int row, MeasurementVector<D>& zhat, PoseRows<D>& hx, LandmarkRows<D>& hm,
+                  CalibrationRows<D>& hc) {
+  hc.setZero();
+  hc(row, 0) = 1.0;
+  hc(row, 1) = zhat[row];
+  zhat[row] = RangeCorrection{c[0], c[1]}.range(zhat[row]);
+  hx.row(row) *= 1.0 + c[1];
+  hm.row(row) *= 1.0 + c[1];
+}
+
 }  // namespace
 
-Matrix2 FastSlam::Impl::innovation_covariance(const Particle& p, const LandmarkGaussian& lm, Matrix23& hx,
-                                              Matrix2& hm) const {
+Vector2 FastSlam::Impl::mean_at(const Particle& p, std::uint32_t index, const Vector2& c) const {
+  const CalibrationLink& link = p.links[index];
+  return p.map[index].mean + link.gain * (c - link.at);
+}
+
+template <int D>
+MeasurementVector<D> FastSlam::Impl::predict_given(const Particle& p, std::uint32_t index, const Pose2& x,
+                                                   const Vector2& c, PoseRows<D>& hx, LandmarkRows<D>& hm,
+                                                   CalibrationRows<D>& hc) const {
+  const MeasurementKernels<D>& k = kernels.get<D>();
+  const Vector2 m = mean_at(p, index, c);
+  k.jacobians(x, m, hx, hm);
+  MeasurementVector<D> zhat = k.predict(x, m);
+  read_through(c, range_row, zhat, hx, hm, hc);
+  return zhat;
+}
+
+template <int D>
+MeasurementSquare<D> FastSlam::Impl::innovation_covariance(const Particle& p, const LandmarkGaussian& lm,
+                                                           PoseRows<D>& hx, LandmarkRows<D>& hm) const {
   // At the pose as predicted: for FastSLAM 2.0 its covariance enters S, as the proposal's
   // uncertainty should when judging whether an observation fits a landmark.
-  measurements.jacobians(p.pose, lm.mean, hx, hm);
-  Matrix2 cov = hm * lm.covariance * hm.transpose() + r;
+  const MeasurementKernels<D>& k = kernels.get<D>();
+  k.jacobians(p.pose, lm.mean, hx, hm);
+  MeasurementSquare<D> cov = hm * lm.covariance * hm.transpose() + k.r;
   if (config.version == 2) cov += hx * p.pose_cov * hx.transpose();
   return cov;
 }
 
-bool FastSlam::Impl::beyond_gate(const Particle& p, const LandmarkGaussian& lm, const Vector2& z, Slot& s) const {
-  Matrix23 hx;
-  Matrix2 hm;
-  Matrix2 inverse;
+template <int D>
+bool FastSlam::Impl::beyond_gate(const Particle& p, std::uint32_t index, const MeasurementVector<D>& z,
+                                 Slot& s) const {
+  const MeasurementKernels<D>& k = kernels.get<D>();
+  PoseRows<D> hx;
+  LandmarkRows<D> hm;
+  MeasurementSquare<D> cov;
+  MeasurementVector<D> zhat;
+  const LandmarkGaussian& lm = p.map[index];
+  if (calibrating()) {
+    // The landmark given the calibration, and the calibration's own uncertainty through both.
+    CalibrationRows<D> hc;
+    zhat = predict_given<D>(p, index, p.pose, p.calibration, hx, hm, hc);
+    const CalibrationRows<D> hc_total = hc + hm * p.links[index].gain;
+    cov = hm * lm.covariance * hm.transpose() + k.r + hx * p.pose_cov * hx.transpose() +
+          hc_total * p.calibration_cov * hc_total.transpose();
+  } else {
+    cov = innovation_covariance<D>(p, lm, hx, hm);
+    zhat = k.predict(p.pose, lm.mean);
+  }
+  MeasurementSquare<D> inverse;
   double log_det = 0.0;
-  if (!invert_spd(symmetric(innovation_covariance(p, lm, hx, hm)), inverse, log_det)) return false;
-  const Vector2 nu = measurements.residual(z, measurements.predict(p.pose, lm.mean));
+  if (!invert_spd(symmetric(cov), inverse, log_det)) return false;
+  const MeasurementVector<D> nu = k.residual(z, zhat);
   ++s.gate_judged;
   const bool beyond = nu.dot(inverse * nu) > gates.new_landmark;
   s.gate_rejected += beyond ? 1 : 0;
   return beyond;
 }
 
+template <int D>
 void FastSlam::Impl::reject_known_outliers(const Particle& p, Slot& s, const ScanEvent& scan) const {
   for (std::size_t k = 0; k < s.pairings.size(); ++k) {
     const Pairing& pairing = s.pairings[k];
     if (pairing.decision == AssociationDecision::kUpdate && pairing.index < p.map.size() &&
-        beyond_gate(p, p.map[pairing.index], scan.observations[k].z, s))
+        beyond_gate<D>(p, pairing.index, scan.observations[k].z, s))
       s.pairings[k] = Pairing{};
   }
 }
@@ -78,7 +129,7 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
     Matrix2 hm;
     Matrix2 inverse;
     double log_det = 0.0;
-    if (invert_spd(symmetric(innovation_covariance(p, lm, hx, hm)), inverse, log_det))
+    if (invert_spd(symmetric(innovation_covariance<2>(p, lm, hx, hm)), inverse, log_det))
       s.candidates.push_back({index, zhat, inverse, kLog2Pi + 0.5 * log_det});
   }
 
@@ -123,42 +174,169 @@ void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan
       s.pairings[k] = {AssociationDecision::kNew, next_index++};
 }
 
-double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Pose2& x, const Matrix3& x_cov,
-                                       const Vector2& z) const {
-  Matrix23 hx;
-  Matrix2 hm;
-  measurements.jacobians(x, lm.mean, hx, hm);
-  const Vector2 nu = measurements.residual(z, measurements.predict(x, lm.mean));
-  const Matrix2 pht = lm.covariance * hm.transpose();
-  Matrix2 s_inverse;
+template <int D>
+double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Particle& p, const MeasurementVector<D>& z) const {
+  const MeasurementKernels<D>& k = kernels.get<D>();
+  PoseRows<D> hx;
+  LandmarkRows<D> hm;
+  k.jacobians(p.pose, lm.mean, hx, hm);
+  const MeasurementVector<D> nu = k.residual(z, k.predict(p.pose, lm.mean));
+  const Eigen::Matrix<double, 2, D> pht = lm.covariance * hm.transpose();
+  MeasurementSquare<D> s_inverse;
   double log_det = 0.0;
   // The pose's own uncertainty adds to the measurement's: a landmark seen from an uncertain pose learns
   // less from it.
-  const Matrix2 r_eff = r + hx * x_cov * hx.transpose();
+  const MeasurementSquare<D> r_eff = k.r + hx * p.pose_cov * hx.transpose();
   if (!nu.allFinite() || !invert_spd(symmetric(hm * pht + r_eff), s_inverse, log_det)) return kMinusInf;
-  const Matrix2 gain = pht * s_inverse;
+  const Eigen::Matrix<double, 2, D> gain = pht * s_inverse;
   lm.mean += gain * nu;
   // Joseph form: stays symmetric positive definite however the gain is rounded.
   const Matrix2 ikh = Matrix2::Identity() - gain * hm;
   lm.covariance = symmetric(ikh * lm.covariance * ikh.transpose() + gain * r_eff * gain.transpose());
   existence.observed(lm.existence);
   lm.last_seen = static_cast<std::uint32_t>(scans - 1);
-  return -0.5 * nu.dot(s_inverse * nu) - kLog2Pi - 0.5 * log_det;
+  return -0.5 * nu.dot(s_inverse * nu) - kLogGaussianConstant<D> - 0.5 * log_det;
 }
 
-LandmarkGaussian FastSlam::Impl::new_landmark(const Pose2& x, const Matrix3& x_cov, const Vector2& z, int id) const {
+template <int D>
+double FastSlam::Impl::update_calibrated(Particle& p, std::uint32_t index, const MeasurementVector<D>& z) const {
+  const MeasurementKernels<D>& k = kernels.get<D>();
+  LandmarkGaussian& lm = p.map.mutate(index);
+  CalibrationLink& link = p.links.mutate(index);
+  // The joint Gaussian of the calibration and the landmark, from the calibration's and the
+  // landmark's given it.
+  Eigen::Vector4d mean;
+  mean << p.calibration, mean_at(p, index, p.calibration);
+  Eigen::Matrix4d sigma;
+  const Matrix2 cross = link.gain * p.calibration_cov;
+  sigma << p.calibration_cov, cross.transpose(), cross, lm.covariance + cross * link.gain.transpose();
+  PoseRows<D> hx;
+  LandmarkRows<D> hm;
+  CalibrationRows<D> hc;
+  const MeasurementVector<D> nu = k.residual(z, predict_given<D>(p, index, p.pose, p.calibration, hx, hm, hc));
+  Eigen::Matrix<double, D, 4> h;
+  h << hc, hm;
+  const MeasurementSquare<D> r_eff = k.r + hx * p.pose_cov * hx.transpose();
+  const Eigen::Matrix<double, 4, D> pht = sigma * h.transpose();
+  MeasurementSquare<D> s_inverse;
+  double log_det = 0.0;
+  if (!nu.allFinite() || !invert_spd(symmetric(h * pht + r_eff), s_inverse, log_det)) return kMinusInf;
+  const Eigen::Matrix<double, 4, D> gain = pht * s_inverse;
+  mean += gain * nu;
+  const Eigen::Matrix4d ikh = Eigen::Matrix4d::Identity() - gain * h;
+  sigma = symmetric(ikh * sigma * ikh.transpose() + gain * r_eff * gain.transpose());
+  // Back to the calibration's Gaussian and the landmark's given it (the other landmarks' given it
+  // have not changed: given the calibration and the path they are independent of this observation).
+  p.calibration = mean.head<2>();
+  p.calibration_cov = sigma.topLeftCorner<2, 2>();
+  link.gain = sigma.bottomLeftCorner<2, 2>() * p.calibration_cov.inverse();
+  link.at = p.calibration;
+  lm.mean = mean.tail<2>();
+  lm.covariance = symmetric(Matrix2(sigma.bottomRightCorner<2, 2>() - link.gain * sigma.topRightCorner<2, 2>()));
+  existence.observed(lm.existence);
+  lm.last_seen = static_cast<std::uint32_t>(scans - 1);
+  return -0.5 * nu.dot(s_inverse * nu) - kLogGaussianConstant<D> - 0.5 * log_det;
+}
+
+template <int D>
+LandmarkGaussian FastSlam::Impl::new_landmark(const Pose2& x, const Matrix3& x_cov, const MeasurementVector<D>& z,
+                                              int id) const {
+  const MeasurementKernels<D>& k = kernels.get<D>();
   Matrix23 gx;
-  Matrix2 gz;
-  measurements.inverse_jacobians(x, z, gx, gz);
+  Eigen::Matrix<double, 2, D> gz;
+  k.inverse_jacobians(x, z, gx, gz);
   LandmarkGaussian lm;
-  lm.mean = measurements.inverse(x, z);
-  lm.covariance = symmetric(gz * r * gz.transpose() + gx * x_cov * gx.transpose());
+  lm.mean = k.inverse(x, z);
+  lm.covariance = symmetric(gz * k.r * gz.transpose() + gx * x_cov * gx.transpose());
   lm.id = id;
   lm.started = lm.last_seen = static_cast<std::uint32_t>(scans - 1);
   lm.existence = known() ? existence.given() : existence.first_observed();
   return lm;
 }
 
+void FastSlam::Impl::start_placed(Particle& p, const InitialLandmark& placed, int id) const {
+  const InitialLandmark here = dead_reckoning.carried_to(p.pose, placed);
+  LandmarkGaussian lm;
+  lm.mean = here.mean;
+  lm.covariance = symmetric(here.covariance + here.gx * p.pose_cov * here.gx.transpose());
+  lm.id = id;
+  lm.started = lm.last_seen = static_cast<std::uint32_t>(scans - 1);
+  lm.existence = existence.given();  // the initialisers gather observations by identity
+  p.map.push_back(lm);
+  if (!calibrating()) return;
+  // Shorter ranges (a larger offset or scale) draw the landmark in: dm/d(b, s) = -(gains) / (1 + s).
+  CalibrationLink link;
+  link.gain << here.range_gain, here.range_scale_gain;
+  link.gain /= -(1.0 + placement_calibration[1]);
+  link.at = placement_calibration;
+  p.links.push_back(link);
+}
+
+template <int D, int N>
+double FastSlam::Impl::propose(Particle& p, Slot& s, const ScanEvent& scan, std::size_t old_size) const {
+  using StateVector = Eigen::Matrix<double, N, 1>;
+  using StateSquare = Eigen::Matrix<double, N, N>;
+  const MeasurementKernels<D>& kernel = kernels.get<D>();
+  // The vehicle (and the calibration, independent of it until this scan's observations tie them).
+  StateVector mu;
+  StateSquare sigma = StateSquare::Zero();
+  mu.template head<3>() = p.pose;
+  sigma.template topLeftCorner<3, 3>() = p.pose_cov;
+  if constexpr (N == 5) {
+    mu.template tail<2>() = p.calibration;
+    sigma.template bottomRightCorner<2, 2>() = p.calibration_cov;
+  }
+  double log_likelihood = 0.0;
+  for (std::size_t k = 0; k < s.pairings.size(); ++k) {
+    if (s.pairings[k].decision != AssociationDecision::kUpdate || s.pairings[k].index >= old_size) continue;
+    const std::uint32_t index = s.pairings[k].index;
+    const LandmarkGaussian& lm = p.map[index];
+    const Pose2 x = mu.template head<3>();
+    PoseRows<D> hx;
+    LandmarkRows<D> hm;
+    Eigen::Matrix<double, D, N> h;
+    MeasurementVector<D> zhat;
+    if constexpr (N == 5) {
+      // The landmark given the calibration moves with it: the calibration's columns gain Hm dm/dc.
+      CalibrationRows<D> hc;
+      zhat = predict_given<D>(p, index, x, mu.template tail<2>(), hx, hm, hc);
+      h << hx, hc + hm * p.links[index].gain;
+    } else {
+      kernel.jacobians(x, lm.mean, hx, hm);
+      zhat = kernel.predict(x, lm.mean);
+      h = hx;
+    }
+    const MeasurementVector<D> nu = kernel.residual(scan.observations[k].z, zhat);
+    const MeasurementSquare<D> z_cov = hm * lm.covariance * hm.transpose() + kernel.r;
+    const Eigen::Matrix<double, N, D> sht = sigma * h.transpose();
+    MeasurementSquare<D> s_inverse;
+    double log_det = 0.0;
+    if (!nu.allFinite() || !invert_spd(symmetric(h * sht + z_cov), s_inverse, log_det)) {
+      log_likelihood = kMinusInf;
+      continue;
+    }
+    log_likelihood += -0.5 * nu.dot(s_inverse * nu) - kLogGaussianConstant<D> - 0.5 * log_det;
+    const Eigen::Matrix<double, N, D> gain = sht * s_inverse;
+    mu += gain * nu;
+    mu[2] = wrap_angle(mu[2]);
+    const StateSquare ikh = StateSquare::Identity() - gain * h;
+    sigma = symmetric(ikh * sigma * ikh.transpose() + gain * z_cov * gain.transpose());
+  }
+  // Only a share of the proposal is sampled; the particle carries the rest as its pose's Gaussian,
+  // which the next proposal, the gates, the weights and the landmark updates account for (see
+  // FastSlamConfig::pose_sample_fraction).
+  const double fraction = config.pose_sample_fraction;
+  const Pose2 mean = mu.template head<3>();
+  const Matrix3 pose_sigma = sigma.template topLeftCorner<3, 3>();
+  p.pose = sample_gaussian(mean, fraction * pose_sigma, s.rng);
+  p.pose_cov = (1.0 - fraction) * pose_sigma;
+  // The calibration's part of the proposal is not kept: the landmark updates at the drawn pose
+  // refine the calibration with these observations (once).
+  if (!p.path.empty()) p.path.replace_newest(p.pose);
+  return log_likelihood;
+}
+
+template <int D>
 void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   Particle& p = particles[i];
   Slot& s = slots[i];
@@ -168,7 +346,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
     make_room(s.pairings, n_obs);
     s.pairings = known_plan;
     s.gate_judged = s.gate_rejected = 0;
-    if (gate_known) reject_known_outliers(p, s, scan);
+    if (gate_known) reject_known_outliers<D>(p, s, scan);
   }  // else associate() has run for every particle (FastSlam::update)
   s.grid_entries.clear();
   make_room(s.grid_entries, n_obs);
@@ -176,12 +354,13 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   make_room(s.confirmed_now, n_obs);
   // A landmark update at the particle's final pose; a landmark leaving its grid cell is listed in
   // the new one.
-  auto update_at = [&](std::uint32_t index, const Vector2& z) {
+  auto update_at = [&](std::uint32_t index, const MeasurementVector<D>& z) {
+    if (calibrating()) return update_calibrated<D>(p, index, z);
     LandmarkGaussian& lm = p.map.mutate(index);
-    if (known()) return update_landmark(lm, p.pose, p.pose_cov, z);
+    if (known()) return update_landmark<D>(lm, p, z);
     const LandmarkGrid::Cell before = grid.cell_of(lm.mean);
     const bool was_confirmed = existence.confirmed(lm.existence);
-    const double ll = update_landmark(lm, p.pose, p.pose_cov, z);
+    const double ll = update_landmark<D>(lm, p, z);
     if (!was_confirmed && existence.confirmed(lm.existence) && lm.started >= window_start)
       s.confirmed_now.push_back(index);
     if (grid.cell_of(lm.mean) != before) s.grid_entries.emplace_back(lm.mean, index);
@@ -193,41 +372,8 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
     return pairings[k].decision == AssociationDecision::kUpdate && pairings[k].index < old_size;
   };
   double log_likelihood = 0.0;
-
-  if (config.version == 2) {
-    // The proposal (eq. 18): the prediction refined by each paired observation in turn.
-    Pose2 mu = p.pose;
-    Matrix3 sigma = p.pose_cov;
-    for (std::size_t k = 0; k < n_obs; ++k) {
-      if (!is_old_update(k)) continue;
-      const LandmarkGaussian& lm = p.map[pairings[k].index];
-      Matrix23 hx;
-      Matrix2 hm;
-      measurements.jacobians(mu, lm.mean, hx, hm);
-      const Vector2 nu = measurements.residual(scan.observations[k].z, measurements.predict(mu, lm.mean));
-      const Matrix2 z_cov = hm * lm.covariance * hm.transpose() + r;
-      const Eigen::Matrix<double, 3, 2> sht = sigma * hx.transpose();
-      Matrix2 s_inverse;
-      double log_det = 0.0;
-      if (!nu.allFinite() || !invert_spd(symmetric(hx * sht + z_cov), s_inverse, log_det)) {
-        log_likelihood = kMinusInf;
-        continue;
-      }
-      log_likelihood += -0.5 * nu.dot(s_inverse * nu) - kLog2Pi - 0.5 * log_det;
-      const Eigen::Matrix<double, 3, 2> gain = sht * s_inverse;
-      mu += gain * nu;
-      mu[2] = wrap_angle(mu[2]);
-      const Matrix3 ikh = Matrix3::Identity() - gain * hx;
-      sigma = symmetric(ikh * sigma * ikh.transpose() + gain * z_cov * gain.transpose());
-    }
-    // Only a share of the proposal is sampled; the particle carries the rest as its pose's Gaussian,
-    // which the next proposal, the gates, the weights and the landmark updates account for (see
-    // FastSlamConfig::pose_sample_fraction).
-    const double fraction = config.pose_sample_fraction;
-    p.pose = sample_gaussian(mu, fraction * sigma, s.rng);
-    p.pose_cov = (1.0 - fraction) * sigma;
-    if (!p.path.empty()) p.path.replace_newest(p.pose);
-  }
+  if (config.version == 2)
+    log_likelihood = calibrating() ? propose<D, 5>(p, s, scan, old_size) : propose<D, 3>(p, s, scan, old_size);
 
   // Landmark updates at the particle's final pose; for FastSLAM 1.0 they also give the weight.
   for (std::size_t k = 0; k < n_obs; ++k) {
@@ -239,18 +385,23 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   // New landmarks, and repeated observations of landmarks started in this scan, in scan order.
   for (std::size_t k = 0; k < n_obs; ++k) {
     Pairing& pairing = pairings[k];
-    const Vector2 z = scan.observations[k].z;
+    const MeasurementVector<D> z = scan.observations[k].z;
     // A landmark started in this scan and seen again in it meets the outlier gate only now.
     if (known() && gate_known && pairing.decision == AssociationDecision::kUpdate && !is_old_update(k) &&
-        beyond_gate(p, p.map[pairing.index], z, s))
+        beyond_gate<D>(p, pairing.index, z, s))
       pairing = Pairing{};
     if (pairing.decision == AssociationDecision::kNew) {
-      p.map.push_back(new_landmark(p.pose, p.pose_cov, z, known() ? scan.observations[k].id : kUnknownId));
+      const int id = known() ? scan.observations[k].id : kUnknownId;
+      if (initialiser)
+        start_placed(p, placements[k], id);
+      else
+        p.map.push_back(new_landmark<D>(p.pose, p.pose_cov, z, id));
       if (pending.active())
         for (int d = 1; d < start_detections[k]; ++d) existence.observed(p.map.mutate(pairing.index).existence);
       if (!known()) s.grid_entries.emplace_back(p.map[pairing.index].mean, pairing.index);
       log_likelihood += log_p0;
-    } else if (pairing.decision == AssociationDecision::kDiscard) {
+    } else if (pairing.decision == AssociationDecision::kDiscard ||
+               pairing.decision == AssociationDecision::kPending) {
       log_likelihood += log_p0;
     } else if (!is_old_update(k)) {
       log_likelihood += update_at(pairing.index, z);
@@ -262,6 +413,10 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   if (!known()) count_misses(p, s);
   s.log_likelihood = log_likelihood;
 }
+
+template void FastSlam::Impl::update_particle<1>(std::size_t, const ScanEvent&);
+template void FastSlam::Impl::update_particle<2>(std::size_t, const ScanEvent&);
+template void FastSlam::Impl::update_particle<3>(std::size_t, const ScanEvent&);
 
 Matrix2 FastSlam::Impl::drift_in_measurement(const Particle& p, const LandmarkGaussian& lm, Matrix2& hm) const {
   Matrix23 hx;
@@ -291,7 +446,8 @@ void FastSlam::Impl::anchor_at(Particle& p, const LandmarkGaussian& lm) const {
   const Eigen::Matrix<double, 3, 2> pht = prior * hx.transpose();
   Matrix2 s_inverse;
   double log_det = 0.0;
-  if (!invert_spd(symmetric(hx * pht + hm * lm.covariance * hm.transpose() + r), s_inverse, log_det)) return;
+  if (!invert_spd(symmetric(hx * pht + hm * lm.covariance * hm.transpose() + measurements.r), s_inverse, log_det))
+    return;
   p.anchor = Anchor{static_cast<std::uint32_t>(scans - 1), p.pose.head<2>(),
                     symmetric(prior - pht * s_inverse * pht.transpose())};
 }

@@ -4,6 +4,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -30,6 +31,45 @@ Matrix23 attached_to_pose(const Pose2& x, const Vector2& m) {
   Matrix23 gx;
   gx << 1.0, 0.0, -lever[1], 0.0, 1.0, lever[0];
   return gx;
+}
+
+std::unique_ptr<LandmarkInitialiser> make_landmark_initialiser(std::optional<LandmarkInitialisation> initialisation,
+                                                               std::shared_ptr<const ObservationModel> model,
+                                                               bool known_identities,
+                                                               const DelayedInitialisationOptions& delayed,
+                                                               const RingInitialisationOptions& ring) {
+  const LandmarkInitialisation chosen =
+      initialisation.value_or(model->invertible() ? LandmarkInitialisation::kImmediate : LandmarkInitialisation::kDelayed);
+  if (chosen != LandmarkInitialisation::kImmediate && !known_identities)
+    throw std::invalid_argument(
+        "delayed and ring landmark starts gather the observations of one landmark by its identity; they need "
+        "association 'known'");
+  switch (chosen) {
+    case LandmarkInitialisation::kDelayed: return std::make_unique<DelayedInitialiser>(std::move(model), delayed);
+    case LandmarkInitialisation::kRing: return std::make_unique<RingInitialiser>(std::move(model), delayed, ring);
+    case LandmarkInitialisation::kImmediate: break;
+  }
+  if (!model->invertible())
+    throw std::invalid_argument("immediate landmark initialisation needs a measurement that places a landmark, which "
+                                "a " + model->name() + " measurement does not; use delayed");
+  return nullptr;
+}
+
+void DeadReckoning::advance(const MotionModel& motion, const Control& u, double dt) {
+  const Matrix3 f = motion.jacobian_state(pose, u, dt);
+  covariance = f * covariance * f.transpose() + motion.process_noise(pose, u, dt);
+  pose = motion.predict(pose, u, dt);
+}
+
+InitialLandmark DeadReckoning::carried_to(const Pose2& x, const InitialLandmark& placed) const {
+  const Matrix2 r = Eigen::Rotation2Dd(x[2] - pose[2]).toRotationMatrix();
+  InitialLandmark landmark;
+  landmark.mean = x.head<2>() + r * (placed.mean - pose.head<2>());
+  landmark.gx = attached_to_pose(x, landmark.mean);
+  landmark.covariance = r * placed.covariance * r.transpose();
+  landmark.range_gain = r * placed.range_gain;
+  landmark.range_scale_gain = r * placed.range_scale_gain;
+  return landmark;
 }
 
 namespace {

@@ -1,4 +1,5 @@
 #include <cmath>
+#include <stdexcept>
 
 #include "slamkit/core/angles.hpp"
 #include "slamkit/models/observation_model.hpp"
@@ -42,6 +43,17 @@ MeasurementCovariance variance(double sigma) {
 }
 
 }  // namespace
+
+void validate(const RangeCalibrationPrior& prior, const ObservationModel& model) {
+  if (model.rows().range < 0)
+    throw std::invalid_argument("a range calibration needs a sensor that measures range; a " + model.name() +
+                                " measurement does not");
+  const auto deviation = [](double std) { return std > 0.0 && std::isfinite(std); };
+  if (!std::isfinite(prior.offset_m) || !deviation(prior.offset_std_m) ||
+      !(prior.scale_error > -0.5 && prior.scale_error < 0.5) || !deviation(prior.scale_error_std))
+    throw std::invalid_argument("the range calibration's prior needs a finite offset, a scale error between -0.5 and "
+                                "0.5, and positive, finite standard deviations");
+}
 
 std::optional<InitialLandmark> inverted_landmark(const ObservationModel& model, const Pose2& x, const Measurement& z) {
   const std::optional<InverseObservation> g = model.invert(x, z);

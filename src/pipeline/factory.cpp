@@ -92,6 +92,16 @@ std::string name_of(const std::pair<Enum, const char*> (&names)[N], Enum value) 
   return std::find_if(std::begin(names), std::end(names), [&](const auto& n) { return n.first == value; })->second;
 }
 
+std::optional<LandmarkInitialisation> landmark_initialisation(LandmarkInit init) {
+  switch (init) {
+    case LandmarkInit::kImmediate: return LandmarkInitialisation::kImmediate;
+    case LandmarkInit::kDelayed: return LandmarkInitialisation::kDelayed;
+    case LandmarkInit::kRing: return LandmarkInitialisation::kRing;
+    case LandmarkInit::kAuto: break;
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 FilterKind parse_filter_kind(const std::string& name) { return parse_name(kFilterNames, name, "filter"); }
@@ -143,9 +153,10 @@ void validate(const FilterConfig& config) {
     if (!(c->scale_error_std > 0.0 && c->scale_error_std <= 1.0))
       throw std::invalid_argument(
           fmt::format("range_calibration.scale_error_std must be > 0 and <= 1, found {}", c->scale_error_std));
-    if (config.filter != FilterKind::kEkf || config.ekf_variant == EkfVariant::kCompressed)
-      throw std::invalid_argument(
-          "a range calibration is estimated by the filter 'ekf' with the variant full, fej or invariant");
+    if (!(config.filter == FilterKind::kEkf && config.ekf_variant != EkfVariant::kCompressed) &&
+        config.filter != FilterKind::kFastSlam2)
+      throw std::invalid_argument("a range calibration is estimated by the filter 'ekf' with the variant full, fej or "
+                                  "invariant, or by 'fastslam2'");
     if (config.association.method != AssociationMethod::kKnown)
       throw std::invalid_argument("a range calibration is estimated with association 'known': nn and jcbb predict "
                                   "measurements without it");
@@ -154,10 +165,6 @@ void validate(const FilterConfig& config) {
                                   "--range-calibration use the delayed start");
   }
   const bool particle_filter = config.filter == FilterKind::kFastSlam1 || config.filter == FilterKind::kFastSlam2;
-  if (particle_filter && (config.landmark_init == LandmarkInit::kDelayed || config.landmark_init == LandmarkInit::kRing))
-    throw std::invalid_argument(fmt::format("landmark initialisation '{}' is for the EKF and the UKF; {} starts "
-                                            "a landmark from one range-bearing measurement",
-                                            to_string(config.landmark_init), to_string(config.filter)));
   if (particle_filter && config.association.method == AssociationMethod::kJcbb)
     throw std::invalid_argument(fmt::format("association jcbb is for the EKF and the UKF; {} associates per particle with known or nn",
                                             to_string(config.filter)));
@@ -177,9 +184,7 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       if (config.ekf_update == EkfUpdate::kIterated) options.update_iterations = kIteratedUpdateLinearisations;
       options.threads = config.threads;
       options.ukf_noise = config.ukf_noise;
-      if (config.landmark_init == LandmarkInit::kImmediate) options.initialisation = LandmarkInitialisation::kImmediate;
-      if (config.landmark_init == LandmarkInit::kDelayed) options.initialisation = LandmarkInitialisation::kDelayed;
-      if (config.landmark_init == LandmarkInit::kRing) options.initialisation = LandmarkInitialisation::kRing;
+      options.initialisation = landmark_initialisation(config.landmark_init);
       options.delayed_initialisation = config.delayed_init;
       options.range_calibration = config.range_calibration;
       return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
@@ -197,6 +202,9 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       fs.threads = config.threads;
       fs.initial_pose = dataset.initial_pose;
       fs.sensor = dataset.sensor;
+      fs.initialisation = landmark_initialisation(config.landmark_init);
+      fs.delayed_initialisation = config.delayed_init;
+      fs.range_calibration = config.range_calibration;
       return std::make_unique<FastSlam>(dataset.motion, dataset.observation, fs);
     }
   }

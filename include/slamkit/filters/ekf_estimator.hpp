@@ -30,14 +30,6 @@
 
 namespace slamkit {
 
-/// Independent Gaussian priors of a range sensor's offset [m] and scale error (RangeCorrection).
-struct RangeCalibrationPrior {
-  double offset_m = 0.0;
-  double offset_std_m = 1.0;
-  double scale_error = 0.0;
-  double scale_error_std = 0.1;
-};
-
 /// One observation of the landmark at a map index.
 struct LandmarkObservation {
   std::size_t index = 0;

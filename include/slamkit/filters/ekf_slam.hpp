@@ -147,9 +147,6 @@ class EkfSlam final : public SlamFilter {
   void manage_map();
   /// Adds the landmark seen as z to the estimator and the map's bookkeeping.
   void add_landmark(const Measurement& z, int id);
-  /// A landmark the delayed start placed in dead reckoning's frame, carried to the estimate's: its
-  /// position relative to the dead-reckoned pose becomes its position relative to the estimate.
-  InitialLandmark in_estimate_frame(const InitialLandmark& placed) const;
   /// Takes landmark `index` out of the estimator and the map's bookkeeping.
   void remove_landmark(std::size_t index);
   /// The bookkeeping of a landmark the estimator has just added with index ids_.size().
@@ -171,8 +168,7 @@ class EkfSlam final : public SlamFilter {
   // its first observation's inverse, through the estimator, which the UKF transforms unscented).
   std::unique_ptr<LandmarkInitialiser> initialiser_;
   std::size_t observations_waiting_ = 0;
-  Pose2 dead_reckoned_pose_;                 // dead reckoning from the start pose
-  Matrix3 dead_reckoned_ = Matrix3::Zero();  // its covariance
+  DeadReckoning dead_reckoning_;  // the initialiser's frame
   // Per landmark, by map index.
   std::vector<int> ids_;
   std::vector<LandmarkExistence> existence_;

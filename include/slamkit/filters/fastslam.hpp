@@ -33,11 +33,35 @@
 // factors all evaluated at the prediction counts the shared pose uncertainty once per observation
 // and so over-weights particles in scans with many observations.
 //
+// A range sensor's calibration (FastSlamConfig::range_calibration: an offset b and a scale error s,
+// so that a range reads (1 + s) d + b for a distance d) is a parameter every observation shares, so
+// it cannot be one of the map's independent Gaussians, and a landmark placed from ranges moves with
+// it. Given the path, though, the landmarks are independent given the calibration c, so each
+// particle keeps p(c | path) as a Gaussian and each landmark as a Gaussian given c whose mean moves
+// linearly with c (a gain dm/dc beside the map, in a second tree of the map's shape): the joint is
+// then exact in the linearisation, and an observation of one landmark changes only the
+// calibration's Gaussian and that landmark's (a 4-dimensional update), as the others given c do not
+// depend on it. FastSLAM 2.0's proposal runs over the pose and c, with the landmark given c
+// marginalised (the range row's Jacobian in c is (1, d) plus Hm dm/dc); the pose is drawn from it and
+// the landmark updates then refine c. A landmark the initialiser places starts with the gain the
+// triangulation gives (InitialLandmark::range_gain). Given a particle's path the calibration is
+// learnt as if that path were true, so after resampling has collapsed the paths its deviation is far
+// too small (docs/sensing.md measures it).
+//
+// Measurements of any dimension the models have (range and bearing, range only, bearing only): a
+// scan's particle updates run on types fixed at the model's dimension, chosen once per scan.
+//
 // New landmarks start from the particle's (sampled) pose with the inverse observation model:
-// mean g(x, z), covariance Gz R Gz^T (plus the pose's, above). Every observation not paired with a
-// landmark (new or discarded) multiplies the weight by the constant p0, the likelihood of an
+// mean g(x, z), covariance Gz R Gz^T (plus the pose's, above). Where one measurement does not place
+// a landmark (a range or a bearing alone), or FastSlamConfig::initialisation asks for it, the
+// observations of a landmark not yet mapped wait in one LandmarkInitialiser for the whole filter
+// (filters/landmark_initialiser.hpp: the delayed or the ring start), which works in dead reckoning's
+// frame; every particle then starts the landmark it places where it lies relative to the particle's
+// own pose, with the triangulation's covariance plus the pose's carried through. Observations that
+// wait are recorded as pending. Every observation not paired with a
+// landmark (new, pending or discarded) multiplies the weight by the constant p0, the likelihood of an
 // innovation lying exactly on the new-landmark gate of a landmark observed once (S = 2R, since Hm Gz = I):
-// log p0 = -gate/2 - log(2 pi) - log(det(2R))/2. A particle thus gains by pairing an observation
+// log p0 = -gate/2 - (dim/2) log(2 pi) - log(det(2R))/2. A particle thus gains by pairing an observation
 // exactly when the pairing explains it better than a new landmark would, and particles that create
 // landmarks are not favoured over particles that recognise them.
 //
@@ -92,6 +116,7 @@
 #include <vector>
 
 #include "slamkit/assoc/association_config.hpp"
+#include "slamkit/filters/landmark_initialiser.hpp"
 #include "slamkit/filters/resampling.hpp"
 #include "slamkit/filters/slam_filter.hpp"
 #include "slamkit/core/dataset.hpp"
@@ -121,6 +146,16 @@ struct FastSlamConfig {
   unsigned threads = 0;  // 0: std::thread::hardware_concurrency()
   Pose2 initial_pose = Pose2::Zero();
   SensorLimits sensor;
+  /// How a landmark starts (filters/landmark_initialiser.hpp); unset: immediately where the
+  /// observation model inverts a measurement, delayed where it does not. Delayed and ring need
+  /// known identities.
+  std::optional<LandmarkInitialisation> initialisation;
+  DelayedInitialisationOptions delayed_initialisation;  // the ring start's max_std_m and window_s too
+  RingInitialisationOptions ring_initialisation;
+  /// FastSLAM 2.0 with known identities and a sensor that measures range: the range sensor's offset
+  /// and scale error (RangeCorrection) estimated per particle from this prior (see above); unset: not
+  /// estimated.
+  std::optional<RangeCalibrationPrior> range_calibration;
 };
 
 class FastSlam final : public SlamFilter {

@@ -49,6 +49,7 @@
 #include <string>
 #include <vector>
 
+#include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 
 namespace slamkit {
@@ -78,9 +79,36 @@ struct RingInitialisationOptions {
   int max_hypotheses = 120;  ///< on one ring; a wider ring spaces them further apart
 };
 
+class LandmarkInitialiser;
+
+/// The initialiser a filter starts landmarks through for `initialisation` (unset: immediate where
+/// the model inverts a measurement, delayed where it does not); null for immediate, which is the
+/// filter's own. Throws std::invalid_argument for an immediate start the model cannot make, and for
+/// a delayed or ring start without known identities, which is what gathers one landmark's
+/// observations.
+std::unique_ptr<LandmarkInitialiser> make_landmark_initialiser(std::optional<LandmarkInitialisation> initialisation,
+                                                               std::shared_ptr<const ObservationModel> model,
+                                                               bool known_identities,
+                                                               const DelayedInitialisationOptions& delayed,
+                                                               const RingInitialisationOptions& ring);
+
 /// dm/dx of a landmark at m attached rigidly to a vehicle at x, as an inverted measurement is:
 /// [I, J (m - p)], J the quarter turn.
 Matrix23 attached_to_pose(const Pose2& x, const Vector2& m);
+
+/// Dead reckoning from the start pose, which no update corrects: the frame the initialisers work
+/// in. There the poses of a landmark's observations are consistent with each other (an estimate's
+/// jump at a correction would bend their geometry), and the covariance's growth between two
+/// observations stands for how uncertain one pose is relative to the other.
+struct DeadReckoning {
+  Pose2 pose = Pose2::Zero();
+  Matrix3 covariance = Matrix3::Zero();
+
+  void advance(const MotionModel& motion, const Control& u, double dt);
+  /// A landmark an initialiser placed (in this frame, relative to the pose now) where it lies
+  /// relative to a vehicle estimated at x: the same place relative to the vehicle.
+  InitialLandmark carried_to(const Pose2& x, const InitialLandmark& placed) const;
+};
 
 class LandmarkInitialiser {
  public:

@@ -67,7 +67,9 @@ struct LandmarkGaussian {
   bool removed = false;  // tombstone
 };
 
-template <int FanOut>
+/// Item: what each index holds (LandmarkGaussian for a map; FastSLAM keeps a second tree of the
+/// same shape beside a map for what only some runs need per landmark).
+template <int FanOut, class Item = LandmarkGaussian>
 class BasicLandmarkTree {
   static_assert(FanOut >= 2 && (FanOut & (FanOut - 1)) == 0, "the fan-out must be a power of two >= 2");
 
@@ -124,7 +126,7 @@ class BasicLandmarkTree {
   int height() const { return height_; }
 
   /// The landmark at `index` (< size()). O(height).
-  const LandmarkGaussian& operator[](std::size_t index) const {
+  const Item& operator[](std::size_t index) const {
     const Node* node = root_;
     for (int level = height_; level > 1; --level)
       node = static_cast<const Inner*>(node)->children[digit(index, level)];
@@ -133,7 +135,7 @@ class BasicLandmarkTree {
 
   /// Writable access to the landmark at `index` (< size()), copying the shared part of its path
   /// first. The reference is valid until this map is next changed, copied or assigned to.
-  LandmarkGaussian& mutate(std::size_t index) {
+  Item& mutate(std::size_t index) {
     Node** slot = &root_;
     for (int level = height_; level > 1; --level)
       slot = &static_cast<Inner*>(make_unique(*slot, level))->children[digit(index, level)];
@@ -141,7 +143,7 @@ class BasicLandmarkTree {
   }
 
   /// Appends a landmark at index size(). O(height).
-  void push_back(const LandmarkGaussian& landmark) {
+  void push_back(const Item& landmark) {
     if (size_ == capacity()) {
       if (root_ == nullptr) {
         root_ = make<Leaf>();
@@ -195,7 +197,7 @@ class BasicLandmarkTree {
   struct Leaf : Node {
     Leaf() = default;
     Leaf(const Leaf& other) : Node(), items(other.items) {}
-    std::array<LandmarkGaussian, FanOut> items;
+    std::array<Item, FanOut> items;
   };
 
   static std::size_t digit(std::size_t index, int level) {

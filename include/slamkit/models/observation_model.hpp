@@ -58,6 +58,20 @@ struct RangeCorrection {
   double range(double distance) const { return (1.0 + scale_error) * distance + offset_m; }
 };
 
+/// Independent Gaussian priors of a range sensor's offset [m] and scale error (RangeCorrection).
+struct RangeCalibrationPrior {
+  double offset_m = 0.0;
+  double offset_std_m = 1.0;
+  double scale_error = 0.0;
+  double scale_error_std = 0.1;
+};
+
+class ObservationModel;
+
+/// Throws std::invalid_argument unless the model measures range and the prior has a finite offset,
+/// a scale error between -0.5 and 0.5, and positive, finite deviations.
+void validate(const RangeCalibrationPrior& prior, const ObservationModel& model);
+
 /// What a measurement says about where its landmark is, for pictures: on the segment from `sensor`
 /// to `end` (range and bearing: the landmark is at `end`; bearing only: somewhere along the ray,
 /// drawn out to the sensor's reach), or, when `radius` > 0, on the circle of that radius about
@@ -74,8 +88,6 @@ struct MeasuredRows {
   int range = -1;
   int bearing = -1;
 };
-
-class ObservationModel;
 
 /// The landmark one measurement z from pose x determines, with covariance Gz R Gz^T: an immediate
 /// start. Nothing where the model cannot invert z.
@@ -159,6 +171,10 @@ struct PerMeasurementDim {
     if constexpr (D == 1) return one;
     else if constexpr (D == 2) return two;
     else return three;
+  }
+  template <int D>
+  const T<D>& get() const {
+    return const_cast<PerMeasurementDim&>(*this).get<D>();
   }
 };
 

@@ -28,7 +28,7 @@ enum class EkfUpdate {
   kIterated,    // all at once, relinearised at the result until it converges (the iterated EKF)
 };
 
-/// How the EKF and the UKF start a landmark: auto (immediately where the dataset's observation model
+/// How a filter starts a landmark: auto (immediately where the dataset's observation model
 /// inverts a measurement, delayed where it does not), immediate, delayed (triangulated from several
 /// observations) or ring (range only: a ring of hypotheses that collapses); the last two need known
 /// identities.
@@ -46,12 +46,11 @@ struct FilterConfig {
   EkfVariant ekf_variant = EkfVariant::kFull;
   // UKF only.
   UkfNoise ukf_noise = UkfNoise::kAugmented;
-  // EKF and UKF: how a landmark starts (filters/landmark_initialiser.hpp), and the delayed start's
-  // settings.
+  // How a landmark starts (filters/landmark_initialiser.hpp), and the delayed start's settings.
   LandmarkInit landmark_init = LandmarkInit::kAuto;
   DelayedInitialisationOptions delayed_init;
-  // EKF (full, fej, invariant) with known association: the range sensor's offset and scale error
-  // estimated in the state from this prior; unset: not estimated.
+  // EKF (full, fej, invariant) and FastSLAM 2.0 with known association: the range sensor's offset
+  // and scale error estimated from this prior; unset: not estimated.
   std::optional<RangeCalibrationPrior> range_calibration;
   // Particle filters only.
   int particles = 100;
