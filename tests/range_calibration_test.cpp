@@ -15,6 +15,7 @@
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/pipeline/runner.hpp"
 #include "slamkit/sim/simulator.hpp"
+#include "linear_models.hpp"
 #include "sim_test_support.hpp"
 #include "test_data.hpp"
 
@@ -331,6 +332,66 @@ TEST(RangeCalibration, FastSlamKeepsItOnlyWhereItsProposalAndTheDelayedStartCan)
   nn.association.method = AssociationMethod::kNearestNeighbour;
   EXPECT_THROW(FastSlam(motion(), std::make_shared<RangeBearingModel>(), nn), std::invalid_argument);
   EXPECT_THROW(FastSlam(motion(), std::make_shared<BearingOnlyModel>(), c), std::invalid_argument);
+}
+
+// One FastSLAM 2.0 particle on a known path (odometry without noise) is a Kalman filter over the
+// calibration and its map: keeping the calibration's Gaussian and each landmark's given it, an
+// observation updating only the calibration and its own landmark, must give what a dense extended
+// Kalman filter over (offset, scale error, every landmark) gives, linearised at the same means.
+TEST(RangeCalibration, OneFastSlamParticleOnAKnownPathEqualsTheDenseFilter) {
+  const auto radio = std::make_shared<RangeOnlyModel>(RangeOnlyModel::Params{.sigma_range = 0.3});
+  FastSlamConfig c;
+  c.particles = 1;
+  c.threads = 1;
+  c.initialisation = LandmarkInitialisation::kDelayed;
+  c.range_calibration = RangeCalibrationPrior{.offset_m = 0.2, .offset_std_m = 1.0, .scale_error_std = 0.1};
+  FastSlam filter(std::make_shared<test_models::LinearMotion>(Matrix3::Zero()), radio, c);
+  const std::vector<Landmark> map = {{0, Vector2(10.0, 5.0), Vector2(0.5, 0.3).asDiagonal()},
+                                     {1, Vector2(-3.0, 12.0), (Matrix2() << 0.8, 0.2, 0.2, 0.4).finished()}};
+  filter.set_initial_map(map);
+
+  // The dense filter: y = (b, s, m0, m1).
+  Eigen::VectorXd y(6);
+  y << 0.2, 0.0, map[0].position, map[1].position;
+  Eigen::MatrixXd p = Eigen::MatrixXd::Zero(6, 6);
+  p.diagonal().head<2>() << 1.0, 0.01;
+  p.block<2, 2>(2, 2) = map[0].covariance;
+  p.block<2, 2>(4, 4) = map[1].covariance;
+  Pose2 x = Pose2::Zero();
+  const double ranges[3][2] = {{12.3, 14.1}, {11.6, 13.2}, {11.9, 14.8}};
+  for (const auto& scan_ranges : ranges) {
+    const ControlEvent control{0.0, 1.0, Eigen::Vector3d(1.5, 0.5, 0.1)};
+    filter.predict(control);
+    x += control.u;
+    ScanEvent scan;
+    for (int id = 0; id < 2; ++id) {
+      scan.observations.push_back({Measurement::Constant(1, scan_ranges[id]), id});
+      const Vector2 delta = y.segment<2>(2 + 2 * id) - x.head<2>();
+      const double d = delta.norm();
+      Eigen::RowVectorXd h = Eigen::RowVectorXd::Zero(6);
+      h(0) = 1.0;
+      h(1) = d;
+      h.segment<2>(2 + 2 * id) = (1.0 + y(1)) * delta.transpose() / d;
+      const double innovation = scan_ranges[id] - ((1.0 + y(1)) * d + y(0));
+      const double s = (h * p * h.transpose())(0, 0) + 0.09;
+      const Eigen::VectorXd gain = p * h.transpose() / s;
+      y += gain * innovation;
+      p = (Eigen::MatrixXd::Identity(6, 6) - gain * h) * p;
+    }
+    filter.update(scan);
+  }
+  const auto st = filter.statistics();
+  EXPECT_NEAR(st.at("range_offset_m"), y(0), 1e-9);
+  EXPECT_NEAR(st.at("range_scale_error"), y(1), 1e-9);
+  EXPECT_NEAR(st.at("range_offset_std_m"), std::sqrt(p(0, 0)), 1e-9);
+  EXPECT_NEAR(st.at("range_scale_error_std"), std::sqrt(p(1, 1)), 1e-9);
+  const std::vector<Landmark> out = filter.landmarks();
+  ASSERT_EQ(out.size(), 2u);
+  for (const Landmark& lm : out) {
+    EXPECT_TRUE(lm.position.isApprox(y.segment<2>(2 + 2 * lm.id), 1e-9)) << lm.id;
+    EXPECT_TRUE(lm.covariance.isApprox(p.block<2, 2>(2 + 2 * lm.id, 2 + 2 * lm.id), 1e-8)) << lm.id;
+  }
+  EXPECT_GT(std::abs(y(1)), 1e-3) << "the ranges move the calibration";
 }
 
 // FastSLAM 2.0 with the radio that reads 5% plus 1.5 m long, seen with bearings: each particle's
