@@ -786,7 +786,7 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"run --filter fastslam1 --range-calibration" + data, 2,
        "a range calibration is estimated by the filter 'ekf' with the variant full, fej or invariant, or by "
        "'fastslam2'"},
-      {"run --filter fastslam2 --range-calibration" + data, 1,
+      {"run --filter fastslam2 --range-calibration --landmark-init immediate" + data, 1,
        "FastSLAM starts a landmark that moves with the range calibration through the delayed start"},
       {"run --range-scale-std x" + data, 2, "--range-scale-std: expected a finite number, found x"},
       {"run --assoc-config /nonexistent/a.json" + data, 1,

@@ -394,6 +394,51 @@ TEST(RangeCalibration, OneFastSlamParticleOnAKnownPathEqualsTheDenseFilter) {
   EXPECT_GT(std::abs(y(1)), 1e-3) << "the ranges move the calibration";
 }
 
+// The same on a known circle where the landmark starts through the delayed start, read through a
+// calibration other than zero: the particle's landmark starts with the gain in the calibration the
+// EKF gives its correlation (dm/dc = -(range_gain, range_scale_gain) / (1 + s)), and the two filters,
+// updating one range at a time, end equal.
+TEST(RangeCalibration, AFastSlamLandmarkPlacedThroughTheCalibrationMovesWithItAsTheEkfs) {
+  const auto radio = std::make_shared<RangeOnlyModel>(RangeOnlyModel::Params{.sigma_range = 0.2});
+  const auto odometry = std::make_shared<test_models::LinearMotion>(Matrix3::Zero());
+  const RangeCalibrationPrior prior{.offset_m = 0.8, .offset_std_m = 0.5, .scale_error = 0.03, .scale_error_std = 0.05};
+  EkfSlamOptions ekf_options;
+  ekf_options.initialisation = LandmarkInitialisation::kDelayed;
+  ekf_options.range_calibration = prior;
+  ekf_options.joint_scan_update = false;
+  ekf_options.association.gate_known = false;
+  ekf_options.threads = 1;
+  EkfSlam ekf(odometry, radio, ekf_options);
+  FastSlamConfig c;
+  c.particles = 1;
+  c.threads = 1;
+  c.range_calibration = prior;
+  FastSlam particle(odometry, radio, c);
+  const Vector2 beacon(3.0, 8.0);
+  Pose2 x = Pose2::Zero();
+  for (int k = 0; k < 40; ++k) {
+    const ControlEvent control{k + 1.0, 1.0, Eigen::Vector3d(std::cos(0.2 * k), std::sin(0.2 * k), 0.0)};
+    ekf.predict(control);
+    particle.predict(control);
+    x += control.u;
+    // Ranges 4% plus 1 m long, with a fixed wobble for noise.
+    const double range = 1.04 * (beacon - x.head<2>()).norm() + 1.0 + 0.15 * std::sin(1.7 * k);
+    const ScanEvent scan{control.t, {{Measurement::Constant(1, range), 0}}};
+    ekf.update(scan);
+    particle.update(scan);
+  }
+  const std::vector<Landmark> a = ekf.landmarks(), b = particle.landmarks();
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_TRUE(b[0].position.isApprox(a[0].position, 1e-8)) << b[0].position.transpose() << " / "
+                                                            << a[0].position.transpose();
+  EXPECT_TRUE(b[0].covariance.isApprox(a[0].covariance, 1e-7));
+  const auto sa = ekf.statistics(), sb = particle.statistics();
+  for (const char* key : {"range_offset_m", "range_offset_std_m", "range_scale_error", "range_scale_error_std"})
+    EXPECT_NEAR(sb.at(key), sa.at(key), 1e-8) << key;
+  EXPECT_GT(std::abs(sb.at("range_offset_m") - prior.offset_m), 1e-3) << "the ranges move the calibration";
+}
+
 // FastSLAM 2.0 with the radio that reads 5% plus 1.5 m long, seen with bearings: each particle's
 // calibration, with its landmarks' Gaussians given it, finds the offset within 0.1 m and the scale
 // error within half of itself, and its map is at most half as far off as that of FastSLAM 2.0

@@ -1,7 +1,6 @@
 #include "slamkit/filters/ekf_slam.hpp"
 
 #include <Eigen/Cholesky>
-#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -77,13 +76,10 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
   if (estimator_->calibrates_ranges() && association_.method != AssociationMethod::kKnown)
     throw std::invalid_argument("a range calibration is estimated with association 'known': nn and jcbb predict "
                                 "measurements without it");
-  // The ring's hypotheses are updated through the calibration of their time, and not correlated with it.
-  if (options.initialisation == LandmarkInitialisation::kRing && estimator_->calibrates_ranges())
-    throw std::invalid_argument("the ring landmark start does not carry a range calibration's correlations; with "
-                                "--range-calibration use the delayed start");
   initialiser_ = make_landmark_initialiser(options.initialisation, estimator_->shared_observation_model(),
                                            association_.method == AssociationMethod::kKnown,
-                                           options.delayed_initialisation, options.ring_initialisation);
+                                           estimator_->calibrates_ranges(), options.delayed_initialisation,
+                                           options.ring_initialisation);
   if (ids.size() != estimator_->num_landmarks())
     throw std::invalid_argument("EkfSlam: one id per landmark of the estimator");
   for (const int id : ids) {

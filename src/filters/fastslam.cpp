@@ -91,26 +91,28 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
       relocalise_association(cfg.association) {
   if (!motion) throw std::invalid_argument("FastSLAM needs a motion and an observation model");
   require_searchable(config.association, *observation);
+  // The only models that place a landmark from one measurement are two-row today; a future one
+  // that is not would reach the two-row search.
   if (!known() && observation->dim() != 2)
     throw std::invalid_argument("FastSLAM's search for pairings reads range and bearing; a " + observation->name() +
                                 " sensor needs association 'known'");
-  initialiser = make_landmark_initialiser(config.initialisation, observation, known(), config.delayed_initialisation,
-                                          config.ring_initialisation);
   dead_reckoning.pose = config.initial_pose;
   range_row = observation->rows().range;
+  // Only the delayed start gives a landmark its gain in the calibration, so it is the default there.
+  std::optional<LandmarkInitialisation> start = config.initialisation;
   if (calibrating()) {
     validate(*config.range_calibration, *observation);
     if (config.version != 2 || !known())
       throw std::invalid_argument("a range calibration is estimated by FastSLAM 2.0's proposal with association "
                                   "'known': FastSLAM 1.0 proposes from the motion alone, and nn predicts measurements "
                                   "without it");
-    if (config.initialisation == LandmarkInitialisation::kRing)
-      throw std::invalid_argument("the ring landmark start does not carry a range calibration's correlations; with "
-                                  "--range-calibration use the delayed start");
-    if (!initialiser)
+    if (start == LandmarkInitialisation::kImmediate)
       throw std::invalid_argument("FastSLAM starts a landmark that moves with the range calibration through the "
                                   "delayed start; with --range-calibration use --landmark-init delayed");
+    start = start.value_or(LandmarkInitialisation::kDelayed);
   }
+  initialiser = make_landmark_initialiser(start, observation, known(), calibrating(), config.delayed_initialisation,
+                                          config.ring_initialisation);
   relocalise_association.method = AssociationMethod::kJcbb;
   with_measurement_dim(observation->dim(), [&]<int D>(std::integral_constant<int, D>) {
     MeasurementKernels<D>& k = kernels.get<D>();
@@ -386,7 +388,8 @@ void FastSlam::reserve(std::size_t steps, std::size_t landmarks) {
 double FastSlam::memory_estimate(std::size_t particles, std::size_t landmarks) {
   // Resampling leaves particles sharing the parts of their maps not changed since their common
   // ancestor: on the default world's route with maps of 100 and 1,000 landmarks, a particle held
-  // about 40 bytes of its own per landmark, half a LandmarkGaussian.
+  // about 40 bytes of its own per landmark, half a LandmarkGaussian. (A range calibration adds a
+  // 48-byte link per landmark, left out: radios range to a few beacons.)
   constexpr double kOwnShare = 0.5;
   return static_cast<double>(particles) *
          (static_cast<double>(sizeof(Impl::Particle) + sizeof(Impl::Slot)) +

@@ -268,14 +268,14 @@ struct FastSlam::Impl {
   /// Particle i's scan update, with measurements of dimension D (the model's).
   template <int D>
   void update_particle(std::size_t i, const ScanEvent& scan);
-  /// Landmark updates and new landmarks at pose x with covariance x_cov (FastSLAM 2.0: what the particle
-  /// carries of its pose uncertainty, see FastSlamConfig::pose_sample_fraction; else zero).
   /// FastSLAM 2.0's proposal (eq. 18) for particle p, the landmarks paired in its slot below map
   /// index old_size: the prediction refined by each paired observation in turn, over the pose, or
   /// (N = 5) the pose and the range calibration; the pose is then drawn. Returns the log of the
   /// proposal's normalising constant, the particle's weight factor.
   template <int D, int N>
   double propose(Particle& p, Slot& s, const ScanEvent& scan, std::size_t old_size) const;
+  /// The update of landmark lm, and the likelihood of z, at particle p's pose with the covariance it
+  /// carries (FastSLAM 2.0: see FastSlamConfig::pose_sample_fraction; else zero).
   template <int D>
   double update_landmark(LandmarkGaussian& lm, const Particle& p, const MeasurementVector<D>& z) const;
   /// With a range calibration: the update of landmark `index` and particle p's calibration, jointly.

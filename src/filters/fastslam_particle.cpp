@@ -227,9 +227,14 @@ double FastSlam::Impl::update_calibrated(Particle& p, std::uint32_t index, const
   sigma = symmetric(ikh * sigma * ikh.transpose() + gain * r_eff * gain.transpose());
   // Back to the calibration's Gaussian and the landmark's given it (the other landmarks' given it
   // have not changed: given the calibration and the path they are independent of this observation).
+  const Matrix2 calibration_cov = sigma.topLeftCorner<2, 2>();
+  const Eigen::LLT<Matrix2> llt(calibration_cov);
+  if (llt.info() != Eigen::Success) return kMinusInf;
+  const Matrix2 moves = llt.solve(Matrix2(sigma.topRightCorner<2, 2>())).transpose();  // Sigma_mc Sigma_cc^-1
+  if (!mean.allFinite() || !moves.allFinite()) return kMinusInf;
   p.calibration = mean.head<2>();
-  p.calibration_cov = sigma.topLeftCorner<2, 2>();
-  link.gain = sigma.bottomLeftCorner<2, 2>() * p.calibration_cov.inverse();
+  p.calibration_cov = calibration_cov;
+  link.gain = moves;
   link.at = p.calibration;
   lm.mean = mean.tail<2>();
   lm.covariance = symmetric(Matrix2(sigma.bottomRightCorner<2, 2>() - link.gain * sigma.topRightCorner<2, 2>()));

@@ -35,7 +35,7 @@ Matrix23 attached_to_pose(const Pose2& x, const Vector2& m) {
 
 std::unique_ptr<LandmarkInitialiser> make_landmark_initialiser(std::optional<LandmarkInitialisation> initialisation,
                                                                std::shared_ptr<const ObservationModel> model,
-                                                               bool known_identities,
+                                                               bool known_identities, bool calibrating_ranges,
                                                                const DelayedInitialisationOptions& delayed,
                                                                const RingInitialisationOptions& ring) {
   const LandmarkInitialisation chosen =
@@ -44,6 +44,9 @@ std::unique_ptr<LandmarkInitialiser> make_landmark_initialiser(std::optional<Lan
     throw std::invalid_argument(
         "delayed and ring landmark starts gather the observations of one landmark by its identity; they need "
         "association 'known'");
+  if (chosen == LandmarkInitialisation::kRing && calibrating_ranges)
+    throw std::invalid_argument("the ring landmark start does not carry a range calibration's correlations; with "
+                                "--range-calibration use the delayed start");
   switch (chosen) {
     case LandmarkInitialisation::kDelayed: return std::make_unique<DelayedInitialiser>(std::move(model), delayed);
     case LandmarkInitialisation::kRing: return std::make_unique<RingInitialiser>(std::move(model), delayed, ring);

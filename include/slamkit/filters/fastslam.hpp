@@ -60,10 +60,12 @@
 // own pose, with the triangulation's covariance plus the pose's carried through. Observations that
 // wait are recorded as pending. Every observation not paired with a
 // landmark (new, pending or discarded) multiplies the weight by the constant p0, the likelihood of an
-// innovation lying exactly on the new-landmark gate of a landmark observed once (S = 2R, since Hm Gz = I):
-// log p0 = -gate/2 - (dim/2) log(2 pi) - log(det(2R))/2. A particle thus gains by pairing an observation
-// exactly when the pairing explains it better than a new landmark would, and particles that create
-// landmarks are not favoured over particles that recognise them.
+// innovation lying exactly on the new-landmark gate of a landmark observed once from its inverse
+// (S = 2R, since Hm Gz = I): log p0 = -gate/2 - (dim/2) log(2 pi) - log(det(2R))/2. A particle thus
+// gains by pairing an observation exactly when the pairing explains it better than a new landmark
+// would, and particles that create landmarks are not favoured over particles that recognise them.
+// (Where landmarks start through the initialiser, identities are known and every particle makes the
+// same decisions, so p0 scales every weight alike.)
 //
 // Data association (AssociationConfig), decided per particle:
 //   kKnown: the observation id names the landmark; an observation without an id is discarded, and

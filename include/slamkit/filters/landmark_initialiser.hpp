@@ -83,12 +83,13 @@ class LandmarkInitialiser;
 
 /// The initialiser a filter starts landmarks through for `initialisation` (unset: immediate where
 /// the model inverts a measurement, delayed where it does not); null for immediate, which is the
-/// filter's own. Throws std::invalid_argument for an immediate start the model cannot make, and for
+/// filter's own. Throws std::invalid_argument for an immediate start the model cannot make, for
 /// a delayed or ring start without known identities, which is what gathers one landmark's
-/// observations.
+/// observations, and for the ring where the filter calibrates its ranges (its hypotheses are updated
+/// through the calibration of their time, and not correlated with it).
 std::unique_ptr<LandmarkInitialiser> make_landmark_initialiser(std::optional<LandmarkInitialisation> initialisation,
                                                                std::shared_ptr<const ObservationModel> model,
-                                                               bool known_identities,
+                                                               bool known_identities, bool calibrating_ranges,
                                                                const DelayedInitialisationOptions& delayed,
                                                                const RingInitialisationOptions& ring);
 
