@@ -1,7 +1,8 @@
 #pragma once
 // FastSLAM's private state, shared by fastslam.cpp (the filter: particles, threads, candidates,
-// resampling, map ids, the public interface) and fastslam_particle.cpp (one particle's scan:
-// association, the proposal and the landmark updates, eqs. 15-18).
+// resampling, map ids, the public interface), fastslam_particle.cpp (one particle's scan:
+// association, the proposal and the landmark updates, eqs. 15-18) and fastslam_relocalise.cpp (the
+// drift and relocalisation).
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <cmath>
