@@ -516,6 +516,15 @@ int run_command(int argc, char** argv) {
                       "--range-calibration)",
                       fmt::format("{}", calibration_prior.scale_error_std))
       ->check(finite_number());
+  add_named_setting(run_cmd, "--likelihood", flag_settings, "/likelihood", parse_likelihood_kind,
+                    "The measurement noise's shape: gaussian, or student-t (heavy tails: an observation far from "
+                    "its prediction, a radio's multipath range, is trusted less instead of pulling the estimate; "
+                    "the gate still rejects gross outliers)",
+                    defaults.likelihood.kind);
+  add_setting<double>(run_cmd, "--likelihood-dof", flag_settings, "/likelihood_dof",
+                      "The student-t likelihood's degrees of freedom (the smaller, the heavier its tails)",
+                      fmt::format("{}", defaults.likelihood.dof))
+      ->check(finite_number());
   // Association and map management: a file holding the keys run.json records under
   // settings.association, and a flag for each setting, which overrides the file. Their ranges are
   // validate(AssociationConfig)'s, checked with the other settings before any data is read.

@@ -552,6 +552,14 @@ TEST_F(Cli, PrintConfigShowsEveryEffectiveSettingWithoutRunning) {
                              *work_);
   ASSERT_EQ(ukf.exit_code, 0) << ukf.err;
   EXPECT_EQ(nlohmann::json::parse(ukf.out).at("settings").at("ukf_noise"), "additive");
+  EXPECT_EQ(nlohmann::json::parse(ukf.out).at("settings").at("likelihood"), "gaussian");
+
+  const Result t = slamkit("run --likelihood student-t --likelihood-dof 3 --data sim:" + (*work_ / "sim").string() +
+                               " --print-config",
+                           *work_);
+  ASSERT_EQ(t.exit_code, 0) << t.err;
+  EXPECT_EQ(nlohmann::json::parse(t.out).at("settings").at("likelihood"), "student-t");
+  EXPECT_EQ(nlohmann::json::parse(t.out).at("settings").at("likelihood_dof"), 3.0);
 }
 
 // --range-calibration turns the calibration on with its default prior, a deviation given turns it
@@ -789,6 +797,9 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"run --filter fastslam2 --range-calibration --landmark-init immediate" + data, 1,
        "FastSLAM starts a landmark that moves with the range calibration through the delayed start"},
       {"run --range-scale-std x" + data, 2, "--range-scale-std: expected a finite number, found x"},
+      {"run --likelihood students" + data, 2, "--likelihood: unknown likelihood 'students' (did you mean 'student-t'?)"},
+      {"run --likelihood student-t --likelihood-dof 0" + data, 2,
+       "the t likelihood's degrees of freedom must be positive and finite"},
       {"run --assoc-config /nonexistent/a.json" + data, 1,
        "/nonexistent/a.json: cannot open file for reading (No such file or directory)"},
       {"run --accept-probability 1.5" + data, 2, "association setting accept_probability must be in (0, 1), found 1.5"},

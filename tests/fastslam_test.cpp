@@ -20,6 +20,7 @@
 #include "slamkit/eval/metrics.hpp"
 #include "slamkit/filters/fastslam.hpp"
 #include "slamkit/sim/simulator.hpp"
+#include "sim_test_support.hpp"
 
 using namespace slamkit;
 
@@ -41,13 +42,8 @@ Dataset truncated(Dataset d, double t_end) {
 }
 
 FastSlamConfig config_for(const Dataset& d, int version, int particles, std::uint64_t seed = 1) {
-  FastSlamConfig c;
-  c.version = version;
-  c.particles = particles;
+  FastSlamConfig c = test_sim::fastslam_config_for(d, version, particles);
   c.seed = seed;
-  c.initial_pose = d.initial_pose;
-  c.sensor = d.sensor;
-  c.threads = 1;
   return c;
 }
 

@@ -281,12 +281,7 @@ TEST(DelayedStart, RangeOnlyAndBearingOnlyFastSlamBeatDeadReckoning) {
         if (start == LandmarkInitialisation::kRing && sensor != SensorKind::kRangeOnly) continue;
         SCOPED_TRACE(to_string(sensor) + " fastslam" + std::to_string(version) +
                      (start == LandmarkInitialisation::kRing ? " ring" : " delayed"));
-        FastSlamConfig c;
-        c.version = version;
-        c.particles = 30;
-        c.initial_pose = d.initial_pose;
-        c.sensor = d.sensor;
-        c.threads = 1;
+        FastSlamConfig c = test_sim::fastslam_config_for(d, version, 30);
         c.initialisation = start;
         FastSlam filter(d.motion, d.observation, c);
         const Metrics m = evaluate_run(run_filter(filter, d), d.truth);

@@ -301,11 +301,7 @@ TEST(RangeCalibration, Plaza1BeaconsLandWithinHalfAMetreOfTheSurvey) {
 namespace {
 
 FastSlamConfig fastslam_for(const Dataset& d, int particles) {
-  FastSlamConfig c;
-  c.particles = particles;
-  c.initial_pose = d.initial_pose;
-  c.sensor = d.sensor;
-  c.threads = 1;
+  FastSlamConfig c = test_sim::fastslam_config_for(d, 2, particles);
   c.initialisation = LandmarkInitialisation::kDelayed;
   return c;
 }

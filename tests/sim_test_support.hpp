@@ -10,6 +10,7 @@
 
 #include "slamkit/core/dataset.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
+#include "slamkit/filters/fastslam.hpp"
 #include "slamkit/sim/simulator.hpp"
 
 namespace slamkit::test_sim {
@@ -22,6 +23,17 @@ inline EkfSlamOptions ekf_options_for(const Dataset& d, EkfVariant variant) {
   options.variant = variant;
   options.threads = 1;
   return options;
+}
+
+/// FastSLAM's settings for a run on `d`: its start and sensor, the version and particles, one thread.
+inline FastSlamConfig fastslam_config_for(const Dataset& d, int version, int particles) {
+  FastSlamConfig c;
+  c.version = version;
+  c.particles = particles;
+  c.initial_pose = d.initial_pose;
+  c.sensor = d.sensor;
+  c.threads = 1;
+  return c;
 }
 
 inline std::vector<ScanEvent> scans_of(const Dataset& d) {

@@ -170,9 +170,8 @@ void CompressedJointGaussian::inflate_pose(const Matrix3& q) {
   predict_local(Matrix3::Identity(), q);
 }
 
-bool CompressedJointGaussian::update_landmark(std::size_t index, const Measurement& z) {
-  const LandmarkObservation one{index, z};
-  return update_landmarks({&one, 1});
+bool CompressedJointGaussian::update_landmark(const LandmarkObservation& observation) {
+  return update_landmarks(std::span<const LandmarkObservation>(&observation, 1));
 }
 
 bool CompressedJointGaussian::update_landmarks(std::span<const LandmarkObservation> batch) {
@@ -356,7 +355,7 @@ bool CompressedJointGaussian::update_local(std::span<const LandmarkObservation> 
     const auto l = static_cast<Eigen::Index>(local_of_[batch[i].index]);
     const auto r = D * static_cast<Eigen::Index>(i);
     s.template middleRows<D>(r).noalias() = hx[i] * pht.template topRows<3>() + hm[i] * pht.template middleRows<2>(l);
-    s.template block<D, D>(r, r) += noise;
+    s.template block<D, D>(r, r) += batch[i].noise_scale * noise;
     g.template middleRows<D>(r).noalias() = hx[i] * phi.template topRows<3>();
     g.template middleRows<D>(r).noalias() += hm[i] * phi.template middleRows<2>(l);
   }

@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "slamkit/core/chi_square.hpp"
@@ -59,6 +60,7 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
       association_((validate(options.association), options.association)),
       gates_(Gates::from(options.association, estimator_->observation_model().dim())),
       gate_known_(options.association.gate_known.value_or(true)),
+      likelihood_((validate(options.likelihood), options.likelihood)),
       association_view_((validate(options.sensor), association_view(options.sensor, options.association))),
       clutter_density_(clutter_density(options.association, options.sensor, estimator_->observation_model())),
       existence_rule_(options.association, options.sensor),
@@ -76,10 +78,11 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
   if (estimator_->calibrates_ranges() && association_.method != AssociationMethod::kKnown)
     throw std::invalid_argument("a range calibration is estimated with association 'known': nn and jcbb predict "
                                 "measurements without it");
+  DelayedInitialisationOptions delayed = options.delayed_initialisation;
+  delayed.outliers_expected = likelihood_.robust();
   initialiser_ = make_landmark_initialiser(options.initialisation, estimator_->shared_observation_model(),
                                            association_.method == AssociationMethod::kKnown,
-                                           estimator_->calibrates_ranges(), options.delayed_initialisation,
-                                           options.ring_initialisation);
+                                           estimator_->calibrates_ranges(), delayed, options.ring_initialisation);
   if (ids.size() != estimator_->num_landmarks())
     throw std::invalid_argument("EkfSlam: one id per landmark of the estimator");
   for (const int id : ids) {
@@ -221,15 +224,21 @@ void EkfSlam::update(const ScanEvent& scan) {
     update_unknown(scan);
 }
 
-bool EkfSlam::inside_known_gate(std::size_t index, const Measurement& z) const {
+double EkfSlam::innovation_distance(std::size_t index, const Measurement& z) const {
   Measurement zhat;
   MeasurementCovariance s;
   estimator_->innovation(index, zhat, s);
   const ObservationModel& model = estimator_->observation_model();
   return with_measurement_dim(model.dim(), [&]<int D>(std::integral_constant<int, D>) {
     const MeasurementVector<D> nu = model.residual(z, zhat);
-    return nu.dot(MeasurementSquare<D>(s).ldlt().solve(nu)) <= gates_.new_landmark;
+    return nu.dot(MeasurementSquare<D>(s).ldlt().solve(nu));
   });
+}
+
+LandmarkObservation EkfSlam::weighed(std::size_t index, const Measurement& z, double distance) const {
+  if (!likelihood_.robust()) return {index, z};
+  if (std::isnan(distance)) distance = innovation_distance(index, z);
+  return {index, z, likelihood_.noise_inflation(distance, estimator_->observation_model().dim())};
 }
 
 void EkfSlam::update_known(const ScanEvent& scan) {
@@ -237,9 +246,11 @@ void EkfSlam::update_known(const ScanEvent& scan) {
   rejected_.clear();
   std::size_t judged = 0, rejected = 0;
   auto apply = [&](std::size_t k, std::size_t index) {
+    double distance = std::numeric_limits<double>::quiet_NaN();  // not yet known
     if (gate_known_) {
       ++judged;
-      if (!inside_known_gate(index, scan.observations[k].z)) {
+      distance = innovation_distance(index, scan.observations[k].z);
+      if (!(distance <= gates_.new_landmark)) {
         ++rejected;
         if (recover_known_)
           rejected_.push_back(k);  // discarded; recover_known keeps a copy
@@ -251,11 +262,12 @@ void EkfSlam::update_known(const ScanEvent& scan) {
       // with another outlier later.
       if (!copies_.empty()) copies_.erase(ids_[index]);
     }
+    const LandmarkObservation observation = weighed(index, scan.observations[k].z, distance);
     if (joint_scan_update_) {
-      batch_.push_back({index, scan.observations[k].z});
+      batch_.push_back(observation);
       last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
       existence_rule_.observed(existence_[index]);
-    } else if (estimator_->update_landmark(index, scan.observations[k].z)) {
+    } else if (estimator_->update_landmark(observation)) {
       last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
       existence_rule_.observed(existence_[index]);
     } else {
@@ -386,7 +398,7 @@ void EkfSlam::apply_joint_batch() {
   if (batch_.empty()) return;
   // A joint innovation covariance that is not positive definite: fall back to one at a time.
   if (!estimator_->update_landmarks(batch_))
-    for (const LandmarkObservation& o : batch_) estimator_->update_landmark(o.index, o.z);
+    for (const LandmarkObservation& o : batch_) estimator_->update_landmark(o);
   batch_.clear();
 }
 
@@ -418,9 +430,10 @@ void EkfSlam::update_unknown(const ScanEvent& scan) {
   for (std::size_t k = 0; k < pairings.size(); ++k) {
     if (pairings[k].decision != AssociationDecision::kUpdate) continue;
     const std::size_t index = pairings[k].landmark;
+    const LandmarkObservation observation = weighed(index, scan.observations[k].z);
     if (joint_scan_update_)
-      batch_.push_back({index, scan.observations[k].z});
-    else if (!estimator_->update_landmark(index, scan.observations[k].z))
+      batch_.push_back(observation);
+    else if (!estimator_->update_landmark(observation))
       continue;
     last_associations_[k] = {AssociationDecision::kUpdate, ids_[index]};
     seen_[index] = true;

@@ -62,6 +62,7 @@ void validate(const FastSlamConfig& c) {
     fail("association jcbb is not implemented per particle; use known or nn");
   validate(c.sensor);
   if (!c.initial_pose.allFinite()) fail("the initial pose must be finite");
+  validate(c.likelihood);
 }
 
 unsigned thread_count(unsigned requested) {
@@ -111,8 +112,9 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
                                   "delayed start; with --range-calibration use --landmark-init delayed");
     start = start.value_or(LandmarkInitialisation::kDelayed);
   }
-  initialiser = make_landmark_initialiser(start, observation, known(), calibrating(), config.delayed_initialisation,
-                                          config.ring_initialisation);
+  DelayedInitialisationOptions delayed = config.delayed_initialisation;
+  delayed.outliers_expected = config.likelihood.robust();
+  initialiser = make_landmark_initialiser(start, observation, known(), calibrating(), delayed, config.ring_initialisation);
   relocalise_association.method = AssociationMethod::kJcbb;
   with_measurement_dim(observation->dim(), [&]<int D>(std::integral_constant<int, D>) {
     MeasurementKernels<D>& k = kernels.get<D>();

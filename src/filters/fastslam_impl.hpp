@@ -275,6 +275,23 @@ struct FastSlam::Impl {
   /// proposal's normalising constant, the particle's weight factor.
   template <int D, int N>
   double propose(Particle& p, Slot& s, const ScanEvent& scan, std::size_t old_size) const;
+  /// The log likelihood of an innovation at squared Mahalanobis distance m2 from a prediction whose
+  /// covariance S has log determinant log_det (FastSlamConfig::likelihood).
+  template <int D>
+  double log_likelihood_of(double m2, double log_det) const {
+    if (!config.likelihood.robust()) return -0.5 * m2 - fastslam_detail::kLogGaussianConstant<D> - 0.5 * log_det;
+    return config.likelihood.log_density(m2, D, log_det);
+  }
+  /// Adds to `noise` (R plus any other uncertainty) what the t likelihood inflates R by for an
+  /// innovation at squared Mahalanobis distance m2; returns whether it did (and S must be formed
+  /// anew).
+  template <int D>
+  bool inflate_noise(double m2, MeasurementSquare<D>& noise) const {
+    const double inflation = config.likelihood.noise_inflation(m2, D);
+    if (inflation == 1.0) return false;
+    noise += (inflation - 1.0) * kernels.get<D>().r;
+    return true;
+  }
   /// The update of landmark lm, and the likelihood of z, at particle p's pose with the covariance it
   /// carries (FastSLAM 2.0: see FastSlamConfig::pose_sample_fraction; else zero).
   template <int D>

@@ -184,8 +184,12 @@ double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Particle& p, 
   double log_det = 0.0;
   // The pose's own uncertainty adds to the measurement's: a landmark seen from an uncertain pose learns
   // less from it.
-  const MeasurementSquare<D> r_eff = k.r + hx * p.pose_cov * hx.transpose();
+  MeasurementSquare<D> r_eff = k.r + hx * p.pose_cov * hx.transpose();
   if (!nu.allFinite() || !invert_spd(symmetric(hm * pht + r_eff), s_inverse, log_det)) return kMinusInf;
+  const double m2 = nu.dot(s_inverse * nu);
+  const double log_likelihood = log_likelihood_of<D>(m2, log_det);
+  double unused = 0.0;
+  if (inflate_noise<D>(m2, r_eff) && !invert_spd(symmetric(hm * pht + r_eff), s_inverse, unused)) return kMinusInf;
   const Eigen::Matrix<double, 2, D> gain = pht * s_inverse;
   lm.mean += gain * nu;
   // Joseph form: stays symmetric positive definite however the gain is rounded.
@@ -193,7 +197,7 @@ double FastSlam::Impl::update_landmark(LandmarkGaussian& lm, const Particle& p, 
   lm.covariance = symmetric(ikh * lm.covariance * ikh.transpose() + gain * r_eff * gain.transpose());
   existence.observed(lm.existence);
   lm.last_seen = static_cast<std::uint32_t>(scans - 1);
-  return -0.5 * nu.dot(s_inverse * nu) - kLogGaussianConstant<D> - 0.5 * log_det;
+  return log_likelihood;
 }
 
 template <int D>
@@ -214,11 +218,15 @@ double FastSlam::Impl::update_calibrated(Particle& p, std::uint32_t index, const
   const MeasurementVector<D> nu = k.residual(z, predict_given<D>(p, index, p.pose, p.calibration, hx, hm, hc));
   Eigen::Matrix<double, D, 4> h;
   h << hc, hm;
-  const MeasurementSquare<D> r_eff = k.r + hx * p.pose_cov * hx.transpose();
+  MeasurementSquare<D> r_eff = k.r + hx * p.pose_cov * hx.transpose();
   const Eigen::Matrix<double, 4, D> pht = sigma * h.transpose();
   MeasurementSquare<D> s_inverse;
   double log_det = 0.0;
   if (!nu.allFinite() || !invert_spd(symmetric(h * pht + r_eff), s_inverse, log_det)) return kMinusInf;
+  const double m2 = nu.dot(s_inverse * nu);
+  const double log_likelihood = log_likelihood_of<D>(m2, log_det);
+  double unused = 0.0;
+  if (inflate_noise<D>(m2, r_eff) && !invert_spd(symmetric(h * pht + r_eff), s_inverse, unused)) return kMinusInf;
   const Eigen::Matrix<double, 4, D> gain = pht * s_inverse;
   mean += gain * nu;
   const Eigen::Matrix4d ikh = Eigen::Matrix4d::Identity() - gain * h;
@@ -238,7 +246,7 @@ double FastSlam::Impl::update_calibrated(Particle& p, std::uint32_t index, const
   lm.covariance = symmetric(Matrix2(sigma.bottomRightCorner<2, 2>() - link.gain * sigma.topRightCorner<2, 2>()));
   existence.observed(lm.existence);
   lm.last_seen = static_cast<std::uint32_t>(scans - 1);
-  return -0.5 * nu.dot(s_inverse * nu) - kLogGaussianConstant<D> - 0.5 * log_det;
+  return log_likelihood;
 }
 
 template <int D>
@@ -310,7 +318,7 @@ double FastSlam::Impl::propose(Particle& p, Slot& s, const ScanEvent& scan, std:
       h = hx;
     }
     const MeasurementVector<D> nu = kernel.residual(scan.observations[k].z, zhat);
-    const MeasurementSquare<D> z_cov = hm * lm.covariance * hm.transpose() + kernel.r;
+    MeasurementSquare<D> z_cov = hm * lm.covariance * hm.transpose() + kernel.r;
     const Eigen::Matrix<double, N, D> sht = sigma * h.transpose();
     MeasurementSquare<D> s_inverse;
     double log_det = 0.0;
@@ -318,7 +326,13 @@ double FastSlam::Impl::propose(Particle& p, Slot& s, const ScanEvent& scan, std:
       log_likelihood = kMinusInf;
       continue;
     }
-    log_likelihood += -0.5 * nu.dot(s_inverse * nu) - kLogGaussianConstant<D> - 0.5 * log_det;
+    const double m2 = nu.dot(s_inverse * nu);
+    log_likelihood += log_likelihood_of<D>(m2, log_det);
+    double unused = 0.0;
+    if (inflate_noise<D>(m2, z_cov) && !invert_spd(symmetric(h * sht + z_cov), s_inverse, unused)) {
+      log_likelihood = kMinusInf;
+      continue;
+    }
     const Eigen::Matrix<double, N, D> gain = sht * s_inverse;
     mu += gain * nu;
     mu[2] = wrap_angle(mu[2]);

@@ -149,17 +149,16 @@ void JointGaussian::covariance_times_jacobian(std::size_t lm_offset, const PoseR
   }
 }
 
-bool JointGaussian::update_landmark(std::size_t index, const Measurement& z) {
-  if (update_iterations_ > 1) {
-    const LandmarkObservation one{index, z};
-    return update_landmarks(std::span<const LandmarkObservation>(&one, 1));
-  }
+bool JointGaussian::update_landmark(const LandmarkObservation& observation) {
+  if (update_iterations_ > 1) return update_landmarks(std::span<const LandmarkObservation>(&observation, 1));
   return with_measurement_dim(observation_->dim(),
-                              [&]<int D>(std::integral_constant<int, D>) { return update_one<D>(index, z); });
+                              [&]<int D>(std::integral_constant<int, D>) { return update_one<D>(observation); });
 }
 
 template <int D>
-bool JointGaussian::update_one(std::size_t index, const Measurement& z) {
+bool JointGaussian::update_one(const LandmarkObservation& observation) {
+  const std::size_t index = observation.index;
+  const Measurement& z = observation.z;
   apply_pending_motion();
   if (linearisation_ == Linearisation::kFirstEstimates) anchor_where_plausible(index);
   const std::size_t l = landmark_offset(index);
@@ -179,7 +178,7 @@ bool JointGaussian::update_one(std::size_t index, const Measurement& z) {
   covariance_times_jacobian<D>(l, hx, hm, calibrated, distance, pht);
   MeasurementSquare<D> s = hx * pht.template topRows<3>() + hm * pht.template middleRows<2>(li);
   if (calibrated >= 0) s.row(calibrated) += pht.row(kOffsetRow) + distance * pht.row(kScaleRow);
-  s += MeasurementSquare<D>(observation_->noise());
+  s += observation.noise_scale * MeasurementSquare<D>(observation_->noise());
   s = (0.5 * (s + s.transpose())).eval();
   const Eigen::LLT<MeasurementSquare<D>> llt(s);
   if (llt.info() != Eigen::Success) return false;
@@ -222,7 +221,7 @@ void JointGaussian::reserve_joint_update(Eigen::Index k) {
 
 bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
-  if (batch.size() == 1 && update_iterations_ == 1) return update_landmark(batch[0].index, batch[0].z);
+  if (batch.size() == 1 && update_iterations_ == 1) return update_landmark(batch[0]);
   return with_measurement_dim(observation_->dim(),
                               [&]<int D>(std::integral_constant<int, D>) { return update_batch<D>(batch); });
 }
@@ -385,7 +384,7 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
         batch_hx[i] * pht.template topRows<3>() + batch_hm[i] * pht.template middleRows<2>(l);
     if (calibrated >= 0)
       s.row(r + calibrated) += pht.row(kOffsetRow) + batch_distances_[i] * pht.row(kScaleRow);
-    s.template block<D, D>(r, r) += noise;
+    s.template block<D, D>(r, r) += batch[i].noise_scale * noise;
   }
 }
 

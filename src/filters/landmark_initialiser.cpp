@@ -122,6 +122,18 @@ DelayedInitialiser::DelayedInitialiser(std::shared_ptr<const ObservationModel> m
                                 " measurement holds neither");
   // A circle meets another in two points and a third picks one; two rays meet in one.
   min_views_ = options_.min_views > 0 ? options_.min_views : measures_bearing_ ? 2 : 3;
+  view_gate_ = eval::chi_square_quantile(options_.gate_probability, model_->dim());
+  rival_gate_ = eval::chi_square_quantile(options_.gate_probability, 2.0);
+  for (int n = 0; n <= options_.max_views; ++n) {
+    const double dof = n * model_->dim() - 2.0;
+    gates_.push_back(dof > 0.0 ? eval::chi_square_quantile(options_.gate_probability, dof) : INFINITY);
+  }
+}
+
+bool DelayedInitialiser::explains(const Fit& fit, std::size_t views) const {
+  // A quarter: radio ranges by a longer path come one in ten or so, rarely a quarter of 40.
+  if (4 * fit.outliers > views) return false;
+  return fit.chi2 <= gates_[views - fit.outliers];
 }
 
 std::vector<Vector2> DelayedInitialiser::starts(const std::vector<View>& views,
@@ -185,7 +197,7 @@ std::vector<Vector2> DelayedInitialiser::starts(const std::vector<View>& views,
 
 std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector<View>& views,
                                                                const Matrix3& odometry_covariance_now,
-                                                               Vector2 start) const {
+                                                               Vector2 start, double trim_above) const {
   const MeasurementCovariance r = model_->noise();
   // Each view's weight: R and the pose uncertainty the vehicle has gained since (the landmark is
   // placed relative to the current pose, so what was already uncertain then it inherits through
@@ -207,6 +219,7 @@ std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector
     Vector2 gradient = Vector2::Zero();
     Vector2 range_pull = Vector2::Zero(), range_scale_pull = Vector2::Zero();
     out.chi2 = 0.0;
+    out.outliers = 0;
     out.worst_chi2 = -1.0;
     for (std::size_t i = 0; i < views.size(); ++i) {
       const View& v = views[i];
@@ -215,8 +228,13 @@ std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector
       const Eigen::MatrixXd s = r + hx * gained[i] * hx.transpose();
       const Eigen::LLT<Eigen::MatrixXd> llt(s);
       if (llt.info() != Eigen::Success) return std::nullopt;
-      const Eigen::MatrixXd w_hm = llt.solve(Eigen::MatrixXd(hm));
       const Eigen::VectorXd w_residual = llt.solve(residual);
+      const double chi2 = residual.dot(w_residual);
+      if (chi2 > trim_above) {
+        ++out.outliers;
+        continue;
+      }
+      const Eigen::MatrixXd w_hm = llt.solve(Eigen::MatrixXd(hm));
       information += hm.transpose() * w_hm;
       gradient += hm.transpose() * w_residual;
       // At the optimum sum Hm^T W (z - h(m)) = 0; changes dz of the ranges move m by
@@ -224,7 +242,6 @@ std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector
       const Vector2 pull = hm.transpose() * llt.solve(common_range);
       range_pull += pull;
       if (range_row >= 0) range_scale_pull += v.z[range_row] * pull;
-      const double chi2 = residual.dot(w_residual);
       out.chi2 += chi2;
       if (chi2 > out.worst_chi2) {
         out.worst_chi2 = chi2;
@@ -264,16 +281,18 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   const std::vector<View>& views = corrected.empty() ? raw : corrected;
   std::vector<Vector2> sensors;
   for (const View& v : views) sensors.push_back(model_->sensor_position(v.pose));
+  const double trim = options_.outliers_expected ? view_gate_ : INFINITY;
   std::vector<Fit> fits;
   for (const Vector2& start : starts(views, sensors))
-    if (const std::optional<Fit> f = fit(views, odometry_covariance, start)) fits.push_back(*f);
+    if (const std::optional<Fit> f = fit(views, odometry_covariance, start, trim)) fits.push_back(*f);
   if (fits.empty()) return std::nullopt;
-  // A copy: the ambiguity test below adds to `fits`.
+  // A copy: the ambiguity test below adds to `fits`. An outlier costs what the gate allows one view.
+  const auto cost = [&](const Fit& f) { return f.chi2 + static_cast<double>(f.outliers) * view_gate_; };
   const Fit best =
-      *std::min_element(fits.begin(), fits.end(), [](const Fit& a, const Fit& b) { return a.chi2 < b.chi2; });
-  const double dof = static_cast<double>(views.size()) * model_->dim() - 2.0;
-  const double gate = dof > 0.0 ? eval::chi_square_quantile(options_.gate_probability, dof) : INFINITY;
-  if (!(best.chi2 <= gate)) {
+      *std::min_element(fits.begin(), fits.end(), [&](const Fit& a, const Fit& b) { return cost(a) < cost(b); });
+  if (!explains(best, views.size())) {
+    // Where outliers are expected each fit has left them out already: wait for more views.
+    if (options_.outliers_expected) return std::nullopt;
     // An observation no position explains with the others, most likely an outlier: the one whose
     // absence leaves the others fitting best.
     std::size_t drop = best.worst;
@@ -282,7 +301,7 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
     for (std::size_t i = 0; i < views.size(); ++i) {
       others.assign(views.begin(), views.end());
       others.erase(others.begin() + static_cast<std::ptrdiff_t>(i));
-      if (const std::optional<Fit> f = fit(others, odometry_covariance, best.position); f && f->chi2 < least) {
+      if (const std::optional<Fit> f = fit(others, odometry_covariance, best.position, INFINITY); f && f->chi2 < least) {
         least = f->chi2;
         drop = i;
       }
@@ -295,12 +314,15 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   // Ranges along a line fit the landmark and its mirror image equally: wait while another position
   // passes the gate too (the mirror image, or another fit's answer, beyond the best's 3-sigma).
   if (!measures_bearing_)
-    if (const std::optional<Fit> m = fit(views, odometry_covariance, mirrored(best.position, spread_of(sensors))))
+    if (const std::optional<Fit> m =
+            fit(views, odometry_covariance, mirrored(best.position, spread_of(sensors)), trim))
       fits.push_back(*m);
   const Matrix2 information = best.covariance.inverse();
   for (const Fit& other : fits) {
     const Vector2 apart = other.position - best.position;
-    if (other.chi2 <= gate && apart.dot(information * apart) > 9.0) return std::nullopt;
+    const bool rival = explains(other, views.size()) ||
+                       (options_.outliers_expected && cost(other) <= cost(best) + rival_gate_);
+    if (rival && apart.dot(information * apart) > 9.0) return std::nullopt;
   }
   if (measures_bearing_) {
     // A bearing sees forward along its ray: a position behind any sensor is not the landmark.

@@ -145,9 +145,8 @@ void UnscentedJointGaussian::predict(const Control& u, double dt) {
   pending_motion_ = t.linearisation.leftCols<3>() * pending_motion_;
 }
 
-bool UnscentedJointGaussian::update_landmark(std::size_t index, const Measurement& z) {
-  const LandmarkObservation one{index, z};
-  return update_landmarks(std::span<const LandmarkObservation>(&one, 1));
+bool UnscentedJointGaussian::update_landmark(const LandmarkObservation& observation) {
+  return update_landmarks(std::span<const LandmarkObservation>(&observation, 1));
 }
 
 bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservation> batch) {
@@ -249,7 +248,7 @@ bool UnscentedJointGaussian::update_landmarks(std::span<const LandmarkObservatio
   s = t.covariance;
   const MeasurementCovariance noise = observation_->noise();
   for (Eigen::Index i = 0; i < k; i += dz) {
-    s.block(i, i, dz, dz) += noise;
+    s.block(i, i, dz, dz) += batch[static_cast<std::size_t>(i / dz)].noise_scale * noise;
     batch_nu_.segment(i, dz) = observation_->residual(batch[static_cast<std::size_t>(i / dz)].z, t.mean.segment(i, dz));
   }
   // W = P(:, s) A^T.

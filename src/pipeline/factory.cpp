@@ -143,6 +143,7 @@ void validate(const FilterConfig& config) {
     throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full, fej or invariant");
   validate(config.association);
   validate(config.delayed_init);
+  validate(config.likelihood);
   if (const std::optional<Calibration>& c = config.range_calibration) {
     if (!(c->offset_std_m > 0.0 && c->offset_std_m <= 1e4))
       throw std::invalid_argument(
@@ -187,6 +188,7 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       options.initialisation = landmark_initialisation(config.landmark_init);
       options.delayed_initialisation = config.delayed_init;
       options.range_calibration = config.range_calibration;
+      options.likelihood = config.likelihood;
       return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
     }
     case FilterKind::kFastSlam1:
@@ -205,6 +207,7 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       fs.initialisation = landmark_initialisation(config.landmark_init);
       fs.delayed_initialisation = config.delayed_init;
       fs.range_calibration = config.range_calibration;
+      fs.likelihood = config.likelihood;
       return std::make_unique<FastSlam>(dataset.motion, dataset.observation, fs);
     }
   }
@@ -223,6 +226,8 @@ nlohmann::json to_json(const FilterConfig& config) {
           {"range_calibration", config.range_calibration
                                     ? options_to_json<Calibration>(*config.range_calibration, kRangeCalibrationKeys)
                                     : nlohmann::json(nullptr)},
+          {"likelihood", to_string(config.likelihood.kind)},
+          {"likelihood_dof", config.likelihood.dof},
           {"particles", config.particles},
           {"pose_sample_fraction", config.pose_sample_fraction},
           {"resample", to_string(config.resample)},
@@ -278,7 +283,13 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
         read_delayed_init(value, source, config.delayed_init);
       else if (key == "range_calibration")
         read_range_calibration(value, source, config.range_calibration);
-      else if (key == "particles")
+      else if (key == "likelihood")
+        config.likelihood.kind = parse_likelihood_kind(name());
+      else if (key == "likelihood_dof") {
+        if (!value.is_number())
+          throw InputError(source, 0, fmt::format("'{}' must be a number, found {}", key, value.dump()));
+        config.likelihood.dof = value.get<double>();
+      } else if (key == "particles")
         integer(config.particles);
       else if (key == "pose_sample_fraction") {
         if (!value.is_number())
@@ -293,7 +304,8 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
       else {
         const std::vector<std::string> keys = {"filter",        "seed",          "association",  "ekf_update",
                                                "ekf_variant",   "ukf_noise",     "landmark_init", "delayed_init",
-                                               "range_calibration", "particles", "pose_sample_fraction",
+                                               "range_calibration", "likelihood", "likelihood_dof",
+                                               "particles",     "pose_sample_fraction",
                                                "resample",      "resample_when", "threads"};
         throw InputError(source, 0,
                          fmt::format("unknown key '{}' in the filter settings{}; expected one of: {}", key,

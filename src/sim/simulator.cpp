@@ -30,6 +30,8 @@ using Real = RealOption<SimulatorConfig>;
 // Written only when not 0 (see to_json's comment).
 constexpr const char* kRangeOffsetKey = "range_offset_m";
 constexpr const char* kRangeScaleErrorKey = "range_scale_error";
+constexpr const char* kRangeOutlierProbabilityKey = "range_outlier_probability";
+constexpr const char* kRangeOutlierMeanKey = "range_outlier_mean_m";
 
 // Beyond 90 degrees the wheels would point backwards.
 constexpr RealRange kSteeringLock{[](double v) { return v > 0.0 && v < kPi / 2.0; }, "> 0 and < 90"};
@@ -49,6 +51,7 @@ constexpr RealRange kSensorNoise{[](double v) { return v > 0.0 && std::isfinite(
 // sensor measuring something else.
 constexpr RealRange kRangeOffset{[](double v) { return std::abs(v) <= 100.0; }, "from -100 to 100 (m)"};
 constexpr RealRange kRangeScaleError{[](double v) { return std::abs(v) < 0.5; }, "> -0.5 and < 0.5"};
+constexpr RealRange kOutlierProbability{[](double v) { return v >= 0.0 && v <= 1.0; }, ">= 0 and <= 1"};
 constexpr RealRange kClutter{[](double v) { return v >= 0.0 && v <= 1000.0; }, ">= 0 and <= 1000"};
 
 const OptionKey<SimulatorConfig> kConfigKeys[] = {
@@ -67,6 +70,9 @@ const OptionKey<SimulatorConfig> kConfigKeys[] = {
     {"sigma_range_m", Real{[](SimulatorConfig& c) -> double& { return c.sigma_range; }, kSensorNoise}},
     {kRangeOffsetKey, Real{[](SimulatorConfig& c) -> double& { return c.range_offset; }, kRangeOffset}},
     {kRangeScaleErrorKey, Real{[](SimulatorConfig& c) -> double& { return c.range_scale_error; }, kRangeScaleError}},
+    {kRangeOutlierProbabilityKey,
+     Real{[](SimulatorConfig& c) -> double& { return c.range_outlier_probability; }, kOutlierProbability}},
+    {kRangeOutlierMeanKey, Real{[](SimulatorConfig& c) -> double& { return c.range_outlier_mean; }, kLength}},
     {"sigma_bearing_deg",
      Real{[](SimulatorConfig& c) -> double& { return c.sigma_bearing; }, kSensorNoise, Unit::kDegrees}},
     {"clutter_rate_per_scan", Real{[](SimulatorConfig& c) -> double& { return c.clutter_rate; }, kClutter}},
@@ -273,6 +279,10 @@ nlohmann::json to_json(const SimulatorConfig& config) {
   if (config.sensor != SensorKind::kRangeBearing) json[std::string(kSensorKey)] = to_string(config.sensor);
   if (config.range_offset == 0.0) json.erase(kRangeOffsetKey);
   if (config.range_scale_error == 0.0) json.erase(kRangeScaleErrorKey);
+  if (config.range_outlier_probability == 0.0) {
+    json.erase(kRangeOutlierProbabilityKey);
+    json.erase(kRangeOutlierMeanKey);
+  }
   return json;
 }
 
@@ -353,6 +363,10 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
   Gaussian sensor_noise(config.seed ^ 0x9e3779b97f4a7c15ULL);
   std::mt19937_64 detection_rng(config.seed ^ 0xbf58476d1ce4e5b9ULL);
   std::mt19937_64 clutter_rng(config.seed ^ 0x94d049bb133111ebULL);
+  // Drawn only where ranges have outliers, so that the other streams stay those of the same seed
+  // without them.
+  std::mt19937_64 outlier_rng(config.seed ^ 0xd6e8feb86659fd93ULL);
+  const bool range_outliers = measures_range && config.range_outlier_probability > 0.0;
   // Clutter would otherwise come last in a scan, and map order hints at the identities withheld.
   const bool shuffle_scans = config.clutter_rate > 0.0 || !config.provide_ids;
   const LandmarkGrid grid(world.landmarks, config.max_range);
@@ -414,8 +428,15 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
       // draws only its noise.
       const double bearing_noise = measures_bearing ? sensor_noise() : 0.0;
       const double range_noise = measures_range ? sensor_noise() : 0.0;
-      const double range =
+      double range =
           RangeCorrection{config.range_offset, config.range_scale_error}.range(z[0]) + config.sigma_range * range_noise;
+      // Both draws for every landmark in view, as for the noise: the same seed then gives the same
+      // outliers whatever the detection probability.
+      if (range_outliers) {
+        const bool outlier = uniform01(outlier_rng) < config.range_outlier_probability;
+        const double excess = -config.range_outlier_mean * std::log(1.0 - uniform01(outlier_rng));
+        if (outlier) range += excess;
+      }
       const double bearing = wrap_angle(z[1] + config.sigma_bearing * bearing_noise);
       if (uniform01(detection_rng) >= config.detection_probability) continue;
       // Only a landmark almost on top of the sensor can come out at a negative range: no real

@@ -38,7 +38,8 @@ class CompressedJointGaussian final : public EkfEstimator {
 
   void predict(const Control& u, double dt) override;
   void inflate_pose(const Matrix3& q) override;
-  bool update_landmark(std::size_t index, const Measurement& z) override;
+  using EkfEstimator::update_landmark;
+  bool update_landmark(const LandmarkObservation& observation) override;
   bool update_landmarks(std::span<const LandmarkObservation> batch) override;
   using EkfEstimator::add_landmark;
   std::size_t add_landmark(const InitialLandmark& landmark) override;

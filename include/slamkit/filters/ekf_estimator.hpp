@@ -34,6 +34,9 @@ namespace slamkit {
 struct LandmarkObservation {
   std::size_t index = 0;
   Measurement z;
+  /// The update uses this times the model's R: above 1 for an observation a heavy-tailed likelihood
+  /// trusts less than the sensor (MeasurementLikelihood::noise_inflation).
+  double noise_scale = 1.0;
 };
 
 class EkfEstimator : public GaussianMapView {
@@ -70,9 +73,11 @@ class EkfEstimator : public GaussianMapView {
   virtual void predict(const Control& u, double dt) = 0;
   /// Adds q to the vehicle's covariance: process noise the motion model did not allow for.
   virtual void inflate_pose(const Matrix3& q) = 0;
-  /// Eqs. (10)-(11) for one observation z of the landmark at map index `index`. Returns false (and
-  /// changes nothing) if the innovation covariance is not positive definite.
-  virtual bool update_landmark(std::size_t index, const Measurement& z) = 0;
+  /// Eqs. (10)-(11) for one observation of a landmark. Returns false (and changes nothing) if the
+  /// innovation covariance is not positive definite.
+  virtual bool update_landmark(const LandmarkObservation& observation) = 0;
+  /// The same for observation z of the landmark at map index `index`, with the model's R.
+  bool update_landmark(std::size_t index, const Measurement& z) { return update_landmark({index, z}); }
   /// Eqs. (10)-(11) for observations of distinct landmarks, stacked into one innovation. Returns
   /// false (and changes nothing) if the innovation covariance is not positive definite.
   virtual bool update_landmarks(std::span<const LandmarkObservation> batch) = 0;

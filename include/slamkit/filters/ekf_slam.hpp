@@ -10,6 +10,7 @@
 // Gaussian) -> updates in order -> new landmarks -> re-bin the touched landmarks (rebuild the grid
 // after a large correction, i.e. a loop closure) -> map management (the existence rule's misses of
 // landmarks expected to be seen, confirmation, removal).
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -29,6 +30,7 @@
 #include "slamkit/filters/landmark_initialiser.hpp"
 #include "slamkit/filters/slam_filter.hpp"
 #include "slamkit/filters/unscented_joint_gaussian.hpp"
+#include "slamkit/models/measurement_likelihood.hpp"
 
 namespace slamkit {
 
@@ -77,6 +79,9 @@ struct EkfSlamOptions {
   /// Full, first-estimates and invariant variants, known association: estimate the range sensor's
   /// offset and scale error in the state from this prior (EkfEstimator::estimate_range_calibration).
   std::optional<RangeCalibrationPrior> range_calibration;
+  /// The measurement noise's shape: Gaussian, or Student-t for sensors with outliers between one
+  /// standard deviation and the gate (models/measurement_likelihood.hpp).
+  MeasurementLikelihood likelihood;
 };
 
 class EkfSlam final : public SlamFilter {
@@ -86,7 +91,7 @@ class EkfSlam final : public SlamFilter {
           const EkfSlamOptions& options = {});
   /// Continues from a joint Gaussian built elsewhere (e.g. a map made before), whose landmark i has
   /// the identity ids[i] (one per landmark, unique, not kUnknownId); they count as confirmed. Of
-  /// `options`, the association, sensor and joint_scan_update settings apply.
+  /// `options`, the association, sensor, joint_scan_update and likelihood settings apply.
   EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> ids, const EkfSlamOptions& options = {});
 
   std::string name() const override { return unscented_ ? "ukf" : "ekf"; }
@@ -126,8 +131,13 @@ class EkfSlam final : public SlamFilter {
 
  private:
   void update_known(const ScanEvent& scan);
-  /// Whether observation z of landmark `index` passes the known-identity gate (the new-landmark gate).
-  bool inside_known_gate(std::size_t index, const Measurement& z) const;
+  /// The squared Mahalanobis distance of observation z from landmark `index`'s prediction: what
+  /// the known-identity gate (the new-landmark gate) and the t likelihood judge.
+  double innovation_distance(std::size_t index, const Measurement& z) const;
+  /// The update for observation z of landmark `index`, its noise inflated as the likelihood has it
+  /// (`distance`: its innovation_distance, computed here if NaN).
+  LandmarkObservation weighed(std::size_t index, const Measurement& z,
+                              double distance = std::numeric_limits<double>::quiet_NaN()) const;
   /// Each observation the known-identity gate rejected this scan (rejected_) places a copy of its
   /// landmark from the current pose, outside the state; copies unseen for the relocalisation window
   /// are dropped. Once relocalise_min_pairs copies fit their originals up to one rigid motion, the
@@ -179,6 +189,7 @@ class EkfSlam final : public SlamFilter {
   AssociationConfig association_;
   Gates gates_;  // from association_, computed once
   bool gate_known_;
+  MeasurementLikelihood likelihood_;
   GateTally gate_tally_;
   SensorView association_view_;
   double clutter_density_;  // of association_ over the sensor's view

@@ -122,6 +122,7 @@
 #include "slamkit/filters/resampling.hpp"
 #include "slamkit/filters/slam_filter.hpp"
 #include "slamkit/core/dataset.hpp"
+#include "slamkit/models/measurement_likelihood.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 
@@ -158,6 +159,11 @@ struct FastSlamConfig {
   /// and scale error (RangeCorrection) estimated per particle from this prior (see above); unset: not
   /// estimated.
   std::optional<RangeCalibrationPrior> range_calibration;
+  /// The measurement noise's shape (models/measurement_likelihood.hpp). With the Student-t, each
+  /// particle's landmark updates and proposal take an observation far from its prediction with R
+  /// inflated, and its weight is the t density, so that one outlier does not decide which particles
+  /// survive.
+  MeasurementLikelihood likelihood;
 };
 
 class FastSlam final : public SlamFilter {

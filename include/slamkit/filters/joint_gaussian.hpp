@@ -100,7 +100,8 @@ class JointGaussian : public EkfEstimator {
 
   void predict(const Control& u, double dt) override;
   void inflate_pose(const Matrix3& q) override;
-  bool update_landmark(std::size_t index, const Measurement& z) override;
+  using EkfEstimator::update_landmark;
+  bool update_landmark(const LandmarkObservation& observation) override;
   /// One joint innovation for the batch; equal to the sequential updates for linear models, and for
   /// nonlinear ones every observation is linearised at the prior, as in eqs. (10)-(11) with z_k the
   /// whole batch.
@@ -142,7 +143,7 @@ class JointGaussian : public EkfEstimator {
  private:
   /// update_landmark for a measurement of dimension D.
   template <int D>
-  bool update_one(std::size_t index, const Measurement& z);
+  bool update_one(const LandmarkObservation& observation);
   /// update_landmarks for measurements of dimension D.
   template <int D>
   bool update_batch(std::span<const LandmarkObservation> batch);

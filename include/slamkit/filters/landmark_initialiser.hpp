@@ -69,6 +69,11 @@ struct DelayedInitialisationOptions {
   double max_std_m = 1.0;      ///< the largest standard deviation a landmark may start with [m]
   double window_s = 60.0;      ///< observations older than this are forgotten [s]
   double gate_probability = 0.9999;  ///< of the residuals' chi-square test, and of the ambiguity test
+  /// Set by the filters where their likelihood expects outliers (MeasurementLikelihood::robust):
+  /// each candidate position is judged on the views it explains, a view beyond the single-view gate
+  /// left out as an outlier (at most a quarter of them), instead of the worst view being dropped for
+  /// good whenever the best position fails the test.
+  bool outliers_expected = false;
 };
 
 /// Throws std::invalid_argument naming the first setting out of its range.
@@ -145,15 +150,20 @@ class DelayedInitialiser final : public LandmarkInitialiser {
   struct Fit {
     Vector2 position;
     Matrix2 covariance;
-    double chi2 = 0.0;
-    std::size_t worst = 0;  // the view with the largest residual
+    double chi2 = 0.0;       // over the views it explains
+    std::size_t outliers = 0;  // views it leaves out (only where outliers are expected)
+    std::size_t worst = 0;   // the view with the largest residual
     double worst_chi2 = 0.0;
     Vector2 range_gain = Vector2::Zero();        // InitialLandmark's
     Vector2 range_scale_gain = Vector2::Zero();  // InitialLandmark's
   };
   /// The best position for `views` weighed against the uncertainty gained since each, by
-  /// Gauss-Newton from `start`; nothing if the information stays singular.
-  std::optional<Fit> fit(const std::vector<View>& views, const Matrix3& odometry_covariance_now, Vector2 start) const;
+  /// Gauss-Newton from `start`, leaving out each view whose chi-square exceeds trim_above at the
+  /// current iterate; nothing if the information stays singular.
+  std::optional<Fit> fit(const std::vector<View>& views, const Matrix3& odometry_covariance_now, Vector2 start,
+                         double trim_above) const;
+  /// Whether a fit explains its views: few enough outliers, and the rest within the chi-square gate.
+  bool explains(const Fit& fit, std::size_t views) const;
   /// Closed-form starting points for the fit from the views and their sensors' positions: one, or
   /// for ranges from collinear sensors the two mirror images; none if the views do not intersect.
   std::vector<Vector2> starts(const std::vector<View>& views, const std::vector<Vector2>& sensors) const;
@@ -163,6 +173,9 @@ class DelayedInitialiser final : public LandmarkInitialiser {
   bool measures_range_;
   bool measures_bearing_;
   int min_views_;
+  double view_gate_;  // one view's chi-square gate; the trim where outliers are expected
+  std::vector<double> gates_;  // the chi-square gate of n views' residuals, by n
+  double rival_gate_;  // how much worse than the best fit a rival may be (2 dof: the position's)
   std::map<int, std::vector<View>> views_;  // by landmark id; ordered, so the order of work is fixed
 };
 

@@ -46,7 +46,8 @@ class UnscentedJointGaussian final : public JointGaussian {
                          UkfNoise noise = UkfNoise::kAugmented);
 
   void predict(const Control& u, double dt) override;
-  bool update_landmark(std::size_t index, const Measurement& z) override;
+  using EkfEstimator::update_landmark;
+  bool update_landmark(const LandmarkObservation& observation) override;
   /// One joint innovation for the batch (observations of distinct landmarks), sigma points over the
   /// vehicle and those landmarks.
   bool update_landmarks(std::span<const LandmarkObservation> batch) override;

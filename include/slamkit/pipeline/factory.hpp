@@ -52,6 +52,8 @@ struct FilterConfig {
   // EKF (full, fej, invariant) and FastSLAM 2.0 with known association: the range sensor's offset
   // and scale error estimated from this prior; unset: not estimated.
   std::optional<RangeCalibrationPrior> range_calibration;
+  // Every filter: the measurement noise's shape (models/measurement_likelihood.hpp).
+  MeasurementLikelihood likelihood;
   // Particle filters only.
   int particles = 100;
   double pose_sample_fraction = FastSlamConfig{}.pose_sample_fraction;  // FastSLAM 2.0 only

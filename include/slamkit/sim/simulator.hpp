@@ -48,6 +48,10 @@ struct SimulatorConfig {
   // radio ranging reads long.
   double range_offset = 0.0;  // m
   double range_scale_error = 0.0;
+  // Multipath: with this probability a range reads long by a further exponentially distributed
+  // excess of mean range_outlier_mean (a radio's signal that arrives by a longer path).
+  double range_outlier_probability = 0.0;
+  double range_outlier_mean = 5.0;  // m
   double sigma_bearing = deg2rad(1.0);  // rad
   // Detection. The defaults make the reference's ideal detector.
   double clutter_rate = 0.0;           // false detections per scan, mean of a Poisson count
@@ -61,8 +65,9 @@ struct SimulatorConfig {
 
 /// The config as JSON: angles in degrees, every key named with its unit (e.g. "sigma_steer_deg");
 /// clutter_rate is "clutter_rate_per_scan". "sensor" is written only for a sensor other than range
-/// and bearing, and "range_offset_m" and "range_scale_error" only when not 0, so that configs written
-/// before they existed read and write as they did.
+/// and bearing, "range_offset_m" and "range_scale_error" only when not 0, and the range outliers'
+/// keys only when their probability is not 0, so that configs written before they existed read and
+/// write as they did.
 nlohmann::json to_json(const SimulatorConfig& config);
 
 /// Reads what to_json writes. Missing keys keep their defaults; an unknown key, a value of the wrong

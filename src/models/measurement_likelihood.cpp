@@ -1,0 +1,36 @@
+#include "slamkit/models/measurement_likelihood.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "slamkit/core/names.hpp"
+
+namespace slamkit {
+
+LikelihoodKind parse_likelihood_kind(const std::string& name) {
+  if (name == "gaussian") return LikelihoodKind::kGaussian;
+  if (name == "student-t") return LikelihoodKind::kStudentT;
+  throw std::invalid_argument(unknown_name_message("likelihood", name, {"gaussian", "student-t"}));
+}
+
+std::string to_string(LikelihoodKind kind) { return kind == LikelihoodKind::kStudentT ? "student-t" : "gaussian"; }
+
+double MeasurementLikelihood::noise_inflation(double m2, int d) const {
+  if (!robust() || !(m2 > d)) return 1.0;
+  return (dof + m2) / (dof + d);
+}
+
+double MeasurementLikelihood::log_density(double m2, int d, double log_det_s) const {
+  const double half_d = 0.5 * d;
+  if (!robust()) return -0.5 * m2 - half_d * std::log(2.0 * std::numbers::pi) - 0.5 * log_det_s;
+  return std::lgamma(0.5 * (dof + d)) - std::lgamma(0.5 * dof) - half_d * std::log(dof * std::numbers::pi) -
+         0.5 * log_det_s - 0.5 * (dof + d) * std::log1p(m2 / dof);
+}
+
+void validate(const MeasurementLikelihood& likelihood) {
+  if (!(likelihood.dof > 0.0) || !std::isfinite(likelihood.dof))
+    throw std::invalid_argument("the t likelihood's degrees of freedom must be positive and finite");
+}
+
+}  // namespace slamkit
