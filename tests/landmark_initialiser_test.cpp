@@ -86,6 +86,16 @@ TEST(DelayedInitialiser, KeepsBothPositionsARangeAlongALineAdmitsUntilTheVehicle
         init.offer(0, Pose2(x, 0.0, 0.0), kNoDrift, model->predict(Pose2(x, 0.0, 0.0), beacon), t, kNoCorrection))
         << "started at x = " << x << " while the mirror image (10, -6) fits as well";
   EXPECT_EQ(init.waiting(), 1u);
+  // What it holds meanwhile: the beacon and its mirror image, equally likely.
+  const std::vector<LandmarkHypothesis> held = init.hypotheses();
+  ASSERT_EQ(held.size(), 2u);
+  for (const LandmarkHypothesis& h : held) {
+    EXPECT_EQ(h.landmark.id, 0);
+    EXPECT_EQ(h.weight, 0.5);
+    EXPECT_LT(std::min((h.landmark.position - beacon).norm(), (h.landmark.position - Vector2(10.0, -6.0)).norm()),
+              1e-3);
+  }
+  EXPECT_GT((held[0].landmark.position - held[1].landmark.position).norm(), 11.0);
   // Turning north off the road resolves it, to the true side.
   std::optional<InitialLandmark> l;
   for (double y = 1.0; y <= 6.0 && !l; y += 1.0, t += 1.0) {
@@ -94,6 +104,7 @@ TEST(DelayedInitialiser, KeepsBothPositionsARangeAlongALineAdmitsUntilTheVehicle
   }
   ASSERT_TRUE(l.has_value());
   EXPECT_LT((l->mean - beacon).norm(), 1e-3);
+  EXPECT_TRUE(init.hypotheses().empty()) << "a started landmark is no hypothesis";
 }
 
 // One beacon ranged from a straight road: the ring keeps both places the ranges allow, the beacon and
@@ -117,6 +128,14 @@ TEST(RingInitialiser, KeepsBothHypothesesARoadAllowsUntilTheVehicleTurns) {
   EXPECT_NEAR(weight_near(beacon), 0.5, 0.1);
   EXPECT_NEAR(weight_near(mirror), 0.5, 0.1);
   EXPECT_NEAR(weight_near(beacon) + weight_near(mirror), 1.0, 1e-3) << "nothing else is alive";
+  // The same for the replay page: every live hypothesis, the weights of its ring summing to one.
+  double total = 0.0;
+  for (const LandmarkHypothesis& h : init.hypotheses()) {
+    EXPECT_EQ(h.landmark.id, 0);
+    total += h.weight;
+  }
+  EXPECT_NEAR(total, 1.0, 1e-12);
+  EXPECT_EQ(init.hypotheses().size(), init.hypotheses(0).size());
   std::optional<InitialLandmark> l;
   for (double y = 1.0; y <= 6.0 && !l; y += 1.0, t += 1.0) {
     const Pose2 x(20.0, y, kPi / 2);
@@ -241,6 +260,51 @@ TEST(DelayedStart, RangeOnlyAndBearingOnlyEkfSlamBeatDeadReckoningAndStayConsist
     EXPECT_GE(m.nees_pose->in_interval_fraction, 0.8);
     EXPECT_GE(m.landmarks, 50u) << "most of the world's 100 landmarks start";
   }
+}
+
+// What a filter shows of its initialiser: the hypotheses of landmarks not yet in its map, carried from
+// dead reckoning's frame to where they lie relative to its estimate, as they would start.
+TEST(LandmarkHypotheses, AreTheInitialisersCarriedToTheEstimateForLandmarksNotYetMapped) {
+  Scenario s = scenario("default");
+  s.config.sensor = SensorKind::kRangeOnly;
+  s.config.loops = 1;
+  const Dataset d = simulate(s.world, s.config);
+  for (const LandmarkInitialisation start : {LandmarkInitialisation::kDelayed, LandmarkInitialisation::kRing}) {
+    SCOPED_TRACE(start == LandmarkInitialisation::kRing ? "ring" : "delayed");
+    EkfSlamOptions options = test_sim::ekf_options_for(d, EkfVariant::kFirstEstimates);
+    options.initialisation = start;
+    EkfSlam filter(d.motion, d.observation, options);
+    std::size_t seen = 0;
+    for (const Event& e : d.events) {
+      if (const auto* c = std::get_if<ControlEvent>(&e)) {
+        filter.predict(*c);
+        continue;
+      }
+      filter.update(std::get<ScanEvent>(e));
+      const std::vector<LandmarkHypothesis> held = filter.landmark_hypotheses();
+      seen += held.size();
+      for (const LandmarkHypothesis& h : held) {
+        ASSERT_LT(filter.find_landmark(h.landmark.id), 0) << "landmark " << h.landmark.id << " is mapped";
+        ASSERT_TRUE(h.landmark.position.allFinite() && h.weight > 0.0 && h.weight <= 1.0);
+      }
+    }
+    EXPECT_GT(seen, 0u);
+  }
+  // Carried rigidly: a hypothesis keeps its place relative to the vehicle.
+  const auto model = std::make_shared<RangeOnlyModel>(RangeOnlyModel::Params{.sigma_range = 3.0});
+  DelayedInitialiser init(model, {});
+  const Vector2 m(4.0, 5.0);
+  for (const Pose2& x : {Pose2(0, 0, 0), Pose2(8, 0, 0.3), Pose2(4, 12, 1.2)})
+    init.offer(1, x, Matrix3::Identity(), model->predict(x, m), 0.0, kNoCorrection);
+  ASSERT_FALSE(init.hypotheses().empty()) << "too uncertain to start, so held as a hypothesis";
+  DeadReckoning dr;
+  dr.pose = Pose2(4, 12, 1.2);
+  const Pose2 estimate(-3.0, 2.0, -0.4);
+  const std::vector<LandmarkHypothesis> here = hypotheses_at(init, dr, estimate);
+  ASSERT_EQ(here.size(), init.hypotheses().size());
+  const RangeBearingModel sensor;
+  EXPECT_TRUE(sensor.predict(estimate, here[0].landmark.position)
+                  .isApprox(sensor.predict(dr.pose, init.hypotheses()[0].landmark.position), 1e-12));
 }
 
 // FastSLAM starts a landmark the initialiser placed in dead reckoning's frame where it lies relative

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <filesystem>
 #include <limits>
+#include <map>
 
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/pipeline/factory.hpp"
@@ -191,6 +192,36 @@ TEST(ReplayRecorder, FramesHoldTheMapAndEachObservationsDecision) {
   const std::size_t truth_step = std::max<std::size_t>(1, data.truth.poses.size() / 4000);
   EXPECT_EQ(replay.at("truth").size(), (data.truth.poses.size() + truth_step - 1) / truth_step);
   EXPECT_TRUE(replay.at("meta").at("wrong_known").get<bool>());
+  for (const nlohmann::json& frame : frames) EXPECT_FALSE(frame.contains("hypotheses")) << "every landmark starts at once";
+}
+
+// A radio's beacons start from several ranges: until then a frame holds where each may lie, seven
+// numbers per hypothesis, the weights of one beacon's summing to one.
+TEST(ReplayRecorder, FramesHoldTheHypothesesOfLandmarksWaitingToStart) {
+  Scenario s = scenario("default");
+  s.config.sensor = SensorKind::kRangeOnly;
+  s.config.loops = 1;
+  const Dataset data = simulate(s.world, s.config);
+  FilterConfig config;
+  config.ekf_variant = EkfVariant::kFirstEstimates;
+  config.landmark_init = LandmarkInit::kRing;
+  auto filter = make_filter(config, data);
+  ReplayRecorder recorder(data, {.max_frames = 100});
+  RunOptions options;
+  options.observers.push_back(&recorder);
+  const RunResult run = run_filter(*filter, data, options);
+  const nlohmann::json replay = recorder.to_json(run.filter);
+  std::size_t with_hypotheses = 0;
+  for (const nlohmann::json& frame : replay.at("frames")) {
+    if (!frame.contains("hypotheses")) continue;
+    ++with_hypotheses;
+    const nlohmann::json& held = frame.at("hypotheses");
+    ASSERT_EQ(held.size() % 7, 0u);
+    std::map<int, double> weight;
+    for (std::size_t i = 0; i < held.size(); i += 7) weight[held[i].get<int>()] += held[i + 6].get<double>();
+    for (const auto& [id, total] : weight) EXPECT_NEAR(total, 1.0, 0.01) << "landmark " << id;
+  }
+  EXPECT_GT(with_hypotheses, 10u);
 }
 
 }  // namespace

@@ -106,6 +106,11 @@ std::vector<Landmark> EkfSlam::landmarks() const {
   return out;
 }
 
+std::vector<LandmarkHypothesis> EkfSlam::landmark_hypotheses() const {
+  return initialiser_ ? hypotheses_at(*initialiser_, dead_reckoning_, estimator_->pose())
+                      : std::vector<LandmarkHypothesis>{};
+}
+
 double EkfSlam::memory_estimate(std::size_t landmarks) {
   // The covariance lives in a square buffer (of which updates use the lower triangle).
   const double n = 3.0 + 2.0 * static_cast<double>(landmarks);

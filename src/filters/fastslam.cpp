@@ -531,6 +531,11 @@ std::vector<WeightedPose> FastSlam::pose_samples() const {
   return out;
 }
 
+std::vector<LandmarkHypothesis> FastSlam::landmark_hypotheses() const {
+  const Impl& s = *impl_;
+  return s.initialiser ? hypotheses_at(*s.initialiser, s.dead_reckoning, pose()) : std::vector<LandmarkHypothesis>{};
+}
+
 std::map<std::string, double> FastSlam::statistics() const {
   const Impl& s = *impl_;
   const auto n = static_cast<double>(s.particles.size());

@@ -266,6 +266,8 @@ std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector
 std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
                                                          const Measurement& z, double t,
                                                          const RangeCorrection& correction) {
+  latest_t_ = std::max(latest_t_, t);
+  candidates_.erase(id);  // found afresh below
   std::vector<View>& raw = views_[id];
   raw.push_back({x, odometry_covariance, z, t});
   std::erase_if(raw, [&](const View& v) { return v.t < t - options_.window_s; });
@@ -309,6 +311,9 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
     raw.erase(raw.begin() + static_cast<std::ptrdiff_t>(drop));
     return std::nullopt;
   }
+  std::vector<Fit>& held = candidates_[id].fits;
+  candidates_[id].t = t;
+  held.push_back(best);
   const Eigen::SelfAdjointEigenSolver<Matrix2> eigen(best.covariance);
   if (!(eigen.eigenvalues()[1] <= options_.max_std_m * options_.max_std_m)) return std::nullopt;
   // Ranges along a line fit the landmark and its mirror image equally: wait while another position
@@ -318,12 +323,18 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
             fit(views, odometry_covariance, mirrored(best.position, spread_of(sensors)), trim))
       fits.push_back(*m);
   const Matrix2 information = best.covariance.inverse();
+  const auto distinct = [&](const Fit& f) {
+    return std::none_of(held.begin(), held.end(), [&](const Fit& h) {
+      const Vector2 apart = f.position - h.position;
+      return apart.dot(information * apart) <= 9.0;
+    });
+  };
   for (const Fit& other : fits) {
-    const Vector2 apart = other.position - best.position;
     const bool rival = explains(other, views.size()) ||
                        (options_.outliers_expected && cost(other) <= cost(best) + rival_gate_);
-    if (rival && apart.dot(information * apart) > 9.0) return std::nullopt;
+    if (rival && distinct(other)) held.push_back(other);
   }
+  if (held.size() > 1) return std::nullopt;
   if (measures_bearing_) {
     // A bearing sees forward along its ray: a position behind any sensor is not the landmark.
     const int row = model_->rows().bearing;
@@ -339,7 +350,18 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   landmark.range_gain = best.range_gain;
   landmark.range_scale_gain = best.range_scale_gain;
   views_.erase(id);
+  candidates_.erase(id);
   return landmark;
+}
+
+std::vector<LandmarkHypothesis> DelayedInitialiser::hypotheses() const {
+  std::vector<LandmarkHypothesis> out;
+  for (const auto& [id, found] : candidates_) {
+    if (found.t < latest_t_ - options_.window_s) continue;
+    for (const Fit& f : found.fits)
+      out.push_back({{id, f.position, f.covariance}, 1.0 / static_cast<double>(found.fits.size())});
+  }
+  return out;
 }
 
 RingInitialiser::RingInitialiser(std::shared_ptr<const ObservationModel> model,
@@ -386,6 +408,7 @@ RingInitialiser::Ring RingInitialiser::draw(const Pose2& x, const Matrix3& odome
 std::optional<InitialLandmark> RingInitialiser::offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
                                                       const Measurement& z, double t,
                                                       const RangeCorrection& correction) {
+  latest_t_ = std::max(latest_t_, t);
   const int row = model_->rows().range;
   Measurement distance = z;
   distance[row] = correction.distance(z[row]);
@@ -470,6 +493,35 @@ std::optional<InitialLandmark> RingInitialiser::offer(int id, const Pose2& x, co
   landmark.covariance = 0.5 * (covariance + covariance.transpose());
   rings_.erase(id);
   return landmark;
+}
+
+std::vector<LandmarkHypothesis> RingInitialiser::hypotheses() const {
+  std::vector<LandmarkHypothesis> out;
+  for (const auto& [id, ring] : rings_) {
+    if (ring.t0 < latest_t_ - options_.window_s) continue;  // drawn afresh at its next range
+    double best = -INFINITY;
+    for (const Hypothesis& h : ring.hypotheses) best = std::max(best, h.log_weight);
+    double total = 0.0;
+    for (const Hypothesis& h : ring.hypotheses) total += std::exp(h.log_weight - best);
+    for (const Hypothesis& h : ring.hypotheses)
+      out.push_back({{id, h.mean, h.covariance}, std::exp(h.log_weight - best) / total});
+  }
+  return out;
+}
+
+std::vector<LandmarkHypothesis> hypotheses_at(const LandmarkInitialiser& initialiser, const DeadReckoning& dead_reckoning,
+                                              const Pose2& x) {
+  std::vector<LandmarkHypothesis> out = initialiser.hypotheses();
+  for (LandmarkHypothesis& h : out) {
+    InitialLandmark placed;
+    placed.mean = h.landmark.position;
+    placed.gx = attached_to_pose(dead_reckoning.pose, placed.mean);
+    placed.covariance = h.landmark.covariance;
+    const InitialLandmark here = dead_reckoning.carried_to(x, placed);
+    h.landmark.position = here.mean;
+    h.landmark.covariance = here.covariance;
+  }
+  return out;
 }
 
 std::vector<RingInitialiser::Hypothesis> RingInitialiser::hypotheses(int id) const {

@@ -88,6 +88,17 @@ void ReplayRecorder::on_scan(const SlamFilter& filter, const ScanEvent& scan, st
       for (double v : {rounded(shape.end.x()), rounded(shape.end.y()), double(decision)}) rays.push_back(v);
   }
   if (!rings.empty()) frame["rings"] = std::move(rings);
+  const std::vector<LandmarkHypothesis> hypotheses = filter.landmark_hypotheses();
+  if (!hypotheses.empty()) {
+    nlohmann::json& held = frame["hypotheses"] = nlohmann::json::array();
+    for (const LandmarkHypothesis& h : hypotheses) {
+      const Landmark& lm = h.landmark;
+      for (double v : {double(lm.id), rounded(lm.position.x()), rounded(lm.position.y()),
+                       significant(lm.covariance(0, 0)), significant(lm.covariance(0, 1)),
+                       significant(lm.covariance(1, 1)), significant(h.weight)})
+        held.push_back(v);
+    }
+  }
   const std::vector<WeightedPose> samples = filter.pose_samples();
   if (!samples.empty()) {
     nlohmann::json& particles = frame["particles"] = nlohmann::json::array();

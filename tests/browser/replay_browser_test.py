@@ -2,12 +2,13 @@
 """The replay page in a real browser: headless Chromium driven through chromedriver's W3C WebDriver
 HTTP protocol (standard library only, no selenium).
 
-For a default-world EKF run and a FastSLAM run, both recorded with `slamkit run --replay`, it checks
-that the page is self-contained (no element loads anything, the browser fetched no resource), that
-its script ran and knows every recorded frame, that seeking by the API and by the slider draws the
-frame asked for with exactly the recorded number of landmarks, particles and rays of each decision,
-that the drawn pixels are there (ray and ellipse colours on the map, a curve in each time panel),
-that Play advances the frames and Pause stops them, and that zoom changes the view. The map fills
+For a default-world EKF run, a FastSLAM run and a range-only EKF run with the ring start, each
+recorded with `slamkit run --replay`, it checks that the page is self-contained (no element loads
+anything, the browser fetched no resource), that its script ran and knows every recorded frame, that
+seeking by the API and by the slider draws the frame asked for with exactly the recorded number of
+landmarks, landmark hypotheses, particles and rays of each decision, that the drawn pixels are
+there (ray and ellipse colours on the map, a curve in each time panel), that Play advances the
+frames and Pause stops them, and that zoom changes the view. The map fills
 the window beside the side panel, at the screen's pixel ratio, and follows a new window size and
 pixel ratio; its grid and scale bar are in round metres and follow zoom; the page says whether the
 pose error is aligned (a recording marked aligned, rewritten by `slamkit replay`, says so too).
@@ -131,8 +132,8 @@ def expected_counts(frame):
         rays[DECISIONS[int(code)]] += 1
     for code in frame.get("rings", [])[3::4]:
         rays[DECISIONS[int(code)]] += 1
-    return {"landmarks": len(frame["landmarks"]) // 6, "particles": len(frame.get("particles", [])) // 2,
-            "rays": rays}
+    return {"landmarks": len(frame["landmarks"]) // 6, "hypotheses": len(frame.get("hypotheses", [])) // 7,
+            "particles": len(frame.get("particles", [])) // 2, "rays": rays}
 
 
 def check(condition, message):
@@ -200,7 +201,8 @@ def check_page(browser, page, recording, particles_expected):
         drawn = browser.js("return window.replay.drawn")
         check(drawn["frame"] == k, f"{page}: seek({k}) drew frame {drawn['frame']}")
         want = expected_counts(frames[k])
-        got = {"landmarks": drawn["landmarks"], "particles": drawn["particles"], "rays": drawn["rays"]}
+        got = {"landmarks": drawn["landmarks"], "hypotheses": drawn["hypotheses"], "particles": drawn["particles"],
+               "rays": drawn["rays"]}
         check(got == want, f"{page}: frame {k} drew {got}, the recording holds {want}")
         check(f"frame {k + 1}/{len(frames)}" in browser.js("return document.getElementById('label').textContent"),
               f"{page}: the label does not name frame {k + 1}")
@@ -216,6 +218,8 @@ def check_page(browser, page, recording, particles_expected):
             check(browser.js(COUNT_NEAR, "map", *rgb) > 0, f"{page}: no {name} ray pixels on the map")
     if counts["landmarks"]:
         check(browser.js(COUNT_NEAR, "map", 30, 58, 138) > 0, f"{page}: no landmark pixels on the map")
+    if counts["hypotheses"]:
+        check(browser.js(COUNT_NEAR, "map", 217, 119, 6) > 0, f"{page}: no hypothesis pixels on the map")
     if particles_expected:
         check(counts["particles"] > 0, f"{page}: the recording has no particles")
         check(browser.js(COUNT_NEAR, "map", 147, 51, 234) > 0, f"{page}: no particle pixels on the map")
@@ -312,11 +316,17 @@ def main(argv):
     run(cli, work, "run", "--filter", "ekf", "--data", "sim:sim", "--out", "ekf", "--replay", "--quiet")
     run(cli, work, "run", "--filter", "fastslam2", "--assoc", "nn", "--particles", "30", "--data", "sim:sim",
         "--out", "fastslam", "--replay", "--quiet")
+    # A radio's ranges: each drawn as a circle, and the ring start's hypotheses of the beacons waiting.
+    run(cli, work, "simulate", "--seed", "1", "--sensor", "range-only", "--loops", "1", "--out", "radio")
+    run(cli, work, "run", "--filter", "ekf", "--ekf-variant", "fej", "--landmark-init", "ring", "--data",
+        "sim:radio", "--out", "ring", "--replay", "--quiet")
     browser = Browser()
     try:
-        for folder, particles in (("ekf", False), ("fastslam", True)):
+        for folder, particles in (("ekf", False), ("fastslam", True), ("ring", False)):
             with open(os.path.join(work, folder, "replay.json")) as f:
                 recording = json.load(f)
+            if folder == "ring":
+                check(any(f.get("hypotheses") for f in recording["frames"]), "ring: no frame holds hypotheses")
             check_page(browser, os.path.join(work, folder, "replay.html"), recording, particles)
             print(f"{folder}: {len(recording['frames'])} frames checked")
         check_resizing(browser, os.path.join(work, "ekf", "replay.html"))

@@ -80,4 +80,11 @@ struct Landmark {
   Matrix2 covariance = Matrix2::Zero();
 };
 
+/// Where a landmark not yet started may lie: one of a range's ring of hypotheses, or a position its
+/// observations so far admit, with its weight among its landmark's hypotheses (they sum to one).
+struct LandmarkHypothesis {
+  Landmark landmark;
+  double weight = 0.0;
+};
+
 }  // namespace slamkit

@@ -111,6 +111,7 @@ class EkfSlam final : public SlamFilter {
   std::size_t num_landmarks() const override { return ids_.size(); }
   /// The map: confirmed landmarks only (with known association, every landmark is confirmed).
   std::vector<Landmark> landmarks() const override;
+  std::vector<LandmarkHypothesis> landmark_hypotheses() const override;
   const std::vector<AssociationRecord>& last_associations() const override { return last_associations_; }
   std::map<std::string, double> statistics() const override;
   /// About the bytes of the joint covariance once the map has `landmarks` landmarks, which dwarfs

@@ -196,6 +196,8 @@ class FastSlam final : public SlamFilter {
   /// Drops the particles' paths and stops extending them.
   void forget_smoothed_trajectory() override;
   std::vector<WeightedPose> pose_samples() const override;
+  /// Relative to pose(), the mean of the particles' poses.
+  std::vector<LandmarkHypothesis> landmark_hypotheses() const override;
   /// "particles", "ess_mean" (mean ESS over scans, before resampling), "resamples",
   /// "weight_collapses" (scans in which every particle's likelihood was zero or undefined),
   /// "relocalisations" (scans in which the best particle relocalised, see

@@ -43,6 +43,7 @@
 // The landmark joins the state rigidly attached to the current pose (as an inverted measurement
 // does: P(m, :) = [I, J (m - p)] P(v, :)) with the triangulation's covariance on top, the uncertainty
 // relative to that pose; the observations that placed it are not applied again.
+#include <cmath>
 #include <map>
 #include <memory>
 #include <optional>
@@ -128,7 +129,15 @@ class LandmarkInitialiser {
                                                const Measurement& z, double t, const RangeCorrection& correction) = 0;
   /// How many landmarks have observations waiting.
   virtual std::size_t waiting() const = 0;
+  /// Where the landmarks with observations waiting may lie, in the frame of the offers: those
+  /// offered within the window of the latest offer, for the replay page to draw.
+  virtual std::vector<LandmarkHypothesis> hypotheses() const = 0;
 };
+
+/// The initialiser's hypotheses (in dead reckoning's frame) where they lie relative to a vehicle
+/// estimated at x, as a landmark started now would be placed (DeadReckoning::carried_to).
+std::vector<LandmarkHypothesis> hypotheses_at(const LandmarkInitialiser& initialiser, const DeadReckoning& dead_reckoning,
+                                              const Pose2& x);
 
 /// Delayed: triangulation (see the file's comment).
 class DelayedInitialiser final : public LandmarkInitialiser {
@@ -139,6 +148,9 @@ class DelayedInitialiser final : public LandmarkInitialiser {
   std::optional<InitialLandmark> offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
                                        const Measurement& z, double t, const RangeCorrection& correction) override;
   std::size_t waiting() const override { return views_.size(); }
+  /// The positions the last offer of each landmark found to explain its views: one, or while they
+  /// admit more (a range's mirror image), each of them; with a position too uncertain to start, that.
+  std::vector<LandmarkHypothesis> hypotheses() const override;
 
  private:
   struct View {
@@ -177,6 +189,12 @@ class DelayedInitialiser final : public LandmarkInitialiser {
   std::vector<double> gates_;  // the chi-square gate of n views' residuals, by n
   double rival_gate_;  // how much worse than the best fit a rival may be (2 dof: the position's)
   std::map<int, std::vector<View>> views_;  // by landmark id; ordered, so the order of work is fixed
+  struct Candidates {
+    double t = 0.0;  // of the offer that found them
+    std::vector<Fit> fits;
+  };
+  std::map<int, Candidates> candidates_;  // by landmark id, for hypotheses()
+  double latest_t_ = -INFINITY;           // of the latest offer
 };
 
 /// Ring: multiple hypotheses (see the file's comment).
@@ -188,6 +206,7 @@ class RingInitialiser final : public LandmarkInitialiser {
   std::optional<InitialLandmark> offer(int id, const Pose2& x, const Matrix3& odometry_covariance,
                                        const Measurement& z, double t, const RangeCorrection& correction) override;
   std::size_t waiting() const override { return rings_.size(); }
+  std::vector<LandmarkHypothesis> hypotheses() const override;
 
   struct Hypothesis {
     Vector2 mean;
@@ -214,6 +233,7 @@ class RingInitialiser final : public LandmarkInitialiser {
   double range_gate_;  // one range's chi-square gate
   double worse_gate_;  // how much worse than the best a hypothesis may explain the ranges (2 dof)
   std::map<int, Ring> rings_;  // by landmark id
+  double latest_t_ = -INFINITY;  // of the latest offer
 };
 
 }  // namespace slamkit

@@ -46,6 +46,10 @@ class SlamFilter {
   virtual void forget_smoothed_trajectory() {}
   /// Pose samples with their normalised weights (particle filters); empty for Gaussian filters.
   virtual std::vector<WeightedPose> pose_samples() const { return {}; }
+  /// Where the landmarks waiting to start may lie (a landmark initialiser's hypotheses: a range's
+  /// ring, or the positions a bearing's or range's observations admit so far), relative to the
+  /// current pose as they would start; empty where every landmark starts at once.
+  virtual std::vector<LandmarkHypothesis> landmark_hypotheses() const { return {}; }
   /// Filter-specific figures for metrics.json, e.g. {"particles": 100, "ess_mean": 61.2}.
   virtual std::map<std::string, double> statistics() const { return {}; }
 };

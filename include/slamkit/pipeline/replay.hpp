@@ -39,8 +39,11 @@ class ReplayRecorder : public RunObserver {
   /// says which ("error_aligned" in "meta").
   /// {"meta": {...}, "truth": [[t, x, y], ...], "true_landmarks": [[x, y], ...],
   /// "frames": [{"t", "pose": [x, y, theta], "cov": [xx, xy, yy, tt], "landmarks": [id, x, y, cxx,
-  /// cxy, cyy, ...], "rays": [x, y, decision, ...], "particles": [x, y, ...], "error": [ex, ey,
-  /// etheta] (only with a truth)}]}. Decisions: 0 update, 1 new, 2 discard, 3 wrong update.
+  /// cxy, cyy, ...], "rays": [x, y, decision, ...], "rings": [sensor x, y, range, decision, ...]
+  /// (a range alone), "hypotheses": [id, x, y, cxx, cxy, cyy, weight, ...] (landmarks waiting to
+  /// start: SlamFilter::landmark_hypotheses), "particles": [x, y, ...], "error": [ex, ey, etheta]
+  /// (only with a truth)}]}; rings, hypotheses and particles only where there are any. Decisions:
+  /// 0 update, 1 new, 2 discard, 3 wrong update, 4 pending.
   nlohmann::json to_json(const std::string& filter_name,
                          const std::optional<Pose2>& truth_from_estimate = std::nullopt) const;
 

@@ -150,7 +150,8 @@
     const resized = w !== mapSize.w || h !== mapSize.h;
     mapSize.w = w; mapSize.h = h;
     if (resized && view.fitted) fitView();
-    const drawn = { frame: state.frame, landmarks: 0, particles: 0, rays: { update: 0, new: 0, discard: 0, wrong: 0, pending: 0 },
+    const drawn = { frame: state.frame, landmarks: 0, hypotheses: 0, particles: 0,
+                    rays: { update: 0, new: 0, discard: 0, wrong: 0, pending: 0 },
                     size: { w, h, ratio, pixelWidth: mapCanvas.width, pixelHeight: mapCanvas.height } };
     ctx.fillStyle = '#ffffff';
     ctx.fillRect(0, 0, w, h);
@@ -179,6 +180,20 @@
       ctx.beginPath(); ctx.arc(cx, cy, rings[i + 2] * view.scale, 0, 2 * Math.PI); ctx.stroke();
       drawn.rays[name] += 1;
     }
+
+    // Where the landmarks waiting to start may lie (a range's ring of hypotheses, a mirror image),
+    // in the pending colour: 2-sigma ellipses, the likelier the bolder.
+    const hypotheses = f.hypotheses || [];
+    ctx.strokeStyle = colours.pending; ctx.fillStyle = colours.pending; ctx.lineWidth = 1;
+    for (let i = 0; i < hypotheses.length; i += 7) {
+      const [x, y] = [hypotheses[i + 1], hypotheses[i + 2]];
+      const [sx, sy] = toScreen(x, y);
+      ctx.globalAlpha = 0.3 + 0.7 * hypotheses[i + 6];
+      ctx.fillRect(sx - 1, sy - 1, 2, 2);
+      ellipse(ctx, x, y, hypotheses[i + 3], hypotheses[i + 4], hypotheses[i + 5]);
+      drawn.hypotheses += 1;
+    }
+    ctx.globalAlpha = 1;
 
     ctx.strokeStyle = '#1e3a8a'; ctx.fillStyle = '#1e3a8a'; ctx.lineWidth = 1;
     for (let i = 0; i < f.landmarks.length; i += 6) {
