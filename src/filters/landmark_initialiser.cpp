@@ -317,7 +317,9 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   const Eigen::SelfAdjointEigenSolver<Matrix2> eigen(best.covariance);
   if (!(eigen.eigenvalues()[1] <= options_.max_std_m * options_.max_std_m)) return std::nullopt;
   // Ranges along a line fit the landmark and its mirror image equally: wait while another position
-  // passes the gate too (the mirror image, or another fit's answer, beyond the best's 3-sigma).
+  // beyond the best's 3-sigma (the mirror image, or another fit's answer) explains the views too, or,
+  // where outliers are expected, scores within the 2-dof gate of the best. Those it waits on are
+  // held for hypotheses().
   if (!measures_bearing_)
     if (const std::optional<Fit> m =
             fit(views, odometry_covariance, mirrored(best.position, spread_of(sensors)), trim))
