@@ -522,7 +522,7 @@ int run_command(int argc, char** argv) {
                     "the gate still rejects gross outliers)",
                     defaults.likelihood.kind);
   add_setting<double>(run_cmd, "--likelihood-dof", flag_settings, "/likelihood_dof",
-                      "The student-t likelihood's degrees of freedom (the smaller, the heavier its tails)",
+                      "With --likelihood student-t: its degrees of freedom (the smaller, the heavier its tails)",
                       fmt::format("{}", defaults.likelihood.dof))
       ->check(finite_number());
   // Association and map management: a file holding the keys run.json records under

@@ -800,6 +800,7 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"run --likelihood students" + data, 2, "--likelihood: unknown likelihood 'students' (did you mean 'student-t'?)"},
       {"run --likelihood student-t --likelihood-dof 0" + data, 2,
        "the t likelihood's degrees of freedom must be positive and finite"},
+      {"run --likelihood-dof 3" + data, 2, "likelihood_dof (3) applies to the likelihood 'student-t', not 'gaussian'"},
       {"run --assoc-config /nonexistent/a.json" + data, 1,
        "/nonexistent/a.json: cannot open file for reading (No such file or directory)"},
       {"run --accept-probability 1.5" + data, 2, "association setting accept_probability must be in (0, 1), found 1.5"},
