@@ -3,7 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
-#include <limits>
+#include <optional>
 #include <stdexcept>
 
 #include "slamkit/core/chi_square.hpp"
@@ -240,10 +240,10 @@ double EkfSlam::innovation_distance(std::size_t index, const Measurement& z) con
   });
 }
 
-LandmarkObservation EkfSlam::weighed(std::size_t index, const Measurement& z, double distance) const {
+LandmarkObservation EkfSlam::weighed(std::size_t index, const Measurement& z, std::optional<double> distance) const {
   if (!likelihood_.robust()) return {index, z};
-  if (std::isnan(distance)) distance = innovation_distance(index, z);
-  return {index, z, likelihood_.noise_inflation(distance, estimator_->observation_model().dim())};
+  const double m2 = distance ? *distance : innovation_distance(index, z);
+  return {index, z, likelihood_.noise_inflation(m2, estimator_->observation_model().dim())};
 }
 
 void EkfSlam::update_known(const ScanEvent& scan) {
@@ -251,11 +251,11 @@ void EkfSlam::update_known(const ScanEvent& scan) {
   rejected_.clear();
   std::size_t judged = 0, rejected = 0;
   auto apply = [&](std::size_t k, std::size_t index) {
-    double distance = std::numeric_limits<double>::quiet_NaN();  // not yet known
+    std::optional<double> distance;
     if (gate_known_) {
       ++judged;
       distance = innovation_distance(index, scan.observations[k].z);
-      if (!(distance <= gates_.new_landmark)) {
+      if (!(*distance <= gates_.new_landmark)) {
         ++rejected;
         if (recover_known_)
           rejected_.push_back(k);  // discarded; recover_known keeps a copy

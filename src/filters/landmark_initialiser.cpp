@@ -501,12 +501,8 @@ std::vector<LandmarkHypothesis> RingInitialiser::hypotheses() const {
   std::vector<LandmarkHypothesis> out;
   for (const auto& [id, ring] : rings_) {
     if (ring.t0 < latest_t_ - options_.window_s) continue;  // drawn afresh at its next range
-    double best = -INFINITY;
-    for (const Hypothesis& h : ring.hypotheses) best = std::max(best, h.log_weight);
-    double total = 0.0;
-    for (const Hypothesis& h : ring.hypotheses) total += std::exp(h.log_weight - best);
-    for (const Hypothesis& h : ring.hypotheses)
-      out.push_back({{id, h.mean, h.covariance}, std::exp(h.log_weight - best) / total});
+    // Normalised already: drawn at -log n each, renormalised after every update.
+    for (const Hypothesis& h : ring.hypotheses) out.push_back({{id, h.mean, h.covariance}, std::exp(h.log_weight)});
   }
   return out;
 }
@@ -517,7 +513,6 @@ std::vector<LandmarkHypothesis> hypotheses_at(const LandmarkInitialiser& initial
   for (LandmarkHypothesis& h : out) {
     InitialLandmark placed;
     placed.mean = h.landmark.position;
-    placed.gx = attached_to_pose(dead_reckoning.pose, placed.mean);
     placed.covariance = h.landmark.covariance;
     const InitialLandmark here = dead_reckoning.carried_to(x, placed);
     h.landmark.position = here.mean;

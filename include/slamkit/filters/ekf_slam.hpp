@@ -10,7 +10,6 @@
 // Gaussian) -> updates in order -> new landmarks -> re-bin the touched landmarks (rebuild the grid
 // after a large correction, i.e. a loop closure) -> map management (the existence rule's misses of
 // landmarks expected to be seen, confirmation, removal).
-#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -136,9 +135,9 @@ class EkfSlam final : public SlamFilter {
   /// the known-identity gate (the new-landmark gate) and the t likelihood judge.
   double innovation_distance(std::size_t index, const Measurement& z) const;
   /// The update for observation z of landmark `index`, its noise inflated as the likelihood has it
-  /// (`distance`: its innovation_distance, computed here if NaN).
+  /// (`distance`: its innovation_distance where already known).
   LandmarkObservation weighed(std::size_t index, const Measurement& z,
-                              double distance = std::numeric_limits<double>::quiet_NaN()) const;
+                              std::optional<double> distance = std::nullopt) const;
   /// Each observation the known-identity gate rejected this scan (rejected_) places a copy of its
   /// landmark from the current pose, outside the state; copies unseen for the relocalisation window
   /// are dropped. Once relocalise_min_pairs copies fit their originals up to one rigid motion, the
