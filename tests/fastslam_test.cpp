@@ -75,6 +75,7 @@ class BrokenSensor final : public ObservationModel {
   MeasurementCovariance noise() const override { return inner_.noise(); }
   Measurement residual(const Measurement& z, const Measurement& zhat) const override { return inner_.residual(z, zhat); }
   Vector2 sensor_position(const Pose2& x) const override { return inner_.sensor_position(x); }
+  Matrix23 sensor_jacobian(const Pose2& x) const override { return inner_.sensor_jacobian(x); }
   double measurement_volume(const SensorLimits& sensor) const override { return inner_.measurement_volume(sensor); }
   MeasurementShape shape(const Pose2& x, const Measurement& z, double reach) const override {
     return inner_.shape(x, z, reach);

@@ -37,6 +37,7 @@ class LinearOffset final : public ObservationModel {
   MeasurementCovariance noise() const override { return (Matrix2() << 0.02, 0.005, 0.005, 0.03).finished(); }
   Measurement residual(const Measurement& z, const Measurement& zhat) const override { return z - zhat; }
   Vector2 sensor_position(const Pose2& x) const override { return x.head<2>(); }
+  Matrix23 sensor_jacobian(const Pose2&) const override { return Matrix23::Identity(); }
   // The range-bearing sensor's, which the tests' clutter settings were written against.
   double measurement_volume(const SensorLimits& sensor) const override { return sensor.max_range * sensor.fov; }
   MeasurementShape shape(const Pose2& x, const Measurement& z, double) const override {

@@ -383,6 +383,14 @@ TYPED_TEST(ObservationModelProperties, MeasurementJacobiansMatchCentralDifferenc
   });
 }
 
+TYPED_TEST(ObservationModelProperties, SensorJacobianMatchesCentralDifferences) {
+  this->for_each_case([](const TypeParam& model, const Pose2& x, const Vector2&) {
+    EXPECT_TRUE(jacobian_matches(
+        model.sensor_jacobian(x),
+        numeric_jacobian<2>([&](const Eigen::VectorXd& s) -> Vector2 { return model.sensor_position(s); }, x, {})));
+  });
+}
+
 // Turning the whole scene about the origin (the invariant error's heading direction, which no
 // observation can see) leaves the measurement unchanged, with the sensor off the vehicle's origin
 // too: the observation Jacobian in the invariant error has a zero heading column, and it is the

@@ -16,6 +16,12 @@ Vector2 SensorMount::turn_derivative(const Pose2& x) const {
   return Vector2(-offset_x * s - offset_y * c, offset_x * c - offset_y * s);
 }
 
+Matrix23 SensorMount::jacobian(const Pose2& x) const {
+  Matrix23 j;
+  j << Matrix2::Identity(), turn_derivative(x);
+  return j;
+}
+
 namespace {
 
 // Range and bearing of m from a sensor at `sensor` on a vehicle heading `heading`.

@@ -116,6 +116,8 @@ class ObservationModel {
   virtual Measurement residual(const Measurement& z, const Measurement& zhat) const = 0;
   /// Where the sensor is in the world when the vehicle is at x (its axis is the vehicle's heading).
   virtual Vector2 sensor_position(const Pose2& x) const = 0;
+  /// d sensor_position / dx.
+  virtual Matrix23 sensor_jacobian(const Pose2& x) const = 0;
   /// The volume of the measurement space the sensor's view spans (m rad for range and bearing, m for
   /// range only, rad for bearing only): false detections spread uniformly over it have a density of
   /// their number over this.
@@ -187,6 +189,8 @@ struct SensorMount {
   Vector2 position(const Pose2& x) const;
   /// d position / d theta.
   Vector2 turn_derivative(const Pose2& x) const;
+  /// d position / dx.
+  Matrix23 jacobian(const Pose2& x) const;
 };
 
 /// Range [m] and bearing [rad] from a sensor mounted at (offset_x, offset_y) in the vehicle frame
@@ -210,6 +214,7 @@ class RangeBearingModel final : public ObservationModel {
   MeasurementCovariance noise() const override;
   Measurement residual(const Measurement& z, const Measurement& zhat) const override;
   Vector2 sensor_position(const Pose2& x) const override { return mount_.position(x); }
+  Matrix23 sensor_jacobian(const Pose2& x) const override { return mount_.jacobian(x); }
   double measurement_volume(const SensorLimits& sensor) const override;
   MeasuredRows rows() const override { return {0, 1}; }
   MeasurementShape shape(const Pose2& x, const Measurement& z, double reach) const override;
@@ -241,6 +246,7 @@ class RangeOnlyModel final : public ObservationModel {
   MeasurementCovariance noise() const override;
   Measurement residual(const Measurement& z, const Measurement& zhat) const override { return z - zhat; }
   Vector2 sensor_position(const Pose2& x) const override { return mount_.position(x); }
+  Matrix23 sensor_jacobian(const Pose2& x) const override { return mount_.jacobian(x); }
   double measurement_volume(const SensorLimits& sensor) const override { return sensor.max_range; }
   MeasuredRows rows() const override { return {0, -1}; }
   MeasurementShape shape(const Pose2& x, const Measurement& z, double reach) const override;
@@ -271,6 +277,7 @@ class BearingOnlyModel final : public ObservationModel {
   MeasurementCovariance noise() const override;
   Measurement residual(const Measurement& z, const Measurement& zhat) const override;
   Vector2 sensor_position(const Pose2& x) const override { return mount_.position(x); }
+  Matrix23 sensor_jacobian(const Pose2& x) const override { return mount_.jacobian(x); }
   double measurement_volume(const SensorLimits& sensor) const override { return sensor.fov; }
   MeasuredRows rows() const override { return {-1, 0}; }
   MeasurementShape shape(const Pose2& x, const Measurement& z, double reach) const override;
