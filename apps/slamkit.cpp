@@ -482,7 +482,9 @@ int run_command(int argc, char** argv) {
   add_named_setting(run_cmd, "--landmark-init", flag_settings, "/landmark_init", parse_landmark_init,
                     "How a landmark starts: immediate (from one measurement's inverse), delayed "
                     "(triangulated from several observations at well-spread poses; known ids only), ring (range "
-                    "only: a ring of Gaussian hypotheses that collapses as the ranges agree; known ids only) or "
+                    "only: a ring of Gaussian hypotheses that collapses as the ranges agree; known ids only), "
+                    "inverse-distance (bearing only, ekf full or fej: the landmark joins the state at its first "
+                    "bearing as an azimuth and inverse distance, and becomes a point once its distance is known) or "
                     "auto (immediate where one measurement places a landmark, delayed for range-only and "
                     "bearing-only sensors)",
                     defaults.landmark_init);
@@ -493,6 +495,16 @@ int run_command(int argc, char** argv) {
   add_setting<double>(run_cmd, "--init-window", flag_settings, "/delayed_init/window_s",
                       "Delayed and ring starts: how long a landmark's observations are kept while it waits [s]",
                       fmt::format("{}", defaults.delayed_init.window_s))
+      ->check(finite_number());
+  add_setting<double>(run_cmd, "--init-min-distance", flag_settings, "/inverse_distance_min_m",
+                      "Inverse-distance start: the nearest a landmark is expected [m]; the prior of its inverse "
+                      "distance reaches it at two standard deviations",
+                      fmt::format("{}", defaults.inverse_distance.min_distance_m))
+      ->check(finite_number());
+  add_setting<double>(run_cmd, "--init-prior-distance", flag_settings, "/inverse_distance_prior_m",
+                      "Inverse-distance start: where a landmark is first put along its ray [m], the mean of its "
+                      "inverse distance's prior",
+                      fmt::format("{}", defaults.inverse_distance.prior_distance_m))
       ->check(finite_number());
   // The range calibration: on with its default prior; a deviation given turns it on too.
   const RangeCalibrationPrior calibration_prior;

@@ -61,6 +61,11 @@ void EkfEstimator::landmark_marginals(std::vector<Vector2>& means, std::vector<M
   }
 }
 
+std::size_t EkfEstimator::add_inverse_distance_landmark(const Measurement& /*z*/,
+                                                       const InverseDistanceOptions& /*options*/) {
+  throw std::logic_error("inverse-distance landmarks are kept by the EKF variants full and fej");
+}
+
 Measurement EkfEstimator::predicted_measurement(const Pose2& x, const Vector2& m) const {
   Measurement z = observation_->predict(x, m);
   if (calibrates_ranges()) z[calibrated_row()] = range_correction().range(z[calibrated_row()]);

@@ -80,9 +80,18 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
                                 "measurements without it");
   DelayedInitialisationOptions delayed = options.delayed_initialisation;
   delayed.outliers_expected = likelihood_.robust();
-  initialiser_ = make_landmark_initialiser(options.initialisation, estimator_->shared_observation_model(),
-                                           association_.method == AssociationMethod::kKnown,
-                                           estimator_->calibrates_ranges(), delayed, options.ring_initialisation);
+  reach_ = options.sensor.max_range;
+  if (options.initialisation == LandmarkInitialisation::kInverseDistance) {
+    if (!estimator_->keeps_inverse_distance())
+      throw std::invalid_argument("the inverse-distance start is kept by the filter 'ekf' with the variant full or fej");
+    require_bearing_only(estimator_->observation_model(), "the inverse-distance start");
+    validate(options.inverse_distance);
+    inverse_distance_ = options.inverse_distance;
+  } else {
+    initialiser_ = make_landmark_initialiser(options.initialisation, estimator_->shared_observation_model(),
+                                             association_.method == AssociationMethod::kKnown,
+                                             estimator_->calibrates_ranges(), delayed, options.ring_initialisation);
+  }
   if (ids.size() != estimator_->num_landmarks())
     throw std::invalid_argument("EkfSlam: one id per landmark of the estimator");
   for (const int id : ids) {
@@ -102,13 +111,25 @@ std::vector<Landmark> EkfSlam::landmarks() const {
   std::vector<Landmark> out;
   out.reserve(ids_.size());
   for (std::size_t i = 0; i < ids_.size(); ++i)
-    if (existence_rule_.confirmed(existence_[i])) out.push_back(Landmark{ids_[i], means[i], covariances[i]});
+    if (existence_rule_.confirmed(existence_[i]) && !estimator_->at_inverse_distance(i))
+      out.push_back(Landmark{ids_[i], means[i], covariances[i]});
   return out;
 }
 
 std::vector<LandmarkHypothesis> EkfSlam::landmark_hypotheses() const {
-  return initialiser_ ? hypotheses_at(*initialiser_, dead_reckoning_, estimator_->pose())
-                      : std::vector<LandmarkHypothesis>{};
+  if (initialiser_) return hypotheses_at(*initialiser_, dead_reckoning_, estimator_->pose());
+  std::vector<LandmarkHypothesis> out;
+  if (!inverse_distance_) return out;
+  // A landmark at inverse distance is not yet a point of the map; where its distance is within the
+  // sensor's reach, the Gaussian over the point it stands for shows where along the ray it may be.
+  const Vector2 sensor = estimator_->observation_model().sensor_position(estimator_->pose());
+  for (std::size_t i = 0; i < ids_.size(); ++i) {
+    if (!estimator_->at_inverse_distance(i)) continue;
+    const Vector2 position = estimator_->landmark_position(i);
+    if ((position - sensor).norm() <= reach_)
+      out.push_back({Landmark{ids_[i], position, estimator_->landmark_covariance(i)}, 1.0});
+  }
+  return out;
 }
 
 double EkfSlam::memory_estimate(std::size_t landmarks) {
@@ -121,7 +142,7 @@ std::map<std::string, double> EkfSlam::statistics() const {
   std::map<std::string, double> s = {{"discarded_observations", static_cast<double>(discarded_)},
                                      {"landmarks_removed", static_cast<double>(removed_)},
                                      {"landmarks_in_state", static_cast<double>(ids_.size())},
-                                     {"landmarks_provisional", static_cast<double>(ids_.size() - landmarks().size())}};
+                                     {"landmarks_provisional", static_cast<double>(provisional())}};
   estimator_->add_statistics(s);
   if (association_.method == AssociationMethod::kKnown && gate_known_) gate_tally_.add_statistics(s);
   if (recover_known_) s["known_id_recoveries"] = static_cast<double>(known_recoveries_);
@@ -153,6 +174,11 @@ std::map<std::string, double> EkfSlam::statistics() const {
     s["jcbb_budget_exhausted"] = association_stats_.jcbb_budget_exhausted ? 1.0 : 0.0;
   }
   return s;
+}
+
+std::size_t EkfSlam::provisional() const {
+  return static_cast<std::size_t>(std::count_if(existence_.begin(), existence_.end(),
+                                                [&](const auto& e) { return !existence_rule_.confirmed(e); }));
 }
 
 long EkfSlam::find_landmark(int id) const {
@@ -299,6 +325,10 @@ void EkfSlam::update_known(const ScanEvent& scan) {
     const long index = find_landmark(obs.id);
     if (index >= 0) {
       apply(k, static_cast<std::size_t>(index));  // seen twice in one scan
+    } else if (inverse_distance_) {
+      estimator_->add_inverse_distance_landmark(obs.z, *inverse_distance_);
+      register_landmark(obs.id, existence_rule_.given());
+      last_associations_[k] = {AssociationDecision::kNew, obs.id};
     } else if (!initialiser_) {
       add_landmark(obs.z, obs.id);
       last_associations_[k] = {AssociationDecision::kNew, obs.id};

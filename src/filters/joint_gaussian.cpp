@@ -64,11 +64,19 @@ JointGaussian::JointGaussian(std::shared_ptr<const MotionModel> motion,
 }
 
 Vector2 JointGaussian::landmark_position(std::size_t index) const {
-  return x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
+  const Vector2 stored = x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
+  return inverse_distance_[index] ? inverse_distance_[index]->position(stored) : stored;
+}
+
+Matrix2 JointGaussian::position_jacobian(std::size_t index) const {
+  return inverse_distance_[index]->position_jacobian(x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index))));
 }
 
 Matrix2 JointGaussian::landmark_covariance(std::size_t index) const {
-  return diagonal_block<2>(landmark_offset(index));
+  const Matrix2 stored = diagonal_block<2>(landmark_offset(index));
+  if (!inverse_distance_[index]) return stored;
+  const Matrix2 g = position_jacobian(index);
+  return g * stored * g.transpose();
 }
 
 Matrix2 JointGaussian::landmark_cross_covariance(std::size_t i, std::size_t j) const {
@@ -76,11 +84,16 @@ Matrix2 JointGaussian::landmark_cross_covariance(std::size_t i, std::size_t j) c
   const auto a = static_cast<Eigen::Index>(landmark_offset(i));
   const auto b = static_cast<Eigen::Index>(landmark_offset(j));
   // Only the lower triangle is stored: the block with the larger row offset holds the pair.
-  return a > b ? Matrix2(p_.block<2, 2>(a, b)) : Matrix2(p_.block<2, 2>(b, a).transpose());
+  Matrix2 stored = a > b ? Matrix2(p_.block<2, 2>(a, b)) : Matrix2(p_.block<2, 2>(b, a).transpose());
+  if (inverse_distance_[i]) stored = position_jacobian(i) * stored;
+  if (inverse_distance_[j]) stored = stored * position_jacobian(j).transpose();
+  return stored;
 }
 
 Matrix23 JointGaussian::landmark_pose_covariance(std::size_t index) const {
-  return p_.block<2, 3>(static_cast<Eigen::Index>(landmark_offset(index)), 0) * pending_motion_.transpose();
+  const Matrix23 stored =
+      p_.block<2, 3>(static_cast<Eigen::Index>(landmark_offset(index)), 0) * pending_motion_.transpose();
+  return inverse_distance_[index] ? Matrix23(position_jacobian(index) * stored) : stored;
 }
 
 Eigen::VectorXd JointGaussian::state() const { return x_.head(static_cast<Eigen::Index>(dim_)); }
@@ -151,8 +164,10 @@ void JointGaussian::covariance_times_jacobian(std::size_t lm_offset, const PoseR
 
 bool JointGaussian::update_landmark(const LandmarkObservation& observation) {
   if (update_iterations_ > 1) return update_landmarks(std::span<const LandmarkObservation>(&observation, 1));
-  return with_measurement_dim(observation_->dim(),
-                              [&]<int D>(std::integral_constant<int, D>) { return update_one<D>(observation); });
+  const bool updated = with_measurement_dim(
+      observation_->dim(), [&]<int D>(std::integral_constant<int, D>) { return update_one<D>(observation); });
+  if (updated && inverse_distance_held_ > 0) convert_where_linear(std::span<const LandmarkObservation>(&observation, 1));
+  return updated;
 }
 
 template <int D>
@@ -164,12 +179,9 @@ bool JointGaussian::update_one(const LandmarkObservation& observation) {
   const std::size_t l = landmark_offset(index);
   const auto li = static_cast<Eigen::Index>(l);
   const auto n = static_cast<Eigen::Index>(dim_);
-  const Pose2 xv = x_.head<3>();
-  const Vector2 m = x_.segment<2>(li);
   PoseRows<D> hx;
   LandmarkRows<D> hm;
-  observation_jacobians<D>(index, x_, linearisation_, hx, hm);
-  Measurement zhat = observation_->predict(xv, m);
+  Measurement zhat = predict_linearised<D>(index, x_, linearisation_, hx, hm);
   const int calibrated = calibrated_row();
   const double distance = calibrated >= 0 ? calibrate<D>(x_, zhat, hx, hm) : 0.0;
   const MeasurementVector<D> nu = observation_->residual(z, zhat);
@@ -222,8 +234,10 @@ void JointGaussian::reserve_joint_update(Eigen::Index k) {
 bool JointGaussian::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
   if (batch.size() == 1 && update_iterations_ == 1) return update_landmark(batch[0]);
-  return with_measurement_dim(observation_->dim(),
-                              [&]<int D>(std::integral_constant<int, D>) { return update_batch<D>(batch); });
+  const bool updated = with_measurement_dim(
+      observation_->dim(), [&]<int D>(std::integral_constant<int, D>) { return update_batch<D>(batch); });
+  if (updated && inverse_distance_held_ > 0) convert_where_linear(batch);
+  return updated;
 }
 
 template <int D>
@@ -347,8 +361,7 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
     const auto l = static_cast<Eigen::Index>(landmark_offset(batch[i].index));
     const auto r = D * static_cast<Eigen::Index>(i);
     const Vector2 m = at.segment<2>(l);
-    Measurement zhat = observation_->predict(xv, m);
-    observation_jacobians<D>(batch[i].index, at, how, batch_hx[i], batch_hm[i]);
+    Measurement zhat = predict_linearised<D>(batch[i].index, at, how, batch_hx[i], batch_hm[i]);
     const double distance = calibrated >= 0 ? calibrate<D>(at, zhat, batch_hx[i], batch_hm[i]) : 0.0;
     if (calibrated >= 0) batch_distances_[i] = distance;
     // Zero at the estimate; at an iterate, h(x) ~ h(at) + H (x - at) carries it back to the estimate.
@@ -470,7 +483,69 @@ void JointGaussian::correct(const Eigen::Ref<const Eigen::VectorXd>& delta) {
   p_.topLeftCorner(n, n).selfadjointView<Eigen::Lower>().rankUpdate(u, bvec);
 }
 
+template <int D>
+Measurement JointGaussian::predict_linearised(std::size_t index, const Eigen::VectorXd& at, Linearisation how,
+                                              PoseRows<D>& hx, LandmarkRows<D>& hm) const {
+  const Pose2 xv = at.head<3>();
+  const Vector2 m = at.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
+  if (const std::optional<InverseDistancePoint>& point = inverse_distance_[index]) {
+    PoseJacobian pose_rows;
+    LandmarkJacobian landmark_rows;
+    const Measurement zhat = point->predict(*observation_, xv, m, &pose_rows, &landmark_rows);
+    hx = pose_rows;
+    hm = landmark_rows;
+    return zhat;
+  }
+  observation_jacobians<D>(index, at, how, hx, hm);
+  return observation_->predict(xv, m);
+}
+
+std::size_t JointGaussian::add_inverse_distance_landmark(const Measurement& z, const InverseDistanceOptions& options) {
+  if (!keeps_inverse_distance())
+    throw std::logic_error("the invariant EKF's error is that of points; inverse-distance landmarks are kept by the "
+                           "standard and first-estimates linearisations");
+  require_bearing_only(*observation_, "an inverse-distance landmark");
+  validate(options);
+  InverseDistancePoint point;
+  const InitialLandmark start = inverse_distance_start(*observation_, pose(), pose_covariance(), z, options, point.origin);
+  const std::size_t index = add_landmark(start);
+  inverse_distance_[index] = point;
+  ++inverse_distance_held_;
+  return index;
+}
+
+void JointGaussian::convert_where_linear(std::span<const LandmarkObservation> batch) {
+  for (const LandmarkObservation& o : batch) {
+    const std::optional<InverseDistancePoint>& point = inverse_distance_[o.index];
+    if (!point) continue;
+    const auto l = static_cast<Eigen::Index>(landmark_offset(o.index));
+    if (point->linearity(*observation_, pose(), x_.segment<2>(l), p_(l + 1, l + 1)) <
+        kInverseDistanceLinearityThreshold)
+      convert_to_point(o.index);
+  }
+}
+
+void JointGaussian::convert_to_point(std::size_t index) {
+  if (!inverse_distance_[index]) return;
+  apply_pending_motion();
+  const auto l = static_cast<Eigen::Index>(landmark_offset(index));
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const Matrix2 g = position_jacobian(index);
+  x_.segment<2>(l) = inverse_distance_[index]->position(x_.segment<2>(l));
+  // P(l, :) -> G P(l, :) to first order, on the stored lower triangle: the landmark's row block left
+  // of its diagonal, its column block below it, and the diagonal block itself.
+  for (Eigen::Index c = 0; c < l; ++c) p_.block<2, 1>(l, c) = g * p_.block<2, 1>(l, c);
+  for (Eigen::Index r = l + 2; r < n; ++r) p_.block<1, 2>(r, l) = p_.block<1, 2>(r, l) * g.transpose();
+  const Matrix2 block = g * diagonal_block<2>(static_cast<std::size_t>(l)) * g.transpose();
+  p_.block<2, 2>(l, l) = 0.5 * (block + block.transpose());
+  first_estimates_[index] = x_.segment<2>(l);
+  inverse_distance_[index].reset();
+  --inverse_distance_held_;
+  ++inverse_distance_converted_;
+}
+
 void JointGaussian::anchor_where_plausible(std::size_t index) {
+  if (inverse_distance_[index]) return;  // anchored at the point it converts to
   Vector2& anchor = first_estimates_[index];
   const auto l = static_cast<Eigen::Index>(landmark_offset(index));
   const Vector2 m = x_.segment<2>(l);
@@ -499,6 +574,10 @@ void JointGaussian::anchor_where_plausible(std::size_t index) {
 void JointGaussian::add_statistics(std::map<std::string, double>& statistics) const {
   if (linearisation_ == Linearisation::kFirstEstimates)
     statistics["first_estimates_moved"] = static_cast<double>(anchors_moved_);
+  if (inverse_distance_held_ + inverse_distance_converted_ > 0) {
+    statistics["landmarks_inverse_distance"] = static_cast<double>(inverse_distance_held_);
+    statistics["inverse_distance_converted"] = static_cast<double>(inverse_distance_converted_);
+  }
 }
 
 std::size_t JointGaussian::add_landmark(const InitialLandmark& landmark) {
@@ -538,10 +617,14 @@ void JointGaussian::append_landmark(const Vector2& mean, const Matrix23& gx, con
   p_.block<2, 2>(l, l) = covariance;
   dim_ += 2;
   first_estimates_.push_back(mean);
+  inverse_distance_.emplace_back();
 }
 
 bool JointGaussian::fuse_landmarks(std::span<const LandmarkPair> pairs) {
   if (pairs.empty()) return true;
+  for (const LandmarkPair& pair : pairs)
+    if (inverse_distance_[pair.original] || inverse_distance_[pair.duplicate])
+      throw std::logic_error("a landmark at inverse distance is not fused: it is not yet a point");
   apply_pending_motion();
   const auto n = static_cast<Eigen::Index>(dim_);
   const auto k = static_cast<Eigen::Index>(2 * pairs.size());
@@ -573,6 +656,8 @@ void JointGaussian::remove_landmark(std::size_t index) {
   apply_pending_motion();
   remove_stored_landmark(index);
   first_estimates_.erase(first_estimates_.begin() + static_cast<std::ptrdiff_t>(index));
+  if (inverse_distance_[index]) --inverse_distance_held_;
+  inverse_distance_.erase(inverse_distance_.begin() + static_cast<std::ptrdiff_t>(index));
 }
 
 }  // namespace slamkit

@@ -40,6 +40,9 @@ std::unique_ptr<LandmarkInitialiser> make_landmark_initialiser(std::optional<Lan
                                                                const RingInitialisationOptions& ring) {
   const LandmarkInitialisation chosen =
       initialisation.value_or(model->invertible() ? LandmarkInitialisation::kImmediate : LandmarkInitialisation::kDelayed);
+  if (chosen == LandmarkInitialisation::kInverseDistance)
+    throw std::invalid_argument("the inverse-distance start puts a landmark in the filter's joint Gaussian at its "
+                                "first bearing: the filter 'ekf' (variants full and fej) keeps it; use delayed here");
   if (chosen != LandmarkInitialisation::kImmediate && !known_identities)
     throw std::invalid_argument(
         "delayed and ring landmark starts gather the observations of one landmark by its identity; they need "
@@ -50,7 +53,8 @@ std::unique_ptr<LandmarkInitialiser> make_landmark_initialiser(std::optional<Lan
   switch (chosen) {
     case LandmarkInitialisation::kDelayed: return std::make_unique<DelayedInitialiser>(std::move(model), delayed);
     case LandmarkInitialisation::kRing: return std::make_unique<RingInitialiser>(std::move(model), delayed, ring);
-    case LandmarkInitialisation::kImmediate: break;
+    case LandmarkInitialisation::kImmediate:
+    case LandmarkInitialisation::kInverseDistance: break;
   }
   if (!model->invertible())
     throw std::invalid_argument("immediate landmark initialisation needs a measurement that places a landmark, which "

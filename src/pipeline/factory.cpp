@@ -38,7 +38,8 @@ constexpr std::pair<LandmarkInit, const char*> kLandmarkInitNames[] = {
     {LandmarkInit::kAuto, "auto"},
     {LandmarkInit::kImmediate, "immediate"},
     {LandmarkInit::kDelayed, "delayed"},
-    {LandmarkInit::kRing, "ring"}};
+    {LandmarkInit::kRing, "ring"},
+    {LandmarkInit::kInverseDistance, "inverse-distance"}};
 
 // The delayed start's settings, run.json's settings.delayed_init. Their ranges are
 // validate(DelayedInitialisationOptions)'s, checked with the rest of the filter's settings.
@@ -97,6 +98,7 @@ std::optional<LandmarkInitialisation> landmark_initialisation(LandmarkInit init)
     case LandmarkInit::kImmediate: return LandmarkInitialisation::kImmediate;
     case LandmarkInit::kDelayed: return LandmarkInitialisation::kDelayed;
     case LandmarkInit::kRing: return LandmarkInitialisation::kRing;
+    case LandmarkInit::kInverseDistance: return LandmarkInitialisation::kInverseDistance;
     case LandmarkInit::kAuto: break;
   }
   return std::nullopt;
@@ -143,6 +145,17 @@ void validate(const FilterConfig& config) {
     throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full, fej or invariant");
   validate(config.association);
   validate(config.delayed_init);
+  validate(config.inverse_distance);
+  if (config.landmark_init == LandmarkInit::kInverseDistance &&
+      !(config.filter == FilterKind::kEkf &&
+        (config.ekf_variant == EkfVariant::kFull || config.ekf_variant == EkfVariant::kFirstEstimates)))
+    throw std::invalid_argument("the inverse-distance start is kept by the filter 'ekf' with the variant full or fej");
+  if (config.landmark_init != LandmarkInit::kInverseDistance &&
+      (config.inverse_distance.min_distance_m != InverseDistanceOptions{}.min_distance_m ||
+       config.inverse_distance.prior_distance_m != InverseDistanceOptions{}.prior_distance_m))
+    throw std::invalid_argument(fmt::format("inverse_distance_min_m and inverse_distance_prior_m apply to the landmark "
+                                            "start 'inverse-distance', not '{}'",
+                                            to_string(config.landmark_init)));
   validate(config.likelihood);
   if (!config.likelihood.robust() && config.likelihood.dof != MeasurementLikelihood{}.dof)
     throw std::invalid_argument(fmt::format("likelihood_dof ({}) applies to the likelihood 'student-t', not 'gaussian'",
@@ -190,6 +203,7 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       options.ukf_noise = config.ukf_noise;
       options.initialisation = landmark_initialisation(config.landmark_init);
       options.delayed_initialisation = config.delayed_init;
+      options.inverse_distance = config.inverse_distance;
       options.range_calibration = config.range_calibration;
       options.likelihood = config.likelihood;
       return std::make_unique<EkfSlam>(dataset.motion, dataset.observation, options);
@@ -226,6 +240,8 @@ nlohmann::json to_json(const FilterConfig& config) {
           {"ukf_noise", to_string(config.ukf_noise)},
           {"landmark_init", to_string(config.landmark_init)},
           {"delayed_init", options_to_json<Delayed>(config.delayed_init, kDelayedInitKeys)},
+          {"inverse_distance_min_m", config.inverse_distance.min_distance_m},
+          {"inverse_distance_prior_m", config.inverse_distance.prior_distance_m},
           {"range_calibration", config.range_calibration
                                     ? options_to_json<Calibration>(*config.range_calibration, kRangeCalibrationKeys)
                                     : nlohmann::json(nullptr)},
@@ -284,7 +300,15 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
         config.landmark_init = parse_landmark_init(name());
       else if (key == "delayed_init")
         read_delayed_init(value, source, config.delayed_init);
-      else if (key == "range_calibration")
+      else if (key == "inverse_distance_min_m") {
+        if (!value.is_number())
+          throw InputError(source, 0, fmt::format("'{}' must be a number, found {}", key, value.dump()));
+        config.inverse_distance.min_distance_m = value.get<double>();
+      } else if (key == "inverse_distance_prior_m") {
+        if (!value.is_number())
+          throw InputError(source, 0, fmt::format("'{}' must be a number, found {}", key, value.dump()));
+        config.inverse_distance.prior_distance_m = value.get<double>();
+      } else if (key == "range_calibration")
         read_range_calibration(value, source, config.range_calibration);
       else if (key == "likelihood")
         config.likelihood.kind = parse_likelihood_kind(name());
@@ -307,7 +331,7 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
       else {
         const std::vector<std::string> keys = {"filter",        "seed",          "association",  "ekf_update",
                                                "ekf_variant",   "ukf_noise",     "landmark_init", "delayed_init",
-                                               "range_calibration", "likelihood", "likelihood_dof",
+                                               "inverse_distance_min_m", "inverse_distance_prior_m", "range_calibration", "likelihood", "likelihood_dof",
                                                "particles",     "pose_sample_fraction",
                                                "resample",      "resample_when", "threads"};
         throw InputError(source, 0,

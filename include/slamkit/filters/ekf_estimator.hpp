@@ -25,6 +25,7 @@
 #include "slamkit/assoc/map_matching.hpp"
 #include "slamkit/filters/lower_downdate.hpp"
 #include "slamkit/filters/worker_pool.hpp"
+#include "slamkit/models/inverse_distance.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 
@@ -86,6 +87,16 @@ class EkfEstimator : public GaussianMapView {
   /// Appends the landmark seen as z from the current pose, with its full cross-covariances; returns
   /// its map index. Throws std::logic_error if the observation model cannot invert z.
   virtual std::size_t add_landmark(const Measurement& z);
+  /// Whether this estimator keeps inverse-distance landmarks (add_inverse_distance_landmark).
+  virtual bool keeps_inverse_distance() const { return false; }
+  /// Appends the landmark first seen as bearing z from the current pose as an inverse-distance
+  /// point (models/inverse_distance.hpp), which the estimator converts to a point once its distance
+  /// is known well enough; returns its map index. Throws std::logic_error where the estimator does
+  /// not keep them.
+  virtual std::size_t add_inverse_distance_landmark(const Measurement& z, const InverseDistanceOptions& options);
+  /// Whether landmark `index` is still held as an inverse-distance point. Its landmark_position and
+  /// covariances answer for the point it stands for; state() and covariance() hold (theta, rho).
+  virtual bool at_inverse_distance(std::size_t /*index*/) const { return false; }
   /// Takes landmark `index` out of the state: its rows and columns leave the covariance, and the
   /// landmarks after it move down one index. O(n^2).
   virtual void remove_landmark(std::size_t index) = 0;

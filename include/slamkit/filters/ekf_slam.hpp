@@ -75,6 +75,7 @@ struct EkfSlamOptions {
   std::optional<LandmarkInitialisation> initialisation;
   DelayedInitialisationOptions delayed_initialisation;  // the ring start's max_std_m and window_s too
   RingInitialisationOptions ring_initialisation;
+  InverseDistanceOptions inverse_distance;  ///< the inverse-distance start's prior
   /// Full, first-estimates and invariant variants, known association: estimate the range sensor's
   /// offset and scale error in the state from this prior (EkfEstimator::estimate_range_calibration).
   std::optional<RangeCalibrationPrior> range_calibration;
@@ -123,6 +124,8 @@ class EkfSlam final : public SlamFilter {
   /// The id of each landmark of the joint Gaussian, by map index (provisional ones included).
   const std::vector<int>& landmark_ids() const { return ids_; }
   /// Map index of the landmark with this id, or -1.
+  /// Landmarks in the state the existence rule has not confirmed.
+  std::size_t provisional() const;
   long find_landmark(int id) const;
   /// The association step of update() alone (NN or JCBB, as configured): pairs the scan's
   /// observations with the landmarks that can be in view. Changes no estimate. The pairings are
@@ -177,6 +180,8 @@ class EkfSlam final : public SlamFilter {
   // Delayed initialisation: the observations of landmarks not yet placed (null: each starts from
   // its first observation's inverse, through the estimator, which the UKF transforms unscented).
   std::unique_ptr<LandmarkInitialiser> initialiser_;
+  std::optional<InverseDistanceOptions> inverse_distance_;  // set where landmarks start at inverse distance
+  double reach_ = 0.0;  // the sensor's range: how far an inverse-distance landmark is drawn as a hypothesis
   std::size_t observations_waiting_ = 0;
   DeadReckoning dead_reckoning_;  // the initialiser's frame
   // Per landmark, by map index.

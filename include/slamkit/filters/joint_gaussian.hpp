@@ -69,6 +69,7 @@
 // (its predicted poses move with each update). FEJ that moved every anchor at every update would be
 // the invariant EKF's linearisation with an additive correction; moved only when the first estimate
 // is implausible, it keeps FEJ's Jacobians wherever their premise holds.
+#include <optional>
 #include <vector>
 
 #include "slamkit/filters/ekf_estimator.hpp"
@@ -108,7 +109,18 @@ class JointGaussian : public EkfEstimator {
   bool update_landmarks(std::span<const LandmarkObservation> batch) override;
   using EkfEstimator::add_landmark;
   std::size_t add_landmark(const InitialLandmark& landmark) override;
+  /// Standard and first-estimates linearisations (the invariant error is that of points). A landmark
+  /// at inverse distance is linearised at its current estimate by both; the first-estimates variant
+  /// anchors it at the point it converts to.
+  bool keeps_inverse_distance() const override { return linearisation_ != Linearisation::kInvariant; }
+  std::size_t add_inverse_distance_landmark(const Measurement& z, const InverseDistanceOptions& options) override;
+  bool at_inverse_distance(std::size_t index) const override { return inverse_distance_[index].has_value(); }
+  /// Converts landmark `index` from inverse distance to the point it stands for now, its rows of the
+  /// covariance by P(l, :) -> G P(l, :), G = d position / d (theta, rho): what the filter does itself
+  /// once the landmark's linearity index is below the threshold. Nothing for a point.
+  void convert_to_point(std::size_t index);
   void remove_landmark(std::size_t index) override;
+  /// Throws std::logic_error for a pair with a landmark at inverse distance.
   bool fuse_landmarks(std::span<const LandmarkPair> pairs) override;
   /// First-estimates variant: the anchors moved so far (see "Moving a first estimate").
   void add_statistics(std::map<std::string, double>& statistics) const override;
@@ -158,6 +170,16 @@ class JointGaussian : public EkfEstimator {
   template <int D>
   void observation_jacobians(std::size_t index, const Eigen::VectorXd& at, Linearisation how, PoseRows<D>& hx,
                              LandmarkRows<D>& hm) const;
+  /// h of landmark `index` at the point `at` and its Jacobians as observation_jacobians gives them;
+  /// a landmark at inverse distance is predicted through its parameters.
+  template <int D>
+  Measurement predict_linearised(std::size_t index, const Eigen::VectorXd& at, Linearisation how, PoseRows<D>& hx,
+                                 LandmarkRows<D>& hm) const;
+  /// Converts each landmark of the batch that is at inverse distance to its point where its linearity
+  /// index has fallen below kInverseDistanceLinearityThreshold.
+  void convert_where_linear(std::span<const LandmarkObservation> batch);
+  /// d position / d stored rows of landmark `index`: identity for a point.
+  Matrix2 position_jacobian(std::size_t index) const;
   /// Fills W = P H^T, the innovation and S for the batch linearised about `at` (Jacobians as `how`
   /// evaluates them); the innovation is taken at the estimate: z - h(at) - H (x - at).
   template <int D>
@@ -185,6 +207,10 @@ class JointGaussian : public EkfEstimator {
   Pose2 predicted_pose_;
   std::vector<Vector2> first_estimates_;
   std::size_t anchors_moved_ = 0;
+  // By map index: the origin of a landmark held at inverse distance, none for a point.
+  std::vector<std::optional<InverseDistancePoint>> inverse_distance_;
+  std::size_t inverse_distance_held_ = 0;  // how many are
+  std::size_t inverse_distance_converted_ = 0;
   // The joint update's other terms, sized for the largest batch so far.
   template <int D>
   struct BatchJacobians {

@@ -62,6 +62,9 @@ enum class LandmarkInitialisation {
   kImmediate,  ///< one measurement places the landmark (needs a model that inverts it)
   kDelayed,    ///< triangulation from several observations at well-spread poses
   kRing,       ///< range only: a ring of Gaussian hypotheses that collapses as the ranges agree
+  /// bearing only: the landmark joins the state at its first bearing as an inverse-distance point
+  /// (models/inverse_distance.hpp); kept by the EKF's own estimator, not a LandmarkInitialiser
+  kInverseDistance,
 };
 
 struct DelayedInitialisationOptions {
@@ -89,7 +92,8 @@ class LandmarkInitialiser;
 
 /// The initialiser a filter starts landmarks through for `initialisation` (unset: immediate where
 /// the model inverts a measurement, delayed where it does not); null for immediate, which is the
-/// filter's own. Throws std::invalid_argument for an immediate start the model cannot make, for
+/// filter's own. Throws std::invalid_argument for inverse distance (a filter that keeps it handles it
+/// before asking), for an immediate start the model cannot make, for
 /// a delayed or ring start without known identities, which is what gathers one landmark's
 /// observations, and for the ring where the filter calibrates its ranges (its hypotheses are updated
 /// through the calibration of their time, and not correlated with it).

@@ -54,6 +54,8 @@ class UnscentedJointGaussian final : public JointGaussian {
   using JointGaussian::add_landmark;
   /// Sigma points over the vehicle and the measurement noise, through the model's inverse.
   std::size_t add_landmark(const Measurement& z) override;
+  /// Its sigma points pass through the model at point landmarks.
+  bool keeps_inverse_distance() const override { return false; }
 
  private:
   // Its sigma points carry the vehicle and the landmarks only.

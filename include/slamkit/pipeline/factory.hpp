@@ -30,9 +30,9 @@ enum class EkfUpdate {
 
 /// How a filter starts a landmark: auto (immediately where the dataset's observation model
 /// inverts a measurement, delayed where it does not), immediate, delayed (triangulated from several
-/// observations) or ring (range only: a ring of hypotheses that collapses); the last two need known
-/// identities.
-enum class LandmarkInit { kAuto, kImmediate, kDelayed, kRing };
+/// observations), ring (range only: a ring of hypotheses that collapses), the last two with known
+/// identities, or inverse-distance (bearing only, the EKF full and fej: in the state at once).
+enum class LandmarkInit { kAuto, kImmediate, kDelayed, kRing, kInverseDistance };
 
 struct FilterConfig {
   FilterKind filter = FilterKind::kEkf;
@@ -49,6 +49,7 @@ struct FilterConfig {
   // How a landmark starts (filters/landmark_initialiser.hpp), and the delayed start's settings.
   LandmarkInit landmark_init = LandmarkInit::kAuto;
   DelayedInitialisationOptions delayed_init;
+  InverseDistanceOptions inverse_distance;  // run.json's inverse_distance_min_m
   // EKF (full, fej, invariant) and FastSLAM 2.0 with known association: the range sensor's offset
   // and scale error estimated from this prior; unset: not estimated.
   std::optional<RangeCalibrationPrior> range_calibration;
