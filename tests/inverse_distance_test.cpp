@@ -194,3 +194,35 @@ TEST(InverseDistance, BearingOnlyWorldBeatsDeadReckoning) {
             statistics.at("landmarks_in_state"));
   EXPECT_EQ(static_cast<double>(m.landmarks), statistics.at("inverse_distance_converted"));
 }
+
+// The product of rho's error and the sensor's adds variance only where both are uncertain, and the
+// known-identity gate's S (EkfEstimator::innovation) is the update's, with that variance in it.
+TEST(InverseDistance, CouplingVarianceNeedsBothUncertainAndReachesTheGate) {
+  const Pose2 x(3.0, 1.0, 0.4);
+  const Vector2 p(0.7, 0.1);
+  const Eigen::RowVector3d none = Eigen::RowVector3d::Zero();
+  EXPECT_EQ(kPoint.coupling_variance(kOffsetCamera, x, p, Matrix3::Zero(), none, 0.2), 0.0);
+  EXPECT_EQ(kPoint.coupling_variance(kOffsetCamera, x, p, Matrix3::Identity() * 0.01, none, 0.0), 0.0);
+  EXPECT_GT(kPoint.coupling_variance(kOffsetCamera, x, p, Matrix3::Identity() * 0.01, none, 0.2), 0.0);
+
+  auto motion = std::make_shared<VelocityModel>();
+  auto camera = std::make_shared<BearingOnlyModel>(BearingOnlyModel::Params{.sigma_bearing = 0.02, .offset_x = 0.5});
+  JointGaussian ekf(motion, camera, Pose2::Zero(), Matrix3::Identity() * 0.01);
+  ekf.add_inverse_distance_landmark(camera->predict(ekf.pose(), Vector2(9.0, 4.0)), {});
+  ekf.predict(Control(Eigen::Vector2d(1.0, 0.05)), 0.5);
+  Measurement zhat;
+  MeasurementCovariance s;
+  ekf.innovation(0, zhat, s);
+  PoseJacobian hx;
+  LandmarkJacobian hp;
+  const Eigen::VectorXd state = ekf.state();
+  const InverseDistancePoint origin{camera->sensor_position(Pose2::Zero())};
+  origin.predict(*camera, ekf.pose(), state.segment<2>(3), &hx, &hp);
+  Eigen::RowVectorXd h(5);
+  h << hx, hp;
+  const Eigen::MatrixXd p_full = ekf.covariance();
+  const double coupling = origin.coupling_variance(*camera, ekf.pose(), state.segment<2>(3), ekf.pose_covariance(),
+                                                   p_full.block<1, 3>(4, 0), p_full(4, 4));
+  EXPECT_GT(coupling, 0.0);
+  EXPECT_NEAR(s(0, 0), h.dot(p_full * h.transpose()) + camera->noise()(0, 0) + coupling, 1e-12);
+}

@@ -128,6 +128,7 @@ void EkfEstimator::innovation(std::size_t index, Measurement& zhat, MeasurementC
       sd.row(row) += with_calibration.transpose();
       sd(row, row) += hp.dot(diagonal_block<2>(kOffsetRow) * hp);
     }
+    sd(0, 0) += added_innovation_variance(index);
     s = sd;
   });
 }

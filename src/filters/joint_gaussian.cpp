@@ -191,6 +191,7 @@ bool JointGaussian::update_one(const LandmarkObservation& observation) {
   MeasurementSquare<D> s = hx * pht.template topRows<3>() + hm * pht.template middleRows<2>(li);
   if (calibrated >= 0) s.row(calibrated) += pht.row(kOffsetRow) + distance * pht.row(kScaleRow);
   s += observation.noise_scale * MeasurementSquare<D>(observation_->noise());
+  s(0, 0) += added_innovation_variance(index);
   s = (0.5 * (s + s.transpose())).eval();
   const Eigen::LLT<MeasurementSquare<D>> llt(s);
   if (llt.info() != Eigen::Success) return false;
@@ -398,6 +399,7 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
     if (calibrated >= 0)
       s.row(r + calibrated) += pht.row(kOffsetRow) + batch_distances_[i] * pht.row(kScaleRow);
     s.template block<D, D>(r, r) += batch[i].noise_scale * noise;
+    s(r, r) += added_innovation_variance(batch[i].index);
   }
 }
 
@@ -512,6 +514,14 @@ std::size_t JointGaussian::add_inverse_distance_landmark(const Measurement& z, c
   inverse_distance_[index] = point;
   ++inverse_distance_held_;
   return index;
+}
+
+double JointGaussian::added_innovation_variance(std::size_t index) const {
+  if (!inverse_distance_[index]) return 0.0;
+  const auto l = static_cast<Eigen::Index>(landmark_offset(index));
+  return inverse_distance_[index]->coupling_variance(*observation_, pose(), x_.segment<2>(l), diagonal_block<3>(0),
+                                                     p_.block<1, 3>(l + 1, 0) * pending_motion_.transpose(),
+                                                     p_(l + 1, l + 1));
 }
 
 void JointGaussian::convert_where_linear(std::span<const LandmarkObservation> batch) {

@@ -67,6 +67,20 @@ Measurement InverseDistancePoint::predict(const ObservationModel& model, const P
   return model.predict(x, seen);
 }
 
+double InverseDistancePoint::coupling_variance(const ObservationModel& model, const Pose2& x, const Vector2& p,
+                                                const Matrix3& pose_covariance,
+                                                const Eigen::RowVector3d& rho_pose_covariance,
+                                                double rho_variance) const {
+  const Vector2 sensor = model.sensor_position(x);
+  PoseJacobian hx;
+  LandmarkJacobian direction_rows;
+  model.jacobians(x, sensor + direction(p[0]), hx, direction_rows);
+  // h depends on the sensor through rho (origin - s): d2h / drho ds = -dh/dd at rho = 0.
+  const Eigen::RowVector3d c = -direction_rows.row(model.rows().bearing) * model.sensor_jacobian(x);
+  const double through_rho = c.dot(rho_pose_covariance);
+  return rho_variance * c.dot(pose_covariance * c.transpose()) + through_rho * through_rho;
+}
+
 double InverseDistancePoint::linearity(const ObservationModel& model, const Pose2& x, const Vector2& p,
                                        double rho_variance) const {
   if (!(p[1] > 0.0)) return std::numeric_limits<double>::infinity();

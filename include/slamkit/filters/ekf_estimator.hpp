@@ -146,6 +146,10 @@ class EkfEstimator : public GaussianMapView {
     hm.row(row) *= scale;
     return distance;
   }
+  /// Variance the estimator adds to the first row of landmark `index`'s innovation beyond H P H^T + R
+  /// (JointGaussian: an inverse-distance landmark's coupling_variance), so that the gate sees the
+  /// update's S.
+  virtual double added_innovation_variance(std::size_t /*index*/) const { return 0.0; }
   /// P(calibration, vehicle) (as current as pose_covariance).
   virtual Matrix23 calibration_pose_covariance() const { return p_.block<2, 3>(kOffsetRow, 0); }
   /// Makes room for a state of dimension `dim`, growing the buffers by a quarter at least.

@@ -142,6 +142,8 @@ class JointGaussian : public EkfEstimator {
   void append_landmark(const Vector2& mean, const Matrix23& gx, const Matrix2& covariance);
 
   bool supports_range_calibration() const override { return true; }
+  /// InverseDistancePoint::coupling_variance of a landmark at inverse distance, 0 for a point.
+  double added_innovation_variance(std::size_t index) const override;
   Matrix23 calibration_pose_covariance() const override {
     return p_.block<2, 3>(kOffsetRow, 0) * pending_motion_.transpose();
   }

@@ -58,6 +58,13 @@ struct InverseDistancePoint {
   /// h(x, p) of a bearing-only model, and its Jacobians dh/dx and dh/dp where asked for.
   Measurement predict(const ObservationModel& model, const Pose2& x, const Vector2& p, PoseJacobian* hx = nullptr,
                       LandmarkJacobian* hp = nullptr) const;
+  /// The variance the bearing's product of rho's error and the sensor's error adds to its innovation
+  /// (the second-order EKF's term for it): rho_variance c P_vv c^T + (c P_v,rho)^2, with c = dh/ds,
+  /// s the sensor's position, taken at rho = 0 and carried to the vehicle through ds/dx. Linearised
+  /// at the estimate alone, a bearing of a landmark whose distance is still a guess would tell the
+  /// filter about the vehicle's position as if the distance were known.
+  double coupling_variance(const ObservationModel& model, const Pose2& x, const Vector2& p, const Matrix3& pose_covariance,
+                           const Eigen::RowVector3d& rho_pose_covariance, double rho_variance) const;
   /// The linearity index of the distance seen from x (Civera et al.): 4 sigma_d / d1 |cos alpha|, with
   /// sigma_d = sigma_rho / rho^2, d1 the distance from the sensor at x and alpha the angle between
   /// the rays to the landmark from the origin and from that sensor. Infinite while rho's interval
