@@ -69,6 +69,13 @@
 // (its predicted poses move with each update). FEJ that moved every anchor at every update would be
 // the invariant EKF's linearisation with an additive correction; moved only when the first estimate
 // is implausible, it keeps FEJ's Jacobians wherever their premise holds.
+//
+// Inverse-distance landmarks (bearing only, standard and first-estimates linearisations): a landmark
+// may be held as (theta, rho) about a fixed origin (models/inverse_distance.hpp) in its two rows,
+// predicted through its direction from the sensor, with the variance of rho's product with the
+// sensor's position added to its innovation, and converted to its point in O(n) once its linearity
+// index is below the threshold. The accessors answer for the point; state() and covariance() hold
+// the stored parameters.
 #include <optional>
 #include <vector>
 
