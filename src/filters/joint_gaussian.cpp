@@ -191,7 +191,7 @@ bool JointGaussian::update_one(const LandmarkObservation& observation) {
   MeasurementSquare<D> s = hx * pht.template topRows<3>() + hm * pht.template middleRows<2>(li);
   if (calibrated >= 0) s.row(calibrated) += pht.row(kOffsetRow) + distance * pht.row(kScaleRow);
   s += observation.noise_scale * MeasurementSquare<D>(observation_->noise());
-  s(0, 0) += added_innovation_variance(index);
+  if (inverse_distance_held_ > 0) s(0, 0) += added_innovation_variance(index);
   s = (0.5 * (s + s.transpose())).eval();
   const Eigen::LLT<MeasurementSquare<D>> llt(s);
   if (llt.info() != Eigen::Success) return false;
@@ -399,7 +399,7 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
     if (calibrated >= 0)
       s.row(r + calibrated) += pht.row(kOffsetRow) + batch_distances_[i] * pht.row(kScaleRow);
     s.template block<D, D>(r, r) += batch[i].noise_scale * noise;
-    s(r, r) += added_innovation_variance(batch[i].index);
+    if (inverse_distance_held_ > 0) s(r, r) += added_innovation_variance(batch[i].index);
   }
 }
 
