@@ -45,8 +45,8 @@ struct PairTerms {
 /// The tables and search state of measurements of dimension D.
 template <int D>
 struct Tables {
-  std::vector<PairTerms<D>> pairs;
-  // Pairs inside the acceptance gate: by distance (NN), or by observation then distance (JCBB).
+  std::vector<PairTerms<D>> pairs;  // inside the acceptance gate
+  // Of those, the probable enough: by distance (NN), or by observation then distance (JCBB).
   std::vector<const PairTerms<D>*> accepted;
   std::vector<const PairTerms<D>*> current, best;  // JCBB's hypothesis stacks
   Eigen::Matrix<double, Eigen::Dynamic, D> w;     // the new pair's rows of the factor, transposed
@@ -104,13 +104,14 @@ namespace {
 
 using Workspace = AssociationWorkspace::Impl;
 
-/// Individual compatibility of every observation with every candidate, into ws.pairs and ws.min_d2;
-/// with weigh_pairings also each pair's likelihood and ws.explained (one exp per pair, which the
-/// default min_pairing_probability of 0 does not need).
+/// Individual compatibility of every observation with every candidate: ws.min_d2, with
+/// weigh_pairings also each pair's likelihood and ws.explained (one exp per pair, which the default
+/// min_pairing_probability of 0 does not need), and into ws.pairs the pairs inside the acceptance
+/// gate, the only ones a search may take. Returns the number of pairs evaluated.
 template <int D>
-void build_compatibility(std::span<const Observation> observations, std::span<const std::size_t> candidates,
-                         const GaussianMapView& belief, const ObservationModel& model, bool weigh_pairings,
-                         Workspace& ws) {
+std::size_t build_compatibility(std::span<const Observation> observations, std::span<const std::size_t> candidates,
+                                const GaussianMapView& belief, const ObservationModel& model, bool weigh_pairings,
+                                double accept_gate, Workspace& ws) {
   using Terms = PairTerms<D>;
   using Square = typename Terms::Square;
   std::vector<Terms>& pairs = ws.tables<D>().pairs;
@@ -122,6 +123,7 @@ void build_compatibility(std::span<const Observation> observations, std::span<co
   const Square r = model.noise();
   PoseJacobian hx;
   LandmarkJacobian hm;
+  std::size_t evaluated = 0;
   for (const std::size_t j : candidates) {
     const Vector2 m = belief.landmark_position(j);
     const Measurement zhat = model.predict(x, m);
@@ -140,29 +142,34 @@ void build_compatibility(std::span<const Observation> observations, std::span<co
     if (llt.info() != Eigen::Success) continue;
     // (2 pi)^(D/2) sqrt(det S)
     const double normaliser = std::pow(2.0 * std::numbers::pi, 0.5 * D) * llt.matrixL().determinant();
+    t.s = s_sym;
+    // Solved once per candidate, so that each observation's distance is a product, not two
+    // triangular solves (most pairs lie far outside the gates).
+    const Square s_inverse = llt.solve(Square::Identity());
+    evaluated += observations.size();
     for (std::size_t i = 0; i < observations.size(); ++i) {
       t.observation = i;
       t.innovation = model.residual(observations[i].z, zhat);
-      t.s = s_sym;
-      t.d2 = t.innovation.dot(llt.solve(t.innovation));
+      t.d2 = t.innovation.dot(s_inverse * t.innovation);
       ws.min_d2[i] = std::min(ws.min_d2[i], t.d2);
       if (weigh_pairings) {
         t.likelihood = std::exp(-0.5 * t.d2) / normaliser;
         ws.explained[i] += t.likelihood;
       }
-      pairs.push_back(t);
+      if (t.d2 < accept_gate) pairs.push_back(t);
     }
   }
+  return evaluated;
 }
 
-/// The pairs inside the acceptance gate that are probable enough (see
+/// The pairs (all inside the acceptance gate) that are probable enough (see
 /// AssociationConfig::min_pairing_probability), into the tables' accepted, in table order.
 template <int D>
-void collect_accepted(Workspace& ws, const Gates& gates, double min_probability, double clutter) {
+void collect_accepted(Workspace& ws, double min_probability, double clutter) {
   Tables<D>& tables = ws.tables<D>();
   tables.accepted.clear();
   for (const PairTerms<D>& p : tables.pairs)
-    if (p.d2 < gates.accept && p.likelihood >= min_probability * (clutter + ws.explained[p.observation]))
+    if (p.likelihood >= min_probability * (clutter + ws.explained[p.observation]))
       tables.accepted.push_back(&p);
 }
 
@@ -177,7 +184,7 @@ void decide_unpaired(std::vector<Pairing>& out, const Workspace& ws, const Gates
 template <int D>
 void nearest_neighbour(Workspace& ws, const Gates& gates, double min_probability, double clutter,
                        std::vector<Pairing>& out) {
-  collect_accepted<D>(ws, gates, min_probability, clutter);
+  collect_accepted<D>(ws, min_probability, clutter);
   auto& accepted = ws.tables<D>().accepted;
   std::sort(accepted.begin(), accepted.end(),
             [](const PairTerms<D>* a, const PairTerms<D>* b) { return a->d2 < b->d2; });
@@ -203,7 +210,7 @@ class Jcbb {
   Jcbb(std::size_t n_obs, Workspace& ws, const GaussianMapView& belief, std::size_t max_nodes,
        double min_probability, double clutter)
       : ws_(ws), tables_(ws.tables<D>()), belief_(belief), max_nodes_(max_nodes) {
-    collect_accepted<D>(ws, ws.gates, min_probability, clutter);
+    collect_accepted<D>(ws, min_probability, clutter);
     // Grouped by observation, each group by distance: the nearest options are tried first.
     std::sort(tables_.accepted.begin(), tables_.accepted.end(), [](const Terms* a, const Terms* b) {
       return a->observation != b->observation ? a->observation < b->observation : a->d2 < b->d2;
@@ -342,8 +349,9 @@ void associate(std::span<const Observation> observations, std::span<const std::s
   Workspace& ws = workspace.impl();
   const Gates& gates = ws.gates_for(config, model.dim());
   with_measurement_dim(model.dim(), [&]<int D>(std::integral_constant<int, D>) {
-    build_compatibility<D>(observations, candidates, belief, model, config.min_pairing_probability > 0.0, ws);
-    if (stats) stats->candidate_pairs += ws.tables<D>().pairs.size();
+    const std::size_t evaluated = build_compatibility<D>(observations, candidates, belief, model,
+                                                         config.min_pairing_probability > 0.0, gates.accept, ws);
+    if (stats) stats->candidate_pairs += evaluated;
     out.assign(observations.size(), Pairing{});
     if (config.method == AssociationMethod::kNearestNeighbour) {
       nearest_neighbour<D>(ws, gates, config.min_pairing_probability, clutter, out);
