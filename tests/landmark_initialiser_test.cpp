@@ -21,6 +21,7 @@
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/pipeline/runner.hpp"
 #include "slamkit/sim/simulator.hpp"
+#include "allocation_counter.hpp"
 #include "sim_test_support.hpp"
 #include "test_data.hpp"
 
@@ -106,6 +107,42 @@ TEST(DelayedInitialiser, KeepsBothPositionsARangeAlongALineAdmitsUntilTheVehicle
   ASSERT_TRUE(l.has_value());
   EXPECT_LT((l->mean - beacon).norm(), 1e-3);
   EXPECT_TRUE(init.hypotheses().empty()) << "a started landmark is no hypothesis";
+}
+
+// A landmark the views cannot place yet waits in the window; once the window is full, each further
+// offer reuses the initialiser's scratch: no heap allocation per observation. Three ways of waiting:
+// ranges along a line (the mirror image), the same read through a range calibration, and bearings
+// from too short a baseline (too uncertain to start).
+TEST(DelayedInitialiser, AWaitingLandmarkCostsNoAllocationPerObservation) {
+  const auto ranges = std::make_shared<RangeOnlyModel>(RangeOnlyModel::Params{.sigma_range = 0.05});
+  const auto bearings = std::make_shared<BearingOnlyModel>(BearingOnlyModel::Params{.sigma_bearing = 0.2});
+  struct Case {
+    std::shared_ptr<const ObservationModel> model;
+    Vector2 landmark;
+    RangeCorrection correction;
+    double stride;  // along the road between offers [m]
+  };
+  const Case cases[] = {{ranges, {10.0, 6.0}, kNoCorrection, 0.5},
+                        {ranges, {10.0, 6.0}, RangeCorrection{0.3, 0.01}, 0.5},
+                        {bearings, {10.0, 8.0}, kNoCorrection, 1.0}};
+  for (const Case& c : cases) {
+    DelayedInitialiser init(c.model, {});
+    auto offer = [&](int k) {
+      // Back and forth along a few metres of road: the window never sees the vehicle leave it.
+      const double x = c.stride * static_cast<double>(k % 5);
+      const Pose2 pose(x, 0.0, 0.0);
+      return init.offer(3, pose, kNoDrift, c.model->predict(pose, c.landmark), static_cast<double>(k), c.correction);
+    };
+    int k = 0;
+    for (; k < 100; ++k) ASSERT_FALSE(offer(k)) << c.model->name() << ": started at offer " << k;
+    ASSERT_FALSE(init.hypotheses().empty()) << c.model->name() << ": fits found while it waits";
+    const test::AllocationCount allocations;
+    bool started = false;
+    for (; k < 200; ++k) started = started || offer(k).has_value();
+    const std::uint64_t made = allocations.count();
+    EXPECT_FALSE(started) << c.model->name();
+    EXPECT_EQ(made, 0U) << c.model->name() << (c.correction.offset_m != 0.0 ? " (calibrated)" : "");
+  }
 }
 
 // One beacon ranged from a straight road: the ring keeps both places the ranges allow, the beacon and

@@ -140,14 +140,14 @@ bool DelayedInitialiser::explains(const Fit& fit, std::size_t views) const {
   return fit.chi2 <= gates_[views - fit.outliers];
 }
 
-std::vector<Vector2> DelayedInitialiser::starts(const std::vector<View>& views,
-                                                const std::vector<Vector2>& sensors) const {
+DelayedInitialiser::Starts DelayedInitialiser::starts(const std::vector<View>& views,
+                                                      const std::vector<Vector2>& sensors) const {
   const MeasuredRows rows = model_->rows();
   if (measures_bearing_) {
     if (measures_range_) {
       const View& last = views.back();
       const double a = last.pose[2] + last.z[rows.bearing];
-      return {sensors.back() + last.z[rows.range] * Vector2(std::cos(a), std::sin(a))};
+      return {{sensors.back() + last.z[rows.range] * Vector2(std::cos(a), std::sin(a))}, 1};
     }
     // The point nearest every ray's line: sum n n^T m = sum n n^T s, n each line's normal.
     Matrix2 a = Matrix2::Zero();
@@ -161,7 +161,7 @@ std::vector<Vector2> DelayedInitialiser::starts(const std::vector<View>& views,
     const Eigen::SelfAdjointEigenSolver<Matrix2> eigen(a);
     // Parallel rays (to a degree and a half) meet nowhere useful.
     if (!(eigen.eigenvalues()[0] > 1e-3 * eigen.eigenvalues()[1])) return {};
-    return {a.ldlt().solve(b)};
+    return {{a.ldlt().solve(b)}, 1};
   }
   // Ranges: |m - s_i|^2 = r_i^2, less their mean, is linear in m: 2 (s_i - s)^T m = b_i.
   const Spread spread = spread_of(sensors);
@@ -196,25 +196,27 @@ std::vector<Vector2> DelayedInitialiser::starts(const std::vector<View>& views,
   }
   const double beta = std::sqrt(std::max(0.0, beta_square / static_cast<double>(views.size())));
   const Vector2 foot = spread.centre + alpha * u;
-  return {foot + beta * n, foot - beta * n};
+  return {{foot + beta * n, foot - beta * n}, 2};
 }
 
 std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector<View>& views,
                                                                const Matrix3& odometry_covariance_now,
                                                                Vector2 start, double trim_above) const {
   const MeasurementCovariance r = model_->noise();
+  FitScratch& scratch = fit_scratch_;
   // Each view's weight: R and the pose uncertainty the vehicle has gained since (the landmark is
   // placed relative to the current pose, so what was already uncertain then it inherits through
   // the current pose's covariance instead).
-  std::vector<Matrix3> gained;
-  gained.reserve(views.size());
+  std::vector<Matrix3>& gained = scratch.gained;
+  gained.clear();
   for (const View& v : views) gained.push_back(clipped_psd(odometry_covariance_now - v.odometry_covariance));
   Fit out;
   out.position = start;
   PoseJacobian hx;
   LandmarkJacobian hm;
   const int range_row = model_->rows().range;
-  Eigen::VectorXd common_range = Eigen::VectorXd::Zero(model_->dim());
+  Eigen::VectorXd& common_range = scratch.common_range;
+  common_range.setZero(model_->dim());
   if (range_row >= 0) common_range[range_row] = 1.0;
   constexpr int kMaxIterations = 30;
   bool converged = false;
@@ -228,22 +230,26 @@ std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector
     for (std::size_t i = 0; i < views.size(); ++i) {
       const View& v = views[i];
       model_->jacobians(v.pose, out.position, hx, hm);
-      const Eigen::VectorXd residual = model_->residual(v.z, model_->predict(v.pose, out.position));
-      const Eigen::MatrixXd s = r + hx * gained[i] * hx.transpose();
-      const Eigen::LLT<Eigen::MatrixXd> llt(s);
+      Eigen::VectorXd& residual = scratch.residual;
+      residual = model_->residual(v.z, model_->predict(v.pose, out.position));
+      scratch.s = r + hx * gained[i] * hx.transpose();
+      const Eigen::LLT<Eigen::MatrixXd>& llt = scratch.llt.compute(scratch.s);
       if (llt.info() != Eigen::Success) return std::nullopt;
-      const Eigen::VectorXd w_residual = llt.solve(residual);
+      Eigen::VectorXd& w_residual = scratch.w_residual;
+      w_residual = llt.solve(residual);
       const double chi2 = residual.dot(w_residual);
       if (chi2 > trim_above) {
         ++out.outliers;
         continue;
       }
-      const Eigen::MatrixXd w_hm = llt.solve(Eigen::MatrixXd(hm));
-      information += hm.transpose() * w_hm;
+      scratch.hm = hm;
+      const Eigen::MatrixXd& w_hm = scratch.w_hm = llt.solve(scratch.hm);
+      information.noalias() += hm.transpose() * w_hm;
       gradient += hm.transpose() * w_residual;
       // At the optimum sum Hm^T W (z - h(m)) = 0; changes dz of the ranges move m by
       // information^-1 sum Hm^T W e_range dz: dz = 1 for an offset, dz = r for a scale.
-      const Vector2 pull = hm.transpose() * llt.solve(common_range);
+      scratch.w_range = llt.solve(common_range);
+      const Vector2 pull = hm.transpose() * scratch.w_range;
       range_pull += pull;
       if (range_row >= 0) range_scale_pull += v.z[range_row] * pull;
       out.chi2 += chi2;
@@ -271,25 +277,27 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
                                                          const Measurement& z, double t,
                                                          const RangeCorrection& correction) {
   latest_t_ = std::max(latest_t_, t);
-  candidates_.erase(id);  // found afresh below
   std::vector<View>& raw = views_[id];
+  if (const auto found = candidates_.find(id); found != candidates_.end()) found->second.fits.clear();  // found afresh below
   raw.push_back({x, odometry_covariance, z, t});
   std::erase_if(raw, [&](const View& v) { return v.t < t - options_.window_s; });
   if (raw.size() > static_cast<std::size_t>(options_.max_views)) raw.erase(raw.begin());
   if (raw.size() < static_cast<std::size_t>(min_views_)) return std::nullopt;
 
   // The views read through the calibration, copied only where there is one.
-  std::vector<View> corrected;
-  if (measures_range_ && (correction.offset_m != 0.0 || correction.scale_error != 0.0)) {
-    corrected = raw;
-    for (View& v : corrected) v.z[model_->rows().range] = correction.distance(v.z[model_->rows().range]);
+  const bool calibrated = measures_range_ && (correction.offset_m != 0.0 || correction.scale_error != 0.0);
+  if (calibrated) {
+    corrected_.assign(raw.begin(), raw.end());
+    for (View& v : corrected_) v.z[model_->rows().range] = correction.distance(v.z[model_->rows().range]);
   }
-  const std::vector<View>& views = corrected.empty() ? raw : corrected;
-  std::vector<Vector2> sensors;
+  const std::vector<View>& views = calibrated ? corrected_ : raw;
+  std::vector<Vector2>& sensors = sensors_;
+  sensors.clear();
   for (const View& v : views) sensors.push_back(model_->sensor_position(v.pose));
   const double trim = options_.outliers_expected ? view_gate_ : INFINITY;
-  std::vector<Fit> fits;
-  for (const Vector2& start : starts(views, sensors))
+  std::vector<Fit>& fits = fits_;
+  fits.clear();
+  for (const Vector2& start : starts(views, sensors).all())
     if (const std::optional<Fit> f = fit(views, odometry_covariance, start, trim)) fits.push_back(*f);
   if (fits.empty()) return std::nullopt;
   // A copy: the ambiguity test below adds to `fits`. An outlier costs what the gate allows one view.
@@ -303,7 +311,7 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
     // absence leaves the others fitting best.
     std::size_t drop = best.worst;
     double least = INFINITY;
-    std::vector<View> others;
+    std::vector<View>& others = others_;
     for (std::size_t i = 0; i < views.size(); ++i) {
       others.assign(views.begin(), views.end());
       others.erase(others.begin() + static_cast<std::ptrdiff_t>(i));

@@ -43,10 +43,13 @@
 // The landmark joins the state rigidly attached to the current pose (as an inverted measurement
 // does: P(m, :) = [I, J (m - p)] P(v, :)) with the triangulation's covariance on top, the uncertainty
 // relative to that pose; the observations that placed it are not applied again.
+#include <Eigen/Cholesky>
+#include <array>
 #include <cmath>
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -182,7 +185,12 @@ class DelayedInitialiser final : public LandmarkInitialiser {
   bool explains(const Fit& fit, std::size_t views) const;
   /// Closed-form starting points for the fit from the views and their sensors' positions: one, or
   /// for ranges from collinear sensors the two mirror images; none if the views do not intersect.
-  std::vector<Vector2> starts(const std::vector<View>& views, const std::vector<Vector2>& sensors) const;
+  struct Starts {
+    std::array<Vector2, 2> points;
+    std::size_t count = 0;
+    std::span<const Vector2> all() const { return std::span(points).first(count); }
+  };
+  Starts starts(const std::vector<View>& views, const std::vector<Vector2>& sensors) const;
 
   std::shared_ptr<const ObservationModel> model_;
   DelayedInitialisationOptions options_;
@@ -197,8 +205,20 @@ class DelayedInitialiser final : public LandmarkInitialiser {
     double t = 0.0;  // of the offer that found them
     std::vector<Fit> fits;
   };
-  std::map<int, Candidates> candidates_;  // by landmark id, for hypotheses()
+  std::map<int, Candidates> candidates_;  // by landmark id, for hypotheses(); no fits: none found
   double latest_t_ = -INFINITY;           // of the latest offer
+  // Scratch of offer() and fit(), kept so that a landmark waiting for views costs no allocation per
+  // observation once its window is full.
+  std::vector<View> corrected_, others_;
+  std::vector<Vector2> sensors_;
+  std::vector<Fit> fits_;
+  struct FitScratch {
+    std::vector<Matrix3> gained;
+    Eigen::VectorXd common_range, residual, w_residual, w_range;
+    Eigen::MatrixXd s, hm, w_hm;
+    Eigen::LLT<Eigen::MatrixXd> llt;
+  };
+  mutable FitScratch fit_scratch_;
 };
 
 /// Ring: multiple hypotheses (see the file's comment).
