@@ -50,13 +50,14 @@ BENCHMARK(BM_StepVsParticlesTwoThreads)
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime();
 
-// Args: association (0 known, 1 nearest neighbour), landmarks; FastSLAM 2.0, 100 particles.
+// Args: association (0 known, 1 nearest neighbour, 2 JCBB), landmarks; FastSLAM 2.0, 100 particles.
 void BM_StepVsLandmarks(benchmark::State& state) {
-  const auto method = state.range(0) == 0 ? AssociationMethod::kKnown : AssociationMethod::kNearestNeighbour;
-  run_steps(state, 2, 100, static_cast<int>(state.range(1)), method, 1);
+  constexpr AssociationMethod kMethods[] = {AssociationMethod::kKnown, AssociationMethod::kNearestNeighbour,
+                                            AssociationMethod::kJcbb};
+  run_steps(state, 2, 100, static_cast<int>(state.range(1)), kMethods[state.range(0)], 1);
 }
 BENCHMARK(BM_StepVsLandmarks)
-    ->ArgsProduct({{0, 1}, {100, 1000, 5000, 20000, 50000}})
+    ->ArgsProduct({{0, 1, 2}, {100, 1000, 5000, 20000, 50000}})
     ->Unit(benchmark::kMicrosecond);
 
 /// A deep copy: what resampling costs when each particle owns its map outright.

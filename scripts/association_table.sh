@@ -50,7 +50,10 @@ known=("ekf nn=--filter ekf --assoc nn"
        "fastslam1 nn=--filter fastslam1 --assoc nn --particles $particles"
        "fastslam2 nn=--filter fastslam2 --assoc nn --particles $particles"
        "fastslam1 nn clutter=--filter fastslam1 --assoc nn --clutter-per-scan 1 --particles $particles"
-       "fastslam2 nn clutter 0.01=--filter fastslam2 --assoc nn --clutter-per-scan 1 --pose-sample-fraction 0.01 --particles $particles")
+       "fastslam2 nn clutter 0.01=--filter fastslam2 --assoc nn --clutter-per-scan 1 --pose-sample-fraction 0.01 --particles $particles"
+       "fastslam1 jcbb=--filter fastslam1 --assoc jcbb --particles $particles"
+       "fastslam2 jcbb=--filter fastslam2 --assoc jcbb --particles $particles"
+       "fastslam2 jcbb clutter 0.01=--filter fastslam2 --assoc jcbb --clutter-per-scan 1 --pose-sample-fraction 0.01 --particles $particles")
 runs=()
 if [[ -z ${FILTERS:-} ]]; then
   runs=("${known[@]}")

@@ -261,6 +261,18 @@ TEST_F(Cli, UnknownAssociationOnALogWithoutIds) {
   EXPECT_EQ(m2["association_correct"], m["association_correct"]);
   EXPECT_EQ(m2["spurious_landmarks"], m["spurious_landmarks"]);
 
+  // FastSLAM runs the same JCBB, per particle.
+  const fs::path particles = *work_ / "fastslam-jcbb";
+  const Result f = slamkit("run --filter fastslam2 --particles 10 --assoc jcbb --data sim:" + log.string() +
+                               " --out " + particles.string(),
+                           *work_);
+  ASSERT_EQ(f.exit_code, 0) << f.err;
+  std::ifstream in3(particles / "metrics.json");
+  const auto m3 = nlohmann::json::parse(in3);
+  EXPECT_EQ(m3["association"], "jcbb");
+  EXPECT_GT(m3["jcbb_nodes"].get<double>(), 0.0);
+  EXPECT_GT(m3["association_correct"].get<double>(), 1000.0);
+
   const Result bad = slamkit("run --assoc fuzzy --data sim:" + log.string() + " --out " + out.string(), *work_);
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("unknown association 'fuzzy'"), std::string::npos) << bad.err;

@@ -115,8 +115,13 @@ TEST(LayerSettings, EveryFiltersRecommendationIsCheckedAndNamesItsSource) {
 
 TEST(LayerSettings, SettingsNoFilterRunsWithAreAUsageError) {
   SettingsSources s = recommending();
-  s.explicit_settings = {{"filter", "fastslam2"}, {"association", {{"method", "jcbb"}}}};
-  EXPECT_THROW(layer_settings(s), std::invalid_argument);
+  s.explicit_settings = {{"filter", "fastslam2"}, {"landmark_init", "inverse-distance"}};
+  try {
+    layer_settings(s);
+    ADD_FAILURE() << "FastSLAM does not keep inverse-distance landmarks";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("kept by the filter 'ekf'"), std::string::npos) << e.what();
+  }
   s.explicit_settings = {{"particles", 0}};
   EXPECT_THROW(layer_settings(s), std::invalid_argument);
 }

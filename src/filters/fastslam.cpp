@@ -56,10 +56,6 @@ void validate(const FastSlamConfig& c) {
   if (c.policy.kind == ResamplePolicy::Kind::kEss && !(c.policy.ess_fraction > 0.0 && c.policy.ess_fraction <= 1.0))
     fail(fmt::format("the ESS fraction must lie in (0, 1], found {}", c.policy.ess_fraction));
   validate(c.association);
-  // Each particle pairs by maximum likelihood with mutual exclusion; running NN when JCBB was asked
-  // for would be a silent substitution.
-  if (c.association.method == AssociationMethod::kJcbb)
-    fail("association jcbb is not implemented per particle; use known or nn");
   validate(c.sensor);
   if (!c.initial_pose.allFinite()) fail("the initial pose must be finite");
   validate(c.likelihood);
@@ -576,6 +572,15 @@ std::map<std::string, double> FastSlam::statistics() const {
   }
   // Summed over the particles: each judges its own landmarks.
   if (s.known() && s.gate_known) s.gate_tally.add_statistics(statistics);
+  if (s.config.association.method == AssociationMethod::kJcbb) {
+    AssociationStats jcbb;
+    for (const Impl::Slot& slot : s.slots) {
+      jcbb.jcbb_nodes += slot.association_stats.jcbb_nodes;
+      jcbb.jcbb_budget_exhausted = jcbb.jcbb_budget_exhausted || slot.association_stats.jcbb_budget_exhausted;
+    }
+    statistics["jcbb_nodes"] = static_cast<double>(jcbb.jcbb_nodes);
+    statistics["jcbb_budget_exhausted"] = jcbb.jcbb_budget_exhausted ? 1.0 : 0.0;
+  }
   return statistics;
 }
 

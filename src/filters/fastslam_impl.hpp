@@ -11,7 +11,6 @@
 #include <memory>
 #include <optional>
 #include <random>
-#include <tuple>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -198,24 +197,17 @@ struct FastSlam::Impl {
     std::uint32_t index = 0;
   };
 
-  /// A landmark in view of a particle, with what gating needs, computed once per scan.
-  struct Candidate {
-    std::uint32_t index;
-    Vector2 zhat;
-    Matrix2 s_inverse;
-    double log_normaliser;  // log(2 pi sqrt(det S)): the innovation likelihood is exp(-d2 / 2) over it
-    bool taken = false;  // paired with an observation of this scan
-  };
-
   /// Per particle slot (not per particle: resampling moves particles, slots stay): the random
   /// stream and the scratch of a scan update.
   struct Slot {
     std::mt19937_64 rng;
     std::vector<Pairing> pairings;
-    std::vector<Candidate> candidates;
-    std::vector<std::tuple<double, std::uint32_t, std::uint32_t>> pairs;  // d2, observation, candidate
-    std::vector<double> min_d2;
-    std::vector<double> explained;  // per observation: the clutter density plus every candidate's likelihood
+    // Association without identities: the landmarks in the widened view of the particle's pose, in
+    // index order, and what the shared kernel decided for each observation.
+    std::vector<std::size_t> in_view;
+    AssociationWorkspace association;
+    std::vector<slamkit::Pairing> decisions;
+    AssociationStats association_stats;  // all scans
     std::vector<std::uint32_t> observed;
     // (mean, index) of each landmark this scan created or moved into another grid cell.
     std::vector<std::pair<Vector2, std::uint32_t>> grid_entries;

@@ -42,6 +42,27 @@ void read_through(const Vector2& c, int row, MeasurementVector<D>& zhat, PoseRow
   hm.row(row) *= 1.0 + c[1];
 }
 
+/// Association's view of one particle: its pose, with the Gaussian FastSLAM 2.0 keeps of it (none
+/// for 1.0, which samples the whole pose), and its landmarks, independent of the pose and of each
+/// other given the particle's path.
+class ParticleMapView final : public GaussianMapView {
+ public:
+  ParticleMapView(const Pose2& pose, const Matrix3& pose_cov, const LandmarkTree& map)
+      : pose_(pose), pose_cov_(pose_cov), map_(map) {}
+  Pose2 pose() const override { return pose_; }
+  Matrix3 pose_covariance() const override { return pose_cov_; }
+  Vector2 landmark_position(std::size_t index) const override { return map_[index].mean; }
+  Matrix23 landmark_pose_covariance(std::size_t) const override { return Matrix23::Zero(); }
+  Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override {
+    return i == j ? map_[i].covariance : Matrix2::Zero();
+  }
+
+ private:
+  const Pose2& pose_;
+  const Matrix3& pose_cov_;
+  const LandmarkTree& map_;
+};
+
 }  // namespace
 
 Vector2 FastSlam::Impl::mean_at(const Particle& p, std::uint32_t index, const Vector2& c) const {
@@ -114,62 +135,28 @@ void FastSlam::Impl::reject_known_outliers(const Particle& p, Slot& s, const Sca
 }
 
 void FastSlam::Impl::associate(const Particle& p, Slot& s, const ScanEvent& scan) const {
-  const std::size_t n_obs = scan.observations.size();
-  s.candidates.clear();
-  make_room(s.candidates, scan_candidates.size());
+  s.in_view.clear();
+  make_room(s.in_view, scan_candidates.size());
   for (const std::uint32_t index : scan_candidates) {
     if (index >= p.map.size()) break;
     const LandmarkGaussian& lm = p.map[index];
-    if (lm.removed) continue;
-    const Vector2 zhat = measurements.predict(p.pose, lm.mean);
-    if (!association_view.contains_polar(zhat[0], zhat[1])) continue;
-    Matrix23 hx;
-    Matrix2 hm;
-    Matrix2 inverse;
-    double log_det = 0.0;
-    if (invert_spd(symmetric(innovation_covariance<2>(p, lm, hx, hm)), inverse, log_det))
-      s.candidates.push_back({index, zhat, inverse, kLog2Pi + 0.5 * log_det});
+    if (!lm.removed && association_view.contains(*observation, p.pose, lm.mean)) s.in_view.push_back(index);
   }
-
-  s.pairs.clear();
-  make_room(s.pairs, n_obs * s.candidates.size());
-  make_room(s.min_d2, n_obs);
-  s.min_d2.assign(n_obs, std::numeric_limits<double>::infinity());
-  const bool weigh_clutter = config.association.min_pairing_probability > 0.0;
-  make_room(s.explained, n_obs);
-  s.explained.assign(n_obs, clutter_density);
-  for (std::size_t k = 0; k < n_obs; ++k) {
-    if (!valid[k]) continue;
-    const Vector2 z = scan.observations[k].z;
-    for (std::size_t c = 0; c < s.candidates.size(); ++c) {
-      const Vector2 nu = measurements.residual(z, s.candidates[c].zhat);
-      const double d2 = nu.dot(s.candidates[c].s_inverse * nu);
-      s.min_d2[k] = std::min(s.min_d2[k], d2);
-      if (weigh_clutter) s.explained[k] += std::exp(-0.5 * d2 - s.candidates[c].log_normaliser);
-      if (d2 < gates.accept) s.pairs.emplace_back(d2, static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(c));
-    }
-  }
-  // A pairing that another candidate or clutter explains about as well is not made (see
-  // AssociationConfig::min_pairing_probability).
-  if (weigh_clutter)
-    std::erase_if(s.pairs, [&](const auto& pair) {
-      const auto& [d2, k, c] = pair;
-      return std::exp(-0.5 * d2 - s.candidates[c].log_normaliser) <
-             config.association.min_pairing_probability * s.explained[k];
-    });
-  // Greedy by distance: the most certain pairings first, each observation and landmark once.
-  std::sort(s.pairs.begin(), s.pairs.end());
+  // The kernel the EKF family associates with, on this particle's belief: the same gates, pairing
+  // probabilities and new-landmark rule.
+  slamkit::associate(scan.observations, s.in_view, ParticleMapView(p.pose, p.pose_cov, p.map), *observation, config.association,
+                     s.association, s.decisions, &s.association_stats, clutter_density);
+  const std::size_t n_obs = scan.observations.size();
   make_room(s.pairings, n_obs);
   s.pairings.assign(n_obs, Pairing{});
-  for (const auto& [d2, k, c] : s.pairs) {
-    if (s.pairings[k].decision != AssociationDecision::kDiscard || s.candidates[c].taken) continue;
-    s.candidates[c].taken = true;
-    s.pairings[k] = {AssociationDecision::kUpdate, s.candidates[c].index};
-  }
   auto next_index = static_cast<std::uint32_t>(p.map.size());
-  for (std::size_t k = 0; k < n_obs; ++k)
-    if (valid[k] && s.pairings[k].decision == AssociationDecision::kDiscard && s.min_d2[k] > gates.new_landmark)
+  for (std::size_t k = 0; k < n_obs; ++k) {
+    if (!valid[k]) continue;
+    if (s.decisions[k].decision == AssociationDecision::kUpdate)
+      s.pairings[k] = {AssociationDecision::kUpdate, static_cast<std::uint32_t>(s.decisions[k].landmark)};
+    else if (s.decisions[k].decision == AssociationDecision::kNew)
       s.pairings[k] = {AssociationDecision::kNew, next_index++};
+  }
 }
 
 template <int D>
@@ -455,11 +442,11 @@ void FastSlam::Impl::count_misses(Particle& p, Slot& s) const {
   std::sort(s.observed.begin(), s.observed.end());
   // The candidates were chosen in the widened view of the predicted pose, so they include every
   // landmark the existence rule expects to be seen from the final pose.
-  for (const Candidate& c : s.candidates) {
-    if (std::binary_search(s.observed.begin(), s.observed.end(), c.index)) continue;
-    const bool expected = expected_in_view(p, p.map[c.index]);
-    if (!expected && existence.confirmed(p.map[c.index].existence)) continue;  // nothing to record: no copy
-    LandmarkGaussian& lm = p.map.mutate(c.index);
+  for (const std::size_t index : s.in_view) {
+    if (std::binary_search(s.observed.begin(), s.observed.end(), index)) continue;
+    const bool expected = expected_in_view(p, p.map[index]);
+    if (!expected && existence.confirmed(p.map[index].existence)) continue;  // nothing to record: no copy
+    LandmarkGaussian& lm = p.map.mutate(index);
     if (expected ? existence.missed(lm.existence) : existence.unseen_nearby(lm.existence)) lm.removed = true;
   }
 }

@@ -181,10 +181,6 @@ void validate(const FilterConfig& config) {
       throw std::invalid_argument("the ring landmark start does not carry a range calibration's correlations; with "
                                   "--range-calibration use the delayed start");
   }
-  const bool particle_filter = config.filter == FilterKind::kFastSlam1 || config.filter == FilterKind::kFastSlam2;
-  if (particle_filter && config.association.method == AssociationMethod::kJcbb)
-    throw std::invalid_argument(fmt::format("association jcbb is for the EKF and the UKF; {} associates per particle with known or nn",
-                                            to_string(config.filter)));
 }
 
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset) {

@@ -73,16 +73,16 @@
 //     AssociationConfig::gate_known is set (unset: not gated; the verdicts of all particles are
 //     tallied, assoc/gate_tally.hpp). Identities are certain, so landmarks are confirmed at once and
 //     never removed.
-//   kNearestNeighbour, kJcbb: maximum likelihood per particle. Given a particle's path its landmarks
-//     are independent, so the joint compatibility of a hypothesis is the product of individual
-//     compatibilities and JCBB reduces to individual compatibility; both use the same rule.
-//     Mahalanobis distances d2 of each observation to each candidate landmark, with S = Hm P Hm^T + R
-//     (1.0) or plus Hx Sigma Hx^T (2.0, Sigma the predicted pose covariance); pairs inside the accept
-//     gate are taken greedily in order of d2, each landmark at most once per scan; an unpaired
-//     observation starts a landmark if it is outside the new-landmark gate of every candidate and is
-//     discarded otherwise. Whether a landmark is provisional, confirmed or removed is decided per
-//     particle by the ExistenceRule both filters share (assoc/landmark_existence.hpp); removal is a
-//     tombstone in the particle's map.
+//   kNearestNeighbour, kJcbb: each particle runs the association the EKF family runs
+//     (assoc/association.hpp), on its own belief: its pose, with Sigma, the predicted pose
+//     covariance FastSLAM 2.0 carries (none for 1.0), and its landmarks, independent of the pose and
+//     of each other given its path. So S = Hm P Hm^T + R (1.0) or plus Hx Sigma Hx^T (2.0), with the
+//     same gates, pairing probability and new-landmark rule. For 1.0 the joint compatibility of a
+//     hypothesis is then the sum of the individual distances; for 2.0 Sigma correlates the
+//     observations of a scan, and JCBB finds the pairings that one pose error explains together.
+//     Whether a landmark is provisional, confirmed or removed is decided per particle by the
+//     ExistenceRule both filters share (assoc/landmark_existence.hpp); removal is a tombstone in the
+//     particle's map.
 //   Candidates come from a per-filter LandmarkGrid (assoc/landmark_grid.hpp) over every particle's
 //   version of every landmark, kept up to date as the particles change their maps: a landmark is
 //   listed in its cell when a particle creates it and again when an update moves it into another
