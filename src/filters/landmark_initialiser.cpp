@@ -297,7 +297,8 @@ std::optional<InitialLandmark> DelayedInitialiser::offer(int id, const Pose2& x,
   const double trim = options_.outliers_expected ? view_gate_ : INFINITY;
   std::vector<Fit>& fits = fits_;
   fits.clear();
-  for (const Vector2& start : starts(views, sensors).all())
+  const Starts start_points = starts(views, sensors);
+  for (const Vector2& start : start_points.all())
     if (const std::optional<Fit> f = fit(views, odometry_covariance, start, trim)) fits.push_back(*f);
   if (fits.empty()) return std::nullopt;
   // A copy: the ambiguity test below adds to `fits`. An outlier costs what the gate allows one view.

@@ -188,7 +188,9 @@ class DelayedInitialiser final : public LandmarkInitialiser {
   struct Starts {
     std::array<Vector2, 2> points;
     std::size_t count = 0;
-    std::span<const Vector2> all() const { return std::span(points).first(count); }
+    std::span<const Vector2> all() const& { return std::span(points).first(count); }
+    // A temporary's points would be gone before the loop over them ran.
+    std::span<const Vector2> all() const&& = delete;
   };
   Starts starts(const std::vector<View>& views, const std::vector<Vector2>& sensors) const;
 
