@@ -11,6 +11,7 @@
 #include <memory>
 #include <optional>
 #include <random>
+#include <span>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -168,6 +169,34 @@ struct Anchor {
   std::uint32_t scan = 0;
   Vector2 position = Vector2::Zero();  // the particle's at `scan`
   Matrix3 covariance = Matrix3::Zero();
+};
+
+/// Association's view of one particle: a pose with a covariance (FastSLAM 2.0's proposal, none for
+/// 1.0, or relocalisation's drift) and landmarks that, given the particle's path, are independent of
+/// the pose and of each other. It shows either the whole map or the landmarks a list of indices
+/// names, in that list's order.
+class ParticleMapView final : public GaussianMapView {
+ public:
+  ParticleMapView(const Pose2& pose, const Matrix3& pose_cov, const LandmarkTree& map)
+      : pose_(pose), pose_cov_(pose_cov), map_(map) {}
+  ParticleMapView(const Pose2& pose, const Matrix3& pose_cov, const LandmarkTree& map,
+                  std::span<const std::uint32_t> shown)
+      : pose_(pose), pose_cov_(pose_cov), map_(map), shown_(shown) {}
+  Pose2 pose() const override { return pose_; }
+  Matrix3 pose_covariance() const override { return pose_cov_; }
+  Vector2 landmark_position(std::size_t index) const override { return landmark(index).mean; }
+  Matrix23 landmark_pose_covariance(std::size_t) const override { return Matrix23::Zero(); }
+  Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override {
+    return i == j ? landmark(i).covariance : Matrix2::Zero();
+  }
+
+ private:
+  const LandmarkGaussian& landmark(std::size_t index) const { return map_[shown_ ? (*shown_)[index] : index]; }
+
+  Pose2 pose_;
+  Matrix3 pose_cov_;
+  const LandmarkTree& map_;
+  std::optional<std::span<const std::uint32_t>> shown_;
 };
 
 }  // namespace fastslam_detail

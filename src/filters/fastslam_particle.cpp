@@ -42,27 +42,6 @@ void read_through(const Vector2& c, int row, MeasurementVector<D>& zhat, PoseRow
   hm.row(row) *= 1.0 + c[1];
 }
 
-/// Association's view of one particle: its pose, with the Gaussian FastSLAM 2.0 keeps of it (none
-/// for 1.0, which samples the whole pose), and its landmarks, independent of the pose and of each
-/// other given the particle's path.
-class ParticleMapView final : public GaussianMapView {
- public:
-  ParticleMapView(const Pose2& pose, const Matrix3& pose_cov, const LandmarkTree& map)
-      : pose_(pose), pose_cov_(pose_cov), map_(map) {}
-  Pose2 pose() const override { return pose_; }
-  Matrix3 pose_covariance() const override { return pose_cov_; }
-  Vector2 landmark_position(std::size_t index) const override { return map_[index].mean; }
-  Matrix23 landmark_pose_covariance(std::size_t) const override { return Matrix23::Zero(); }
-  Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override {
-    return i == j ? map_[i].covariance : Matrix2::Zero();
-  }
-
- private:
-  const Pose2& pose_;
-  const Matrix3& pose_cov_;
-  const LandmarkTree& map_;
-};
-
 }  // namespace
 
 Vector2 FastSlam::Impl::mean_at(const Particle& p, std::uint32_t index, const Vector2& c) const {

@@ -49,32 +49,6 @@ void FastSlam::Impl::anchor_at(Particle& p, const LandmarkGaussian& lm) const {
                     symmetric(prior - pht * s_inverse * pht.transpose())};
 }
 
-namespace {
-
-/// Relocalisation's view of one particle: its pose with the drift as covariance, and the landmarks it
-/// mapped before the window, independent of the pose and of each other (so they are, given the
-/// particle's path; the drift is what the path since does not know).
-class DriftedMapView final : public GaussianMapView {
- public:
-  DriftedMapView(const Pose2& pose, const Matrix3& drift, const LandmarkTree& map, std::span<const std::uint32_t> old)
-      : pose_(pose), drift_(drift), map_(map), old_(old) {}
-  Pose2 pose() const override { return pose_; }
-  Matrix3 pose_covariance() const override { return drift_; }
-  Vector2 landmark_position(std::size_t index) const override { return map_[old_[index]].mean; }
-  Matrix23 landmark_pose_covariance(std::size_t) const override { return Matrix23::Zero(); }
-  Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override {
-    return i == j ? map_[old_[i]].covariance : Matrix2::Zero();
-  }
-
- private:
-  Pose2 pose_;
-  Matrix3 drift_;
-  const LandmarkTree& map_;
-  std::span<const std::uint32_t> old_;
-};
-
-}  // namespace
-
 void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) const {
   // The landmarks seen in the window (they are in the frame of the particle's pose now) and those
   // mapped before it and not seen since (in the frame of the pose that last saw them).
@@ -150,7 +124,7 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   const Matrix3 drift_prior = drift_of(p, oldest);
   s.old_positions.resize(s.old.size());
   std::iota(s.old_positions.begin(), s.old_positions.end(), std::size_t{0});
-  const DriftedMapView view(p.pose, drift_prior, p.map, s.old);
+  const ParticleMapView view(p.pose, drift_prior, p.map, s.old);
   ++s.relocalisation_searches;
   slamkit::associate(s.recent_as_seen, s.old_positions, view, *observation, relocalise_association, s.workspace,
                      s.matches);
