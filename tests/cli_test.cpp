@@ -572,6 +572,11 @@ TEST_F(Cli, PrintConfigShowsEveryEffectiveSettingWithoutRunning) {
   ASSERT_EQ(t.exit_code, 0) << t.err;
   EXPECT_EQ(nlohmann::json::parse(t.out).at("settings").at("likelihood"), "student-t");
   EXPECT_EQ(nlohmann::json::parse(t.out).at("settings").at("likelihood_dof"), 3.0);
+
+  const Result one_sided =
+      slamkit("run --likelihood student-t-long --data sim:" + (*work_ / "sim").string() + " --print-config", *work_);
+  ASSERT_EQ(one_sided.exit_code, 0) << one_sided.err;
+  EXPECT_EQ(nlohmann::json::parse(one_sided.out).at("settings").at("likelihood"), "student-t-long");
 }
 
 // --range-calibration turns the calibration on with its default prior, a deviation given turns it
@@ -815,7 +820,7 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"run --likelihood students" + data, 2, "--likelihood: unknown likelihood 'students' (did you mean 'student-t'?)"},
       {"run --likelihood student-t --likelihood-dof 0" + data, 2,
        "the t likelihood's degrees of freedom must be positive and finite"},
-      {"run --likelihood-dof 3" + data, 2, "likelihood_dof (3) applies to the likelihood 'student-t', not 'gaussian'"},
+      {"run --likelihood-dof 3" + data, 2, "likelihood_dof (3) applies to the likelihoods 'student-t' and 'student-t-long', not 'gaussian'"},
       {"run --assoc-config /nonexistent/a.json" + data, 1,
        "/nonexistent/a.json: cannot open file for reading (No such file or directory)"},
       {"run --accept-probability 1.5" + data, 2, "association setting accept_probability must be in (0, 1), found 1.5"},

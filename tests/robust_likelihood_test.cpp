@@ -30,6 +30,7 @@ using namespace slamkit;
 namespace {
 
 MeasurementLikelihood student_t(double dof = 4.0) { return {LikelihoodKind::kStudentT, dof}; }
+MeasurementLikelihood student_t_long(double dof = 4.0) { return {LikelihoodKind::kStudentTLong, dof}; }
 
 }  // namespace
 
@@ -64,7 +65,7 @@ TEST(MeasurementLikelihood, TheTDensityIntegratesToOneHasHeavyTailsAndTendsToThe
 }
 
 TEST(MeasurementLikelihood, NamesRoundTripAndDegreesOfFreedomMustBePositiveAndFinite) {
-  for (const LikelihoodKind kind : {LikelihoodKind::kGaussian, LikelihoodKind::kStudentT})
+  for (const LikelihoodKind kind : {LikelihoodKind::kGaussian, LikelihoodKind::kStudentT, LikelihoodKind::kStudentTLong})
     EXPECT_EQ(parse_likelihood_kind(to_string(kind)), kind);
   EXPECT_THROW(parse_likelihood_kind("cauchy"), std::invalid_argument);
   for (const double dof : {0.0, -1.0, std::numeric_limits<double>::infinity(), std::nan("")})
@@ -77,6 +78,26 @@ TEST(MeasurementLikelihood, NamesRoundTripAndDegreesOfFreedomMustBePositiveAndFi
   config.likelihood = student_t(-2.0);
   EXPECT_THROW(FastSlam(std::make_shared<AckermannModel>(), std::make_shared<RangeOnlyModel>(), config),
                std::invalid_argument);
+}
+
+// Only a range can be read long: the one-sided t on a bearing-only sensor is a usage error naming the
+// likelihood that fits, for both filter families; with ranges it is accepted.
+TEST(MeasurementLikelihood, TheOneSidedTNeedsASensorThatMeasuresRange) {
+  EkfSlamOptions options;
+  options.likelihood = student_t_long();
+  try {
+    EkfSlam(std::make_shared<AckermannModel>(), std::make_shared<BearingOnlyModel>(), options);
+    ADD_FAILURE() << "accepted a bearing-only sensor";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("use 'student-t'"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(EkfSlam(std::make_shared<AckermannModel>(), std::make_shared<RangeOnlyModel>(), options));
+  EXPECT_NO_THROW(EkfSlam(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>(), options));
+  FastSlamConfig config;
+  config.likelihood = student_t_long();
+  EXPECT_THROW(FastSlam(std::make_shared<AckermannModel>(), std::make_shared<BearingOnlyModel>(), config),
+               std::invalid_argument);
+  EXPECT_NO_THROW(FastSlam(std::make_shared<AckermannModel>(), std::make_shared<RangeOnlyModel>(), config));
 }
 
 // An update with R scaled by k is the update of a sensor whose noise is k times R: for every
@@ -130,12 +151,13 @@ TEST(NoiseScale, UpdatesAsASensorWithThatMuchMoreNoise) {
 TEST(DelayedInitialiser, WhereOutliersAreExpectedLeavesThemOutOfTheFit) {
   const auto model = std::make_shared<RangeOnlyModel>();
   const Vector2 m(6.0, 9.0);
-  const auto offer_all = [&](DelayedInitialiser& init, const std::vector<int>& long_ones) {
+  const auto offer_all = [&](DelayedInitialiser& init, const std::vector<int>& misread, double excess = 4.0) {
     std::optional<InitialLandmark> placed;
     for (int i = 0; i < 12 && !placed; ++i) {
       const Pose2 x(2.0 * i, 0.2 * i * i - 3.0, 0.1 * i);
       Measurement z = model->predict(x, m);
-      if (std::find(long_ones.begin(), long_ones.end(), i) != long_ones.end()) z[0] += 4.0;  // by a longer path
+      // Read long by a longer path, or short where the excess is negative.
+      if (std::find(misread.begin(), misread.end(), i) != misread.end()) z[0] += excess;
       placed = init.offer(3, x, Matrix3::Zero(), z, static_cast<double>(i), RangeCorrection{});
     }
     return placed;
@@ -150,6 +172,23 @@ TEST(DelayedInitialiser, WhereOutliersAreExpectedLeavesThemOutOfTheFit) {
   DelayedInitialiser crowded(model, options);
   EXPECT_FALSE(offer_all(crowded, {1, 3, 5, 7, 9})) << "five of twelve long: more than a quarter";
   EXPECT_EQ(crowded.waiting(), 1u);
+
+  // Where only long ranges are outliers, the two read long are left out as before, but two read
+  // short are evidence the position cannot shrug off: no position explains them, so it waits.
+  options.outliers_read_long = true;
+  DelayedInitialiser one_sided(model, options);
+  const std::optional<InitialLandmark> long_left_out = offer_all(one_sided, {1, 6});
+  ASSERT_TRUE(long_left_out.has_value());
+  EXPECT_LT((long_left_out->mean - m).norm(), 1e-6);
+  options.outliers_read_long = false;
+  DelayedInitialiser symmetric(model, options);
+  const std::optional<InitialLandmark> short_left_out = offer_all(symmetric, {1, 6}, -4.0);
+  ASSERT_TRUE(short_left_out.has_value()) << "the symmetric t leaves out short ranges too";
+  EXPECT_LT((short_left_out->mean - m).norm(), 1e-6);
+  options.outliers_read_long = true;
+  DelayedInitialiser short_kept(model, options);
+  EXPECT_FALSE(offer_all(short_kept, {1, 6}, -4.0));
+  EXPECT_EQ(short_kept.waiting(), 1u);
 }
 
 TEST(SimulatedMultipath, ReadsARangeLongAsOftenAndByAsMuchAsConfigured) {

@@ -79,7 +79,9 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
     throw std::invalid_argument("a range calibration is estimated with association 'known': nn and jcbb predict "
                                 "measurements without it");
   DelayedInitialisationOptions delayed = options.delayed_initialisation;
+  require_range_for(likelihood_, estimator_->observation_model().rows().range, estimator_->observation_model().name());
   delayed.outliers_expected = likelihood_.robust();
+  delayed.outliers_read_long = likelihood_.outliers_read_long();
   reach_ = options.sensor.max_range;
   if (options.initialisation == LandmarkInitialisation::kInverseDistance) {
     if (!estimator_->keeps_inverse_distance())

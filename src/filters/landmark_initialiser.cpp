@@ -238,7 +238,8 @@ std::optional<DelayedInitialiser::Fit> DelayedInitialiser::fit(const std::vector
       Eigen::VectorXd& w_residual = scratch.w_residual;
       w_residual = llt.solve(residual);
       const double chi2 = residual.dot(w_residual);
-      if (chi2 > trim_above) {
+      const bool read_short = options_.outliers_read_long && range_row >= 0 && residual[range_row] < 0.0;
+      if (chi2 > trim_above && !read_short) {
         ++out.outliers;
         continue;
       }

@@ -158,8 +158,9 @@ void validate(const FilterConfig& config) {
                                             to_string(config.landmark_init)));
   validate(config.likelihood);
   if (!config.likelihood.robust() && config.likelihood.dof != MeasurementLikelihood{}.dof)
-    throw std::invalid_argument(fmt::format("likelihood_dof ({}) applies to the likelihood 'student-t', not 'gaussian'",
-                                            config.likelihood.dof));
+    throw std::invalid_argument(fmt::format(
+        "likelihood_dof ({}) applies to the likelihoods 'student-t' and 'student-t-long', not 'gaussian'",
+        config.likelihood.dof));
   if (const std::optional<Calibration>& c = config.range_calibration) {
     if (!(c->offset_std_m > 0.0 && c->offset_std_m <= 1e4))
       throw std::invalid_argument(

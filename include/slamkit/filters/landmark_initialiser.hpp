@@ -81,6 +81,10 @@ struct DelayedInitialisationOptions {
   /// left out as an outlier (at most a quarter of them), instead of the worst view being dropped for
   /// good whenever the best position fails the test.
   bool outliers_expected = false;
+  /// Set with outliers_expected where only ranges read long are outliers
+  /// (MeasurementLikelihood::outliers_read_long): a view whose range is read short of a candidate
+  /// position is never left out, so it counts against that position in full.
+  bool outliers_read_long = false;
 };
 
 /// Throws std::invalid_argument naming the first setting out of its range.

@@ -11,13 +11,21 @@
 // update uses R divided by it (one step of the variational scheme of Roth, Ozkan and Gustafsson,
 // 2013). It is never made smaller than R: an innovation that is close should not make the filter more
 // confident than its sensor, only a far one less.
+//
+// Multipath and a radio's non-line-of-sight path only ever lengthen a range, so such a sensor's
+// outliers are read long (student-t-long). Where an outlier is decided, in the delayed start's fit
+// (filters/landmark_initialiser.hpp), only a range read long may be left out: a range read short of a
+// candidate position is evidence against it. The filters' updates and FastSLAM's weights keep the
+// symmetric t: there an innovation is measured from a landmark estimate that the long ranges it has
+// already taken in may have pushed outwards, so a good range can look short of it.
 #include <string>
 
 namespace slamkit {
 
-enum class LikelihoodKind { kGaussian, kStudentT };
+enum class LikelihoodKind { kGaussian, kStudentT, kStudentTLong };
 
-/// "gaussian" or "student-t"; throws std::invalid_argument naming the accepted values otherwise.
+/// "gaussian", "student-t" or "student-t-long"; throws std::invalid_argument naming the accepted
+/// values otherwise.
 LikelihoodKind parse_likelihood_kind(const std::string& name);
 std::string to_string(LikelihoodKind kind);
 
@@ -27,7 +35,11 @@ struct MeasurementLikelihood {
   /// the Gaussian). 4 is common for robust filtering: it keeps 95% of a Gaussian's efficiency.
   double dof = 4.0;
 
-  bool robust() const { return kind == LikelihoodKind::kStudentT; }
+  /// Whether outliers are expected (either t).
+  bool robust() const { return kind != LikelihoodKind::kGaussian; }
+  /// Whether outliers are ranges read long (student-t-long), which needs a sensor that measures
+  /// range.
+  bool outliers_read_long() const { return kind == LikelihoodKind::kStudentTLong; }
   /// The factor R is multiplied by for an innovation at squared Mahalanobis distance m2 in d
   /// dimensions (1 for the Gaussian, or an m2 no greater than d).
   double noise_inflation(double m2, int d) const;
@@ -38,5 +50,9 @@ struct MeasurementLikelihood {
 
 /// Throws std::invalid_argument for degrees of freedom that are not positive and finite.
 void validate(const MeasurementLikelihood& likelihood);
+
+/// Throws std::invalid_argument if the likelihood takes outliers to be ranges read long and
+/// `model_name`'s measurement has no range (range_row < 0).
+void require_range_for(const MeasurementLikelihood& likelihood, int range_row, const std::string& model_name);
 
 }  // namespace slamkit
