@@ -127,6 +127,12 @@ TEST(SensorView, WidensAndNarrowsTheViewByItsMargins) {
   // A full circle, also when 360 degrees comes out a rounding error short of 2 pi, sees behind.
   const SensorView all_round(SensorLimits{20.0, 2.0 * kPi * (1.0 - 1e-15)}, -2.0, -0.1);
   EXPECT_TRUE(polar(all_round, Vector2(5.0, kPi)));
+  // Narrowing a view by a margin is the view made with the margin narrower still.
+  const SensorView narrowed = wide.narrowed(4.0, 0.2);
+  EXPECT_DOUBLE_EQ(narrowed.reach(), narrow.reach());
+  for (const Vector2& p : {at_edge, beyond, inside, Vector2(17.9, 0.5 * kPi - 0.11), Vector2(18.1, 0.0)})
+    EXPECT_EQ(polar(narrowed, p), polar(narrow, p)) << p.transpose();
+  EXPECT_TRUE(polar(all_round.narrowed(1.0, 3.0), Vector2(5.0, kPi))) << "a full circle stays one";
 }
 
 TEST(SensorView, JudgesALandmarkByWhereItIsWhateverTheSensorMeasures) {

@@ -88,9 +88,9 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
       relocalise_association(cfg.association) {
   if (!motion) throw std::invalid_argument("FastSLAM needs a motion and an observation model");
   require_searchable(config.association, *observation);
-  // The only models that place a landmark from one measurement are two-row today; a future one
-  // that is not would reach the two-row search.
-  if (!known() && observation->dim() != 2)
+  // The search for pairings, relocalisation's drift in measurement space and its view test read a
+  // measurement's range and bearing.
+  if (!known() && (observation->dim() != 2 || observation->rows().range < 0 || observation->rows().bearing < 0))
     throw std::invalid_argument("FastSLAM's search for pairings reads range and bearing; a " + observation->name() +
                                 " sensor needs association 'known'");
   dead_reckoning.pose = config.initial_pose;

@@ -402,15 +402,17 @@ template void FastSlam::Impl::update_particle<2>(std::size_t, const ScanEvent&);
 template void FastSlam::Impl::update_particle<3>(std::size_t, const ScanEvent&);
 
 bool FastSlam::Impl::expected_in_view(const Particle& p, const LandmarkGaussian& lm) const {
-  const Vector2 z = measurements.predict(p.pose, lm.mean);
-  if (!relocalising() || lm.last_seen >= window_start) return existence.detection_view().contains_polar(z[0], z[1]);
+  const SensorView& view = existence.detection_view();
+  if (!relocalising() || lm.last_seen >= window_start) return view.contains(*observation, p.pose, lm.mean);
   // Mapped before the window: the drift since may have put it anywhere within its reach of where the
   // particle predicts it, and at the return from a lap its misses there would remove it just before
   // relocalisation can pair it. It is expected only where the drift cannot have moved it out of view.
+  // (Relocalisation pairs landmarks, so its sensor measures range and bearing.)
   Matrix2 hm;
   const Matrix2 spread = drift_in_measurement(p, lm, hm);
   const Vector2 reach = std::sqrt(gates.accept) * spread.diagonal().cwiseMax(0.0).cwiseSqrt();
-  return existence.detection_view().contains_polar(z[0] + reach[0], std::abs(z[1]) + reach[1]);
+  const MeasuredRows rows = observation->rows();
+  return view.narrowed(reach[rows.range], reach[rows.bearing]).contains(*observation, p.pose, lm.mean);
 }
 
 void FastSlam::Impl::count_misses(Particle& p, Slot& s) const {

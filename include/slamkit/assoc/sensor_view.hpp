@@ -41,6 +41,15 @@ class SensorView {
   bool contains_polar(double range, double bearing) const {
     return range <= reach_ && (full_circle_ || std::abs(bearing) <= half_angle_);
   }
+  /// This view with its range shortened by `range` [m] and its half-angle narrowed by `bearing`
+  /// [rad] (a full circle stays one): where a landmark whose position relative to the sensor is
+  /// uncertain by that much is in view wherever it is.
+  SensorView narrowed(double range, double bearing) const {
+    SensorView out = *this;
+    out.reach_ -= range;
+    out.half_angle_ -= bearing;
+    return out;
+  }
   /// The largest range in view [m].
   double reach() const { return reach_; }
 
