@@ -532,11 +532,12 @@ int run_command(int argc, char** argv) {
   add_named_setting(run_cmd, "--likelihood", flag_settings, "/likelihood", parse_likelihood_kind,
                     "The measurement noise's shape: gaussian, student-t (heavy tails: an observation far from "
                     "its prediction, a radio's multipath range, is trusted less instead of pulling the estimate; "
-                    "the gate still rejects gross outliers), or student-t-long (heavy tails for ranges read long "
-                    "only, as multipath reads them; a range read short is not an outlier)",
+                    "the gate still rejects gross outliers), or student-t-long (the same, for a radio whose "
+                    "outliers are only ever read long: a landmark's delayed start leaves out only ranges read long)",
                     defaults.likelihood.kind);
   add_setting<double>(run_cmd, "--likelihood-dof", flag_settings, "/likelihood_dof",
-                      "With --likelihood student-t or student-t-long: its degrees of freedom (the smaller, the heavier its tails)",
+                      "With --likelihood student-t or student-t-long: its degrees of freedom (the smaller, the heavier "
+                      "its tails)",
                       fmt::format("{}", defaults.likelihood.dof))
       ->check(finite_number());
   // Association and map management: a file holding the keys run.json records under
