@@ -15,12 +15,12 @@ using namespace slamkit;
 
 /// Landmarks on a jittered lattice of 12 m pitch around the origin (about 20 within 30 m of any
 /// point), `n` of them, and a scan of what the vehicle at the origin sees.
-struct Scene {
+struct AssociationScene {
   std::unique_ptr<EkfSlam> ekf;
   ScanEvent scan;
 };
 
-Scene make_scene(int n, AssociationMethod method) {
+AssociationScene make_association_scene(int n, AssociationMethod method) {
   EkfSlamOptions options;
   options.association.method = method;
   options.sensor = SensorLimits{30.0, 2.0 * kPi};
@@ -29,7 +29,7 @@ Scene make_scene(int n, AssociationMethod method) {
   auto map = std::make_unique<JointGaussian>(std::make_shared<AckermannModel>(), std::make_shared<RangeBearingModel>(),
                                              Pose2::Zero(), options.initial_covariance);
   std::vector<int> ids;
-  Scene scene;
+  AssociationScene scene;
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> jitter(-3.0, 3.0);
   int added = 0;
@@ -50,7 +50,7 @@ Scene make_scene(int n, AssociationMethod method) {
 }
 
 void run(benchmark::State& state, AssociationMethod method) {
-  Scene scene = make_scene(static_cast<int>(state.range(0)), method);
+  AssociationScene scene = make_association_scene(static_cast<int>(state.range(0)), method);
   std::size_t paired = 0;
   for (auto _ : state) {
     const auto& pairings = scene.ekf->associate_scan(scene.scan);

@@ -20,7 +20,7 @@ using bench::cached_joint_gaussian;
 
 constexpr int kMaxLandmarks = 5000;
 
-void landmark_counts(benchmark::internal::Benchmark* b) {
+void ekf_landmark_counts(benchmark::internal::Benchmark* b) {
   for (const int n : {10, 30, 100, 300, 1000, 2000, kMaxLandmarks}) b->Arg(n);
 }
 
@@ -41,7 +41,7 @@ void BM_EkfObservationUpdate(benchmark::State& state) {
   state.counters["bandwidth"] = benchmark::Counter(lower_triangle_traffic(ekf.state_dim()) * static_cast<double>(state.iterations()),
                                                    benchmark::Counter::kIsRate);
 }
-BENCHMARK(BM_EkfObservationUpdate)->Apply(landmark_counts)->Complexity(benchmark::oNSquared);
+BENCHMARK(BM_EkfObservationUpdate)->Apply(ekf_landmark_counts)->Complexity(benchmark::oNSquared);
 
 // Per control: the vehicle block only. The map-vehicle cross-covariance takes the product of the
 // controls' Jacobians once, at the next update (part of the observation update's O(n) work).
@@ -52,7 +52,7 @@ void BM_EkfTimeUpdate(benchmark::State& state) {
   for (auto _ : state) ekf.predict(u, 0.025);
   state.SetComplexityN(n);
 }
-BENCHMARK(BM_EkfTimeUpdate)->Apply(landmark_counts)->Complexity(benchmark::o1);
+BENCHMARK(BM_EkfTimeUpdate)->Apply(ekf_landmark_counts)->Complexity(benchmark::o1);
 
 // A whole scan through EkfSlam::update with known identities: the 15 landmarks added last, which are
 // the ones near the vehicle, observed from where it stands (with the outlier gate of known
@@ -72,6 +72,6 @@ void BM_EkfScanUpdate(benchmark::State& state) {
   state.SetComplexityN(n);
   state.counters["observations"] = static_cast<double>(seen);
 }
-BENCHMARK(BM_EkfScanUpdate)->Apply(landmark_counts)->Complexity(benchmark::oNSquared)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_EkfScanUpdate)->Apply(ekf_landmark_counts)->Complexity(benchmark::oNSquared)->Unit(benchmark::kMillisecond);
 
 }  // namespace

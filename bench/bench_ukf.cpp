@@ -14,9 +14,9 @@ namespace {
 
 using namespace slamkit;
 
-constexpr int kObserved = 10;
+constexpr int kObservedPerScan = 10;
 
-void landmark_counts(benchmark::internal::Benchmark* b) {
+void gaussian_landmark_counts(benchmark::internal::Benchmark* b) {
   for (const int n : {10, 30, 100, 300, 1000, 2000}) b->Arg(n);
 }
 
@@ -43,7 +43,7 @@ template <typename Estimator>
 void BM_Step(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
   Estimator& f = cached_map<Estimator>(n);
-  const int seen = std::min(n, kObserved);
+  const int seen = std::min(n, kObservedPerScan);
   std::vector<LandmarkObservation> scan;
   for (int i = n - seen; i < n; ++i) scan.push_back({static_cast<std::size_t>(i), Vector2::Zero()});
   for (auto _ : state) {
@@ -59,7 +59,7 @@ void BM_Step(benchmark::State& state) {
   state.counters["observations"] = seen;
 }
 
-BENCHMARK(BM_Step<JointGaussian>)->Name("BM_GaussianStep/ekf")->Apply(landmark_counts)->Complexity(benchmark::oNSquared)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_Step<UnscentedJointGaussian>)->Name("BM_GaussianStep/ukf")->Apply(landmark_counts)->Complexity(benchmark::oNSquared)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Step<JointGaussian>)->Name("BM_GaussianStep/ekf")->Apply(gaussian_landmark_counts)->Complexity(benchmark::oNSquared)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Step<UnscentedJointGaussian>)->Name("BM_GaussianStep/ukf")->Apply(gaussian_landmark_counts)->Complexity(benchmark::oNSquared)->Unit(benchmark::kMicrosecond);
 
 }  // namespace

@@ -13,7 +13,7 @@ using namespace slamkit;
 
 namespace {
 
-Control control(double speed, double steer) {
+Control car_control(double speed, double steer) {
   Control u(2);
   u << speed, steer;
   return u;
@@ -28,7 +28,7 @@ Eigen::Vector2d rear_axle(const AcfrCarModel::Params& p, const Pose2& x) {
 
 TEST(AcfrCarModel, StraightDrivingMovesTheLaserAlongTheHeading) {
   const AcfrCarModel model;
-  const Pose2 next = model.predict(Pose2(1, 2, kPi / 2), control(4.0, 0.0), 0.5);
+  const Pose2 next = model.predict(Pose2(1, 2, kPi / 2), car_control(4.0, 0.0), 0.5);
   EXPECT_NEAR(next[0], 1.0, 1e-12);
   EXPECT_NEAR(next[1], 4.0, 1e-12);
   EXPECT_NEAR(next[2], kPi / 2, 1e-12);
@@ -53,7 +53,7 @@ TEST(AcfrCarModel, SmallStepsFollowTheRearAxlesCircle) {
   const int steps = 100000;  // 10 s
   Pose2 x(5.0, -1.0, 0.4);
   const Eigen::Vector2d start = rear_axle(p, x);
-  for (int i = 0; i < steps; ++i) x = model.predict(x, control(speed, steer), dt);
+  for (int i = 0; i < steps; ++i) x = model.predict(x, car_control(speed, steer), dt);
 
   // The axle centre turns about a fixed centre at radius L / tan(steer), at rate v_c tan(steer) / L.
   const double radius = p.wheelbase / std::tan(steer);
@@ -69,7 +69,7 @@ TEST(AcfrCarModel, ControlNoiseIsConstantAndDiagonal) {
   p.sigma_speed = 0.5;
   p.sigma_steer = deg2rad(2.0);
   const AcfrCarModel model(p);
-  const ControlCovariance m = model.control_noise(control(3.0, 0.1), 0.025);
+  const ControlCovariance m = model.control_noise(car_control(3.0, 0.1), 0.025);
   ASSERT_EQ(m.rows(), 2);
   EXPECT_DOUBLE_EQ(m(0, 0), 0.25);
   EXPECT_DOUBLE_EQ(m(1, 1), deg2rad(2.0) * deg2rad(2.0));

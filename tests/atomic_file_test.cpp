@@ -17,18 +17,14 @@
 
 #include "slamkit/core/atomic_folder.hpp"
 #include "slamkit/core/error.hpp"
+#include "test_data.hpp"
+
+using slamkit::test_data::read_text;
 
 namespace slamkit {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string read(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 class AtomicFileTest : public ::testing::Test {
  protected:
@@ -50,10 +46,10 @@ TEST_F(AtomicFileTest, CommitReplacesTheFileAndLeavesNoTemporary) {
   {
     AtomicFile file(path.string());
     file.stream() << "new\n";
-    EXPECT_EQ(read(path), "old\n") << "the final name holds the old file until commit";
+    EXPECT_EQ(read_text(path), "old\n") << "the final name holds the old file until commit";
     file.commit();
   }
-  EXPECT_EQ(read(path), "new\n");
+  EXPECT_EQ(read_text(path), "new\n");
   EXPECT_EQ(files(), 1u);
 }
 
@@ -66,7 +62,7 @@ TEST_F(AtomicFileTest, AWriteThatFailsHalfWayLeavesThePreviousFile) {
     throw std::runtime_error("interrupted");
   } catch (const std::runtime_error&) {
   }
-  EXPECT_EQ(read(path), "complete\n");
+  EXPECT_EQ(read_text(path), "complete\n");
   EXPECT_EQ(files(), 1u) << "the temporary is removed";
 }
 
@@ -103,10 +99,10 @@ TEST_F(AtomicFolderTest, CommitReplacesTheWholeFolder) {
     AtomicFolder folder(folder_, "run.json");
     EXPECT_NE(folder.path(), folder_);
     write_file_atomically(folder.path() + "/run.json", "new");
-    EXPECT_EQ(read(fs::path(folder_) / "run.json"), "old") << "the folder keeps the old run until commit";
+    EXPECT_EQ(read_text(fs::path(folder_) / "run.json"), "old") << "the folder keeps the old run until commit";
     folder.commit();
   }
-  EXPECT_EQ(read(fs::path(folder_) / "run.json"), "new");
+  EXPECT_EQ(read_text(fs::path(folder_) / "run.json"), "new");
   EXPECT_FALSE(fs::exists(fs::path(folder_) / "map.txt")) << "nothing of the old run beside the new";
   EXPECT_FALSE(fs::exists(fs::path(folder_) / "extra.svg"));
   EXPECT_EQ(files(), 1u) << "no staging folder, old folder or lock file left";
@@ -120,8 +116,8 @@ TEST_F(AtomicFolderTest, AWriterThatFailsHalfWayLeavesThePreviousFolder) {
     throw std::runtime_error("disk full");
   } catch (const std::runtime_error&) {
   }
-  EXPECT_EQ(read(fs::path(folder_) / "run.json"), "old");
-  EXPECT_EQ(read(fs::path(folder_) / "map.txt"), "old");
+  EXPECT_EQ(read_text(fs::path(folder_) / "run.json"), "old");
+  EXPECT_EQ(read_text(fs::path(folder_) / "map.txt"), "old");
   EXPECT_EQ(files(), 1u);
 }
 
@@ -148,7 +144,7 @@ TEST_F(AtomicFolderTest, AFolderThatIsNotOneOfOursIsRefused) {
   fs::create_directories(folder_);
   std::ofstream(fs::path(folder_) / "notes.txt") << "mine";
   EXPECT_THROW(AtomicFolder(folder_, "run.json"), InputError);
-  EXPECT_EQ(read(fs::path(folder_) / "notes.txt"), "mine");
+  EXPECT_EQ(read_text(fs::path(folder_) / "notes.txt"), "mine");
   const std::string file = (dir_ / "a-file").string();
   std::ofstream(file) << "not a folder";
   EXPECT_THROW(AtomicFolder(file, "run.json"), InputError);
@@ -161,7 +157,7 @@ TEST_F(AtomicFolderTest, AFolderLeftAsideByAKilledWriterComesBack) {
   write_whole("old");
   fs::rename(folder_, folder_ + ".old-4000001");
   { AtomicFolder next(folder_, "run.json"); }  // starts, then fails before commit
-  EXPECT_EQ(read(fs::path(folder_) / "run.json"), "old");
+  EXPECT_EQ(read_text(fs::path(folder_) / "run.json"), "old");
   EXPECT_EQ(files(), 1u);
 }
 
@@ -214,7 +210,7 @@ TEST_F(AtomicFolderTest, AKilledWritersLockDiesWithItAndItsLeftoversAreCleared) 
   EXPECT_TRUE(fs::exists(folder_ + ".lock"));
 
   write_whole("new");
-  EXPECT_EQ(read(fs::path(folder_) / "run.json"), "new");
+  EXPECT_EQ(read_text(fs::path(folder_) / "run.json"), "new");
   EXPECT_EQ(files(), 1u) << "the killed writer's staging folder and lock file are gone";
 }
 

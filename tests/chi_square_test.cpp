@@ -13,7 +13,7 @@ using namespace slamkit::eval;
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 struct QuantileCase {
   double p;
@@ -93,13 +93,13 @@ TEST(ChiSquareQuantile, IncreasesWithProbability) {
 
 TEST(ChiSquareQuantile, EdgeProbabilitiesAndInvalidArguments) {
   EXPECT_EQ(chi_square_quantile(0.0, 3), 0.0);
-  EXPECT_EQ(chi_square_quantile(1.0, 3), kInf);
+  EXPECT_EQ(chi_square_quantile(1.0, 3), kInfinity);
   EXPECT_THROW(chi_square_quantile(-0.1, 3), std::invalid_argument);
   EXPECT_THROW(chi_square_quantile(1.1, 3), std::invalid_argument);
   EXPECT_THROW(chi_square_quantile(std::nan(""), 3), std::invalid_argument);
   EXPECT_THROW(chi_square_quantile(0.5, 0), std::invalid_argument);
   EXPECT_THROW(chi_square_quantile(0.5, -2), std::invalid_argument);
-  EXPECT_THROW(chi_square_quantile(0.5, kInf), std::invalid_argument);
+  EXPECT_THROW(chi_square_quantile(0.5, kInfinity), std::invalid_argument);
   EXPECT_THROW(chi_square_quantile(0.5, 1e11), std::invalid_argument);
 }
 
@@ -131,7 +131,7 @@ TEST(ChiSquareCdf, MatchesClosedForms) {
 TEST(ChiSquareCdf, EdgeArguments) {
   EXPECT_EQ(chi_square_cdf(0.0, 3), 0.0);
   EXPECT_EQ(chi_square_cdf(-1.0, 3), 0.0);
-  EXPECT_EQ(chi_square_cdf(kInf, 3), 1.0);
+  EXPECT_EQ(chi_square_cdf(kInfinity, 3), 1.0);
   EXPECT_TRUE(std::isnan(chi_square_cdf(std::nan(""), 3)));
   EXPECT_THROW(chi_square_cdf(1.0, 0.0), std::invalid_argument);
   EXPECT_THROW(chi_square_cdf(1.0, std::nan("")), std::invalid_argument);
@@ -146,7 +146,7 @@ TEST(ChiSquareInterval, TwoSidedWithEqualTails) {
   EXPECT_TRUE(i.contains(i.hi));
   EXPECT_FALSE(i.contains(0.1));
   EXPECT_FALSE(i.contains(10.0));
-  EXPECT_FALSE(i.contains(kInf));
+  EXPECT_FALSE(i.contains(kInfinity));
   EXPECT_THROW(chi_square_interval(0.0, 3), std::invalid_argument);
   EXPECT_THROW(chi_square_interval(1.0, 3), std::invalid_argument);
 }

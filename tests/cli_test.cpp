@@ -16,6 +16,10 @@
 #include <vector>
 
 #include "sanitizers.hpp"
+#include "test_data.hpp"
+
+using slamkit::test_data::read_json;
+using slamkit::test_data::read_text;
 
 namespace fs = std::filesystem;
 
@@ -29,7 +33,7 @@ struct Result {
 
 /// Runs the slamkit binary with `args` (shell-quoted by the caller), capturing stdout and stderr; in
 /// the folder `cwd` if given, after the shell text `prefix` (a ulimit, a timeout).
-Result slamkit(const std::string& args, const fs::path& work, const fs::path& cwd = {}, const std::string& prefix = {}) {
+Result slamkit_cli(const std::string& args, const fs::path& work, const fs::path& cwd = {}, const std::string& prefix = {}) {
   const fs::path err_file = work / "stderr.txt";
   const std::string command = (cwd.empty() ? "" : "cd " + cwd.string() + " && ") + prefix + std::string(SLAMKIT_CLI) +
                               " " + args + " 2>" + err_file.string();
@@ -66,7 +70,7 @@ class Cli : public ::testing::Test {
     work_ = new fs::path(fs::temp_directory_path() / ("slamkit_cli_test_" + std::to_string(getpid())));
     fs::remove_all(*work_);
     fs::create_directories(*work_);
-    const Result sim = slamkit("simulate --seed 3 --out " + (*work_ / "sim").string(), *work_);
+    const Result sim = slamkit_cli("simulate --seed 3 --out " + (*work_ / "sim").string(), *work_);
     ASSERT_EQ(sim.exit_code, 0) << sim.err;
   }
   static void TearDownTestSuite() {
@@ -88,7 +92,7 @@ fs::path* Cli::work_ = nullptr;
 
 TEST_F(Cli, RunWritesResultsAndSlamBeatsDeadReckoning) {
   const fs::path out = *work_ / "ekf";
-  const Result r = slamkit("run --filter ekf --data sim:" + (*work_ / "sim").string() + " --out " + out.string(), *work_);
+  const Result r = slamkit_cli("run --filter ekf --data sim:" + (*work_ / "sim").string() + " --out " + out.string(), *work_);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("ATE RMSE"), std::string::npos);
   for (const char* f : {"trajectory.tum", "pose_covariance.txt", "dead_reckoning.tum", "map.txt",
@@ -105,7 +109,7 @@ TEST_F(Cli, RunWritesResultsAndSlamBeatsDeadReckoning) {
   EXPECT_LT(m["map_rmse_m"].get<double>(), 0.5);
 
   // evaluate recomputes the same numbers from the files alone.
-  const Result e = slamkit("evaluate " + out.string(), *work_);
+  const Result e = slamkit_cli("evaluate " + out.string(), *work_);
   ASSERT_EQ(e.exit_code, 0) << e.err;
   std::ifstream in2(out / "metrics.json");
   const auto m2 = nlohmann::json::parse(in2);
@@ -123,7 +127,7 @@ TEST_F(Cli, UkfAndConsistentVariantsRunAndPlotNees) {
   for (const char* filter : {"--filter ukf", "--filter ekf --ekf-variant fej", "--filter ekf --ekf-variant invariant",
                              "--filter ekf --ekf-variant invariant --ekf-update iterated"}) {
     const fs::path out = *work_ / ("consistent-" + std::to_string(++run));
-    const Result r = slamkit("run " + std::string(filter) + data + " --out " + out.string(), *work_);
+    const Result r = slamkit_cli("run " + std::string(filter) + data + " --out " + out.string(), *work_);
     ASSERT_EQ(r.exit_code, 0) << filter << ": " << r.err;
     EXPECT_TRUE(fs::exists(out / "nees.svg")) << filter;
     std::ifstream in(out / "metrics.json");
@@ -133,7 +137,7 @@ TEST_F(Cli, UkfAndConsistentVariantsRunAndPlotNees) {
     dirs += " " + out.string();
   }
   const fs::path svg = *work_ / "nees_mc.svg";
-  const Result p = slamkit("plot-nees" + dirs + " --out " + svg.string(), *work_);
+  const Result p = slamkit_cli("plot-nees" + dirs + " --out " + svg.string(), *work_);
   ASSERT_EQ(p.exit_code, 0) << p.err;
   std::ifstream in(svg);
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -141,7 +145,7 @@ TEST_F(Cli, UkfAndConsistentVariantsRunAndPlotNees) {
 }
 
 TEST_F(Cli, SameSeedSameLog) {
-  const Result a = slamkit("simulate --seed 3 --out " + (*work_ / "again").string(), *work_);
+  const Result a = slamkit_cli("simulate --seed 3 --out " + (*work_ / "again").string(), *work_);
   ASSERT_EQ(a.exit_code, 0);
   std::ifstream x(*work_ / "sim" / "events.txt"), y(*work_ / "again" / "events.txt");
   std::stringstream sx, sy;
@@ -152,14 +156,14 @@ TEST_F(Cli, SameSeedSameLog) {
 
 TEST_F(Cli, EveryCommandHasHelp) {
   for (const char* cmd : {"", "simulate", "make-world", "run", "evaluate"}) {
-    const Result r = slamkit(std::string(cmd) + " --help", *work_);
+    const Result r = slamkit_cli(std::string(cmd) + " --help", *work_);
     EXPECT_EQ(r.exit_code, 0) << cmd;
     EXPECT_NE(r.out.find("--help"), std::string::npos) << cmd;
   }
 }
 
 TEST_F(Cli, MissingDatasetIsOneLineError) {
-  const Result r = slamkit("run --filter ekf --data sim:/nonexistent/log --out " + (*work_ / "x").string(), *work_);
+  const Result r = slamkit_cli("run --filter ekf --data sim:/nonexistent/log --out " + (*work_ / "x").string(), *work_);
   EXPECT_NE(r.exit_code, 0);
   EXPECT_EQ(count_lines(r.err), 1u) << r.err;
   EXPECT_NE(r.err.find("/nonexistent/log"), std::string::npos) << r.err;
@@ -168,7 +172,7 @@ TEST_F(Cli, MissingDatasetIsOneLineError) {
 TEST_F(Cli, MalformedLineNamesFileAndLine) {
   const fs::path log = copy_of_log("malformed");
   replace_line(log / "events.txt", 40, "control 1.0 oops");
-  const Result r = slamkit("run --filter ekf --data sim:" + log.string() + " --out " + (*work_ / "y").string(), *work_);
+  const Result r = slamkit_cli("run --filter ekf --data sim:" + log.string() + " --out " + (*work_ / "y").string(), *work_);
   EXPECT_NE(r.exit_code, 0);
   EXPECT_EQ(count_lines(r.err), 1u) << r.err;
   EXPECT_NE(r.err.find("events.txt:40:"), std::string::npos) << r.err;
@@ -185,7 +189,7 @@ TEST_F(Cli, NanValueIsRejected) {
   }
   in.close();
   replace_line(log / "events.txt", target, "obs 0.2 5 nan 0.1");
-  const Result r = slamkit("run --filter ekf --data sim:" + log.string() + " --out " + (*work_ / "z").string(), *work_);
+  const Result r = slamkit_cli("run --filter ekf --data sim:" + log.string() + " --out " + (*work_ / "z").string(), *work_);
   EXPECT_NE(r.exit_code, 0);
   EXPECT_EQ(count_lines(r.err), 1u) << r.err;
   EXPECT_NE(r.err.find("events.txt:" + std::to_string(target) + ":"), std::string::npos) << r.err;
@@ -193,32 +197,32 @@ TEST_F(Cli, NanValueIsRejected) {
 }
 
 TEST_F(Cli, UnknownOptionFilterAndDatasetKind) {
-  const Result opt = slamkit("run --data sim:" + (*work_ / "sim").string() + " --out " + (*work_ / "w").string() +
+  const Result opt = slamkit_cli("run --data sim:" + (*work_ / "sim").string() + " --out " + (*work_ / "w").string() +
                                  " --bogus 1",
                              *work_);
   EXPECT_EQ(opt.exit_code, 2);
   EXPECT_EQ(count_lines(opt.err), 1u) << opt.err;
   EXPECT_NE(opt.err.find("--bogus"), std::string::npos) << opt.err;
   EXPECT_NE(opt.err.find("slamkit run --help"), std::string::npos) << opt.err;
-  const Result missing = slamkit("run --filter ekf", *work_);
+  const Result missing = slamkit_cli("run --filter ekf", *work_);
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_NE(missing.err.find("--data is required"), std::string::npos) << missing.err;
 
-  const Result filter = slamkit("run --filter nope --data sim:" + (*work_ / "sim").string() + " --out " +
+  const Result filter = slamkit_cli("run --filter nope --data sim:" + (*work_ / "sim").string() + " --out " +
                                     (*work_ / "w").string(), *work_);
   EXPECT_EQ(filter.exit_code, 2);
   EXPECT_NE(filter.err.find("unknown filter 'nope'"), std::string::npos) << filter.err;
 
-  const Result kind = slamkit("run --data tape:/x --out " + (*work_ / "w").string(), *work_);
+  const Result kind = slamkit_cli("run --data tape:/x --out " + (*work_ / "w").string(), *work_);
   EXPECT_EQ(kind.exit_code, 2);
   EXPECT_NE(kind.err.find("unknown dataset kind 'tape'"), std::string::npos) << kind.err;
 
-  const Result no_cmd = slamkit("", *work_);
+  const Result no_cmd = slamkit_cli("", *work_);
   EXPECT_EQ(no_cmd.exit_code, 2);
 }
 
 TEST_F(Cli, EvaluateRejectsAFolderThatIsNotARun) {
-  const Result r = slamkit("evaluate " + (*work_ / "sim").string(), *work_);
+  const Result r = slamkit_cli("evaluate " + (*work_ / "sim").string(), *work_);
   EXPECT_NE(r.exit_code, 0);
   EXPECT_EQ(count_lines(r.err), 1u) << r.err;
   EXPECT_NE(r.err.find("run.json"), std::string::npos) << r.err;
@@ -226,24 +230,24 @@ TEST_F(Cli, EvaluateRejectsAFolderThatIsNotARun) {
 
 TEST_F(Cli, MakeWorldThenSimulateIt) {
   const fs::path world = *work_ / "big.world";
-  const Result w = slamkit("make-world --landmarks 400 --width 300 --height 200 --out " + world.string(), *work_);
+  const Result w = slamkit_cli("make-world --landmarks 400 --width 300 --height 200 --out " + world.string(), *work_);
   ASSERT_EQ(w.exit_code, 0) << w.err;
-  const Result s = slamkit("simulate --loops 1 --world " + world.string() + " --out " + (*work_ / "big").string(), *work_);
+  const Result s = slamkit_cli("simulate --loops 1 --world " + world.string() + " --out " + (*work_ / "big").string(), *work_);
   ASSERT_EQ(s.exit_code, 0) << s.err;
   EXPECT_NE(s.out.find("400 landmarks"), std::string::npos) << s.out;
 }
 
 TEST_F(Cli, UnknownAssociationOnALogWithoutIds) {
   const fs::path log = *work_ / "noids";
-  const Result s = slamkit("simulate --scenario cluttered --out " + log.string(), *work_);
+  const Result s = slamkit_cli("simulate --scenario cluttered --out " + log.string(), *work_);
   ASSERT_EQ(s.exit_code, 0) << s.err;
-  const Result known = slamkit("run --data sim:" + log.string() + " --out " + (*work_ / "k").string(), *work_);
+  const Result known = slamkit_cli("run --data sim:" + log.string() + " --out " + (*work_ / "k").string(), *work_);
   EXPECT_NE(known.exit_code, 0);
   EXPECT_EQ(count_lines(known.err), 1u) << known.err;
   EXPECT_NE(known.err.find("--assoc nn"), std::string::npos) << known.err;
 
   const fs::path out = *work_ / "jcbb";
-  const Result r = slamkit("run --assoc jcbb --data sim:" + log.string() + " --out " + out.string(), *work_);
+  const Result r = slamkit_cli("run --assoc jcbb --data sim:" + log.string() + " --out " + out.string(), *work_);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::ifstream in(out / "metrics.json");
   const auto m = nlohmann::json::parse(in);
@@ -254,7 +258,7 @@ TEST_F(Cli, UnknownAssociationOnALogWithoutIds) {
   EXPECT_EQ(m["landmarks_true_seen"], 100);
   EXPECT_TRUE(fs::exists(out / "associations.txt"));
 
-  const Result e = slamkit("evaluate " + out.string(), *work_);
+  const Result e = slamkit_cli("evaluate " + out.string(), *work_);
   ASSERT_EQ(e.exit_code, 0) << e.err;
   std::ifstream in2(out / "metrics.json");
   const auto m2 = nlohmann::json::parse(in2);
@@ -263,7 +267,7 @@ TEST_F(Cli, UnknownAssociationOnALogWithoutIds) {
 
   // FastSLAM runs the same JCBB, per particle.
   const fs::path particles = *work_ / "fastslam-jcbb";
-  const Result f = slamkit("run --filter fastslam2 --particles 10 --assoc jcbb --data sim:" + log.string() +
+  const Result f = slamkit_cli("run --filter fastslam2 --particles 10 --assoc jcbb --data sim:" + log.string() +
                                " --out " + particles.string(),
                            *work_);
   ASSERT_EQ(f.exit_code, 0) << f.err;
@@ -273,14 +277,14 @@ TEST_F(Cli, UnknownAssociationOnALogWithoutIds) {
   EXPECT_GT(m3["jcbb_nodes"].get<double>(), 0.0);
   EXPECT_GT(m3["association_correct"].get<double>(), 1000.0);
 
-  const Result bad = slamkit("run --assoc fuzzy --data sim:" + log.string() + " --out " + out.string(), *work_);
+  const Result bad = slamkit_cli("run --assoc fuzzy --data sim:" + log.string() + " --out " + out.string(), *work_);
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("unknown association 'fuzzy'"), std::string::npos) << bad.err;
 }
 
 TEST_F(Cli, FastSlamRunWritesParticlesAndItsStatistics) {
   const fs::path out = *work_ / "fastslam2";
-  const Result r = slamkit("run --filter fastslam2 --particles 20 --resample residual --resample-when every:5 --data sim:" +
+  const Result r = slamkit_cli("run --filter fastslam2 --particles 20 --resample residual --resample-when every:5 --data sim:" +
                                (*work_ / "sim").string() + " --out " + out.string(),
                            *work_);
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -293,10 +297,10 @@ TEST_F(Cli, FastSlamRunWritesParticlesAndItsStatistics) {
   EXPECT_TRUE(m.contains("ess_mean"));
   EXPECT_TRUE(m.contains("resamples"));
   EXPECT_LT(m["ate_rmse_m"].get<double>(), 0.5 * m["dead_reckoning_ate_rmse_m"].get<double>());
-  const Result e = slamkit("evaluate " + out.string(), *work_);
+  const Result e = slamkit_cli("evaluate " + out.string(), *work_);
   ASSERT_EQ(e.exit_code, 0) << e.err;
 
-  const Result bad = slamkit("run --filter fastslam1 --resample-when sometimes --data sim:" + (*work_ / "sim").string() +
+  const Result bad = slamkit_cli("run --filter fastslam1 --resample-when sometimes --data sim:" + (*work_ / "sim").string() +
                                  " --out " + out.string(),
                              *work_);
   EXPECT_EQ(bad.exit_code, 2);
@@ -306,7 +310,7 @@ TEST_F(Cli, FastSlamRunWritesParticlesAndItsStatistics) {
 
 TEST_F(Cli, RunsTheShippedCourseExample) {
   const fs::path out = *work_ / "course";
-  const Result r = slamkit("run --data course:" + (fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course").string() +
+  const Result r = slamkit_cli("run --data course:" + (fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course").string() +
                                " --out " + out.string(),
                            *work_);
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -321,7 +325,7 @@ TEST_F(Cli, DatasetSettingsFileIsUsedAndChecked) {
   const fs::path course = fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course";
   const fs::path shipped = fs::path(SLAMKIT_SOURCE_DIR) / "config" / "course.json";
   const fs::path out = *work_ / "course-settings";
-  const Result r = slamkit("run --data course:" + course.string() + " --data-config " + shipped.string() + " --out " +
+  const Result r = slamkit_cli("run --data course:" + course.string() + " --data-config " + shipped.string() + " --out " +
                                out.string(),
                            *work_);
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -330,7 +334,7 @@ TEST_F(Cli, DatasetSettingsFileIsUsedAndChecked) {
 
   const fs::path bad = *work_ / "bad-settings.json";
   std::ofstream(bad) << "{\"sigma_range_m\": 0.2, \"bogus\": 1}\n";
-  const Result b = slamkit("run --data course:" + course.string() + " --data-config " + bad.string() + " --out " +
+  const Result b = slamkit_cli("run --data course:" + course.string() + " --data-config " + bad.string() + " --out " +
                                out.string(),
                            *work_);
   EXPECT_NE(b.exit_code, 0);
@@ -350,7 +354,7 @@ TEST_F(Cli, ARunWhoseGateRejectsMostIdentifiedObservationsWarns) {
   const fs::path tight = *work_ / "course-overconfident.json";
   std::ofstream(tight) << settings.dump();
   const fs::path out = *work_ / "course-lost";
-  const Result lost = slamkit("run --data course:" + course.string() + " --data-config " + tight.string() +
+  const Result lost = slamkit_cli("run --data course:" + course.string() + " --data-config " + tight.string() +
                                   " --out " + out.string() + " --quiet",
                               *work_);
   ASSERT_EQ(lost.exit_code, 0) << lost.err;
@@ -362,7 +366,7 @@ TEST_F(Cli, ARunWhoseGateRejectsMostIdentifiedObservationsWarns) {
   EXPECT_TRUE(metrics.contains("known_id_lost_at_s"));
   EXPECT_TRUE(metrics.contains("known_id_rejected_fraction_tenth_10"));
 
-  const Result fine = slamkit("run --data course:" + course.string() + " --out " + (*work_ / "course-fine").string() +
+  const Result fine = slamkit_cli("run --data course:" + course.string() + " --out " + (*work_ / "course-fine").string() +
                                   " --quiet",
                               *work_);
   ASSERT_EQ(fine.exit_code, 0) << fine.err;
@@ -370,7 +374,7 @@ TEST_F(Cli, ARunWhoseGateRejectsMostIdentifiedObservationsWarns) {
 }
 
 TEST_F(Cli, CalibrateWritesMrclamSettingsThatRunReads) {
-  // Where test_data::shared_dataset looks (its header's namespace would hide this file's slamkit()).
+  // Where test_data::shared_dataset looks (its header's namespace would hide this file's slamkit_cli()).
   const char* data = std::getenv("SLAMKIT_DATA");
   const fs::path dataset = (data != nullptr && *data != '\0' ? fs::path(data)
                                                               : fs::path(SLAMKIT_SOURCE_DIR) / ".." / "shared" / "datasets") /
@@ -379,7 +383,7 @@ TEST_F(Cli, CalibrateWritesMrclamSettingsThatRunReads) {
   const fs::path settings = *work_ / "calibrated.json", report = *work_ / "calibration-report.json";
   const std::string robot4 = "mrclam:" + dataset.string() + ":robot4";
   const Result c =
-      slamkit("calibrate --data " + robot4 + " --out " + settings.string() + " --report " + report.string(), *work_);
+      slamkit_cli("calibrate --data " + robot4 + " --out " + settings.string() + " --report " + report.string(), *work_);
   ASSERT_EQ(c.exit_code, 0) << c.err;
   EXPECT_NE(c.out.find("command delay"), std::string::npos) << c.out;
   std::ifstream in(settings);
@@ -390,12 +394,12 @@ TEST_F(Cli, CalibrateWritesMrclamSettingsThatRunReads) {
   EXPECT_EQ(written["fov_deg"], 70.0);  // kept from the settings the log was read with
   std::ifstream report_in(report);
   EXPECT_EQ(nlohmann::json::parse(report_in)["motion_by_horizon"].size(), 7u);
-  const Result run = slamkit("run --data " + robot4 + " --data-config " + settings.string() + " --out " +
+  const Result run = slamkit_cli("run --data " + robot4 + " --data-config " + settings.string() + " --out " +
                                  (*work_ / "calibrated-run").string() + " --quiet",
                              *work_);
   EXPECT_EQ(run.exit_code, 0) << run.err;
 
-  const Result wrong = slamkit("calibrate --data sim:" + (*work_ / "sim").string() + " --out " + settings.string(), *work_);
+  const Result wrong = slamkit_cli("calibrate --data sim:" + (*work_ / "sim").string() + " --out " + settings.string(), *work_);
   EXPECT_EQ(wrong.exit_code, 2);
   EXPECT_NE(wrong.err.find("expected --data mrclam:DIR:robotN"), std::string::npos) << wrong.err;
 }
@@ -430,14 +434,14 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
       {"--confirmed-max-misses -1", "--confirmed-max-misses: expected an integer >= 0, found -1"},
   };
   for (const auto& c : cases) {
-    const Result r = slamkit("run " + std::string(c.options) + rest, *work_);
+    const Result r = slamkit_cli("run " + std::string(c.options) + rest, *work_);
     EXPECT_EQ(r.exit_code, 2) << c.options << ": " << r.err;
     EXPECT_EQ(count_lines(r.err), 1u) << r.err;
     EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("slamkit run --help"), std::string::npos) << r.err;
   }
   // With valid settings the same command fails on the data instead.
-  const Result data = slamkit("run --filter fastslam1 --particles 5" + rest, *work_);
+  const Result data = slamkit_cli("run --filter fastslam1 --particles 5" + rest, *work_);
   EXPECT_EQ(data.exit_code, 1) << data.err;
   EXPECT_NE(data.err.find("/nonexistent/log"), std::string::npos) << data.err;
 }
@@ -454,7 +458,7 @@ TEST_F(Cli, NumericRangesAreStatedInWords) {
       {"make-world --landmarks 0 --out x", "--landmarks: expected an integer >= 1, found 0"},
   };
   for (const auto& c : cases) {
-    const Result r = slamkit(c.command, *work_);
+    const Result r = slamkit_cli(c.command, *work_);
     EXPECT_EQ(r.exit_code, 2) << c.command << ": " << r.err;
     EXPECT_EQ(count_lines(r.err), 1u) << r.err;
     EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
@@ -466,7 +470,7 @@ TEST_F(Cli, CompressedEkfTakesJointAndSequentialUpdates) {
   // The compressed EKF updates a scan jointly too (it used to warn that it ignored the setting).
   const std::string data = " --data sim:" + (*work_ / "sim").string() + " --out " + (*work_ / "compressed").string();
   for (const char* update : {"joint", "sequential"}) {
-    const Result run = slamkit(std::string("run --ekf-variant compressed --ekf-update ") + update + data, *work_);
+    const Result run = slamkit_cli(std::string("run --ekf-variant compressed --ekf-update ") + update + data, *work_);
     ASSERT_EQ(run.exit_code, 0) << run.err;
     EXPECT_EQ(run.err, "") << update;
   }
@@ -475,7 +479,7 @@ TEST_F(Cli, CompressedEkfTakesJointAndSequentialUpdates) {
 TEST_F(Cli, SettingsFilesWithANumberBeyondADoubleNameTheFileAndLine) {
   const fs::path config = *work_ / "huge.json";
   std::ofstream(config) << "{\n  \"speed_mps\": 2,\n  \"wheelbase_m\": 1e400\n}\n";
-  const Result sim = slamkit("simulate --config " + config.string() + " --out " + (*work_ / "huge").string(), *work_);
+  const Result sim = slamkit_cli("simulate --config " + config.string() + " --out " + (*work_ / "huge").string(), *work_);
   EXPECT_EQ(sim.exit_code, 1);
   EXPECT_EQ(count_lines(sim.err), 1u) << sim.err;
   EXPECT_NE(sim.err.find(config.string() + ":3: "), std::string::npos) << sim.err;
@@ -483,7 +487,7 @@ TEST_F(Cli, SettingsFilesWithANumberBeyondADoubleNameTheFileAndLine) {
 
   const fs::path settings = *work_ / "huge-course.json";
   std::ofstream(settings) << "{\"max_range_m\": -1e400}\n";
-  const Result run = slamkit("run --data course:" + (fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course").string() +
+  const Result run = slamkit_cli("run --data course:" + (fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course").string() +
                                  " --data-config " + settings.string() + " --out " + (*work_ / "never").string(),
                              *work_);
   EXPECT_EQ(run.exit_code, 1);
@@ -491,14 +495,6 @@ TEST_F(Cli, SettingsFilesWithANumberBeyondADoubleNameTheFileAndLine) {
   EXPECT_NE(run.err.find(settings.string() + ":1: "), std::string::npos) << run.err;
 }
 
-std::string read_file(const fs::path& file) {
-  std::ifstream in(file);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-nlohmann::json read_json(const fs::path& file) { return nlohmann::json::parse(read_file(file)); }
 
 TEST_F(Cli, RunJsonRepeatsTheRunBitForBitFromAnotherFolder) {
   // A run given relative paths and a settings file, then repeated from elsewhere after the settings
@@ -508,8 +504,8 @@ TEST_F(Cli, RunJsonRepeatsTheRunBitForBitFromAnotherFolder) {
   fs::create_directories(first);
   fs::create_directories(second);
   fs::copy(fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course", first / "course", fs::copy_options::recursive);
-  std::ofstream(first / "settings.json") << read_file(fs::path(SLAMKIT_SOURCE_DIR) / "config" / "course.json");
-  const Result run = slamkit("run --filter fastslam2 --particles 15 --seed 5 --assoc nn --resample-when every:2 "
+  std::ofstream(first / "settings.json") << read_text(fs::path(SLAMKIT_SOURCE_DIR) / "config" / "course.json");
+  const Result run = slamkit_cli("run --filter fastslam2 --particles 15 --seed 5 --assoc nn --resample-when every:2 "
                              "--pose-sample-fraction 0.5 --data course:course --data-config settings.json --out r --quiet",
                              *work_, first);
   ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -529,10 +525,10 @@ TEST_F(Cli, RunJsonRepeatsTheRunBitForBitFromAnotherFolder) {
   EXPECT_FALSE(info.at("slamkit_version").get<std::string>().empty());
   EXPECT_EQ(info.at("command_line").at(1), "run");
 
-  const Result repeat = slamkit("run --config " + (first / "r" / "run.json").string() + " --out r", *work_, second);
+  const Result repeat = slamkit_cli("run --config " + (first / "r" / "run.json").string() + " --out r", *work_, second);
   ASSERT_EQ(repeat.exit_code, 0) << repeat.err;
-  EXPECT_EQ(read_file(first / "r" / "trajectory.tum"), read_file(second / "r" / "trajectory.tum"));
-  EXPECT_EQ(read_file(first / "r" / "map.txt"), read_file(second / "r" / "map.txt"));
+  EXPECT_EQ(read_text(first / "r" / "trajectory.tum"), read_text(second / "r" / "trajectory.tum"));
+  EXPECT_EQ(read_text(first / "r" / "map.txt"), read_text(second / "r" / "map.txt"));
   nlohmann::json a = read_json(first / "r" / "metrics.json"), b = read_json(second / "r" / "metrics.json");
   a.erase("wall_time_s");
   b.erase("wall_time_s");
@@ -540,15 +536,15 @@ TEST_F(Cli, RunJsonRepeatsTheRunBitForBitFromAnotherFolder) {
   EXPECT_EQ(read_json(second / "r" / "run.json").at("settings"), info.at("settings"));
 
   // The folder evaluates from anywhere, and settings cannot be mixed into a repeat.
-  const Result evaluate = slamkit("evaluate " + (first / "r").string(), *work_, second);
+  const Result evaluate = slamkit_cli("evaluate " + (first / "r").string(), *work_, second);
   EXPECT_EQ(evaluate.exit_code, 0) << evaluate.err;
   const Result mixed =
-      slamkit("run --config " + (first / "r" / "run.json").string() + " --particles 3 --out r", *work_, second);
+      slamkit_cli("run --config " + (first / "r" / "run.json").string() + " --particles 3 --out r", *work_, second);
   EXPECT_EQ(mixed.exit_code, 2) << mixed.err;
 }
 
 TEST_F(Cli, PrintConfigShowsEveryEffectiveSettingWithoutRunning) {
-  const Result r = slamkit("run --filter fastslam1 --particles 7 --data sim:" + (*work_ / "sim").string() +
+  const Result r = slamkit_cli("run --filter fastslam1 --particles 7 --data sim:" + (*work_ / "sim").string() +
                                " --print-config",
                            *work_);
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -559,14 +555,14 @@ TEST_F(Cli, PrintConfigShowsEveryEffectiveSettingWithoutRunning) {
   EXPECT_TRUE(config.at("settings").at("association").contains("accept_probability"));
   EXPECT_EQ(config.at("dataset"), "sim:" + fs::weakly_canonical(*work_ / "sim").string());
 
-  const Result ukf = slamkit("run --filter ukf --ukf-noise additive --data sim:" + (*work_ / "sim").string() +
+  const Result ukf = slamkit_cli("run --filter ukf --ukf-noise additive --data sim:" + (*work_ / "sim").string() +
                                  " --print-config",
                              *work_);
   ASSERT_EQ(ukf.exit_code, 0) << ukf.err;
   EXPECT_EQ(nlohmann::json::parse(ukf.out).at("settings").at("ukf_noise"), "additive");
   EXPECT_EQ(nlohmann::json::parse(ukf.out).at("settings").at("likelihood"), "gaussian");
 
-  const Result t = slamkit("run --likelihood student-t --likelihood-dof 3 --data sim:" + (*work_ / "sim").string() +
+  const Result t = slamkit_cli("run --likelihood student-t --likelihood-dof 3 --data sim:" + (*work_ / "sim").string() +
                                " --print-config",
                            *work_);
   ASSERT_EQ(t.exit_code, 0) << t.err;
@@ -574,7 +570,7 @@ TEST_F(Cli, PrintConfigShowsEveryEffectiveSettingWithoutRunning) {
   EXPECT_EQ(nlohmann::json::parse(t.out).at("settings").at("likelihood_dof"), 3.0);
 
   const Result one_sided =
-      slamkit("run --likelihood student-t-long --data sim:" + (*work_ / "sim").string() + " --print-config", *work_);
+      slamkit_cli("run --likelihood student-t-long --data sim:" + (*work_ / "sim").string() + " --print-config", *work_);
   ASSERT_EQ(one_sided.exit_code, 0) << one_sided.err;
   EXPECT_EQ(nlohmann::json::parse(one_sided.out).at("settings").at("likelihood"), "student-t-long");
 }
@@ -584,7 +580,7 @@ TEST_F(Cli, PrintConfigShowsEveryEffectiveSettingWithoutRunning) {
 TEST_F(Cli, RangeCalibrationFlagsSetItsPriorAndTheRunReportsTheEstimate) {
   const std::string data = " --data sim:" + (*work_ / "sim").string();
   const auto settings = [&](const std::string& flags) {
-    const Result r = slamkit("run" + flags + data + " --print-config", *work_);
+    const Result r = slamkit_cli("run" + flags + data + " --print-config", *work_);
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return nlohmann::json::parse(r.out).at("settings").at("range_calibration");
   };
@@ -598,7 +594,7 @@ TEST_F(Cli, RangeCalibrationFlagsSetItsPriorAndTheRunReportsTheEstimate) {
   EXPECT_EQ(scale.at("scale_error_std"), 0.02);
   EXPECT_EQ(scale.at("offset_std_m"), 1.0);
 
-  const Result run = slamkit("run --range-calibration" + data + " --out " + (*work_ / "calibrated").string(), *work_);
+  const Result run = slamkit_cli("run --range-calibration" + data + " --out " + (*work_ / "calibrated").string(), *work_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   std::ifstream metrics(*work_ / "calibrated" / "metrics.json");
   const nlohmann::json m = nlohmann::json::parse(metrics);
@@ -612,7 +608,7 @@ TEST_F(Cli, AssociationSettingsComeFromAFileAndFlagsOverrideIt) {
   const fs::path file = *work_ / "association.json";
   std::ofstream(file) << R"({"method": "jcbb", "accept_probability": 0.95, "confirm_after": 5, "gate_known": false})";
   const std::string data = " --data sim:" + (*work_ / "sim").string();
-  const Result printed = slamkit("run --assoc-config " + file.string() + " --confirm-after 4 --gate-known on" + data +
+  const Result printed = slamkit_cli("run --assoc-config " + file.string() + " --confirm-after 4 --gate-known on" + data +
                                      " --print-config",
                                  *work_);
   ASSERT_EQ(printed.exit_code, 0) << printed.err;
@@ -624,7 +620,7 @@ TEST_F(Cli, AssociationSettingsComeFromAFileAndFlagsOverrideIt) {
   EXPECT_EQ(association.at("provisional_max_misses"), 3);  // not named anywhere: the default
 
   const fs::path out = *work_ / "assoc_flags_run";
-  const Result run = slamkit("run --assoc-config " + file.string() + " --assoc nn --new-landmark-probability 0.999" +
+  const Result run = slamkit_cli("run --assoc-config " + file.string() + " --assoc nn --new-landmark-probability 0.999" +
                                  data + " --out " + out.string(),
                              *work_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -636,36 +632,36 @@ TEST_F(Cli, AssociationSettingsComeFromAFileAndFlagsOverrideIt) {
 
   // The shipped settings for cluttered worlds load, and the clutter term's flags override them.
   const fs::path cluttered = fs::path(SLAMKIT_SOURCE_DIR) / "config" / "association-cluttered.json";
-  const Result clutter = slamkit("run --assoc-config " + cluttered.string() + " --clutter-per-scan 2" + data +
+  const Result clutter = slamkit_cli("run --assoc-config " + cluttered.string() + " --clutter-per-scan 2" + data +
                                      " --print-config",
                                  *work_);
   ASSERT_EQ(clutter.exit_code, 0) << clutter.err;
   const nlohmann::json clutter_settings = nlohmann::json::parse(clutter.out).at("settings").at("association");
   EXPECT_EQ(clutter_settings.at("min_pairing_probability"), 0.9);
   EXPECT_EQ(clutter_settings.at("clutter_per_scan"), 2.0);
-  EXPECT_EQ(slamkit("run --min-pairing-probability 1" + data + " --out " + (*work_ / "never").string(), *work_).exit_code,
+  EXPECT_EQ(slamkit_cli("run --min-pairing-probability 1" + data + " --out " + (*work_ / "never").string(), *work_).exit_code,
             2);
 
   // A wrong file is bad input naming it, before any data is read; a repeated run takes none of these.
   std::ofstream(*work_ / "bad_association.json") << R"({"confirm_afterr": 5})";
-  const Result bad = slamkit("run --assoc-config " + (*work_ / "bad_association.json").string() +
+  const Result bad = slamkit_cli("run --assoc-config " + (*work_ / "bad_association.json").string() +
                                  " --data sim:/nonexistent/log --out " + (*work_ / "never").string(),
                              *work_);
   EXPECT_EQ(bad.exit_code, 1) << bad.err;
   EXPECT_NE(bad.err.find("bad_association.json"), std::string::npos) << bad.err;
   EXPECT_NE(bad.err.find("confirm_afterr"), std::string::npos) << bad.err;
-  const Result repeat = slamkit("run --config " + (out / "run.json").string() + " --confirm-after 2 --out " +
+  const Result repeat = slamkit_cli("run --config " + (out / "run.json").string() + " --confirm-after 2 --out " +
                                     (*work_ / "never").string(),
                                 *work_);
   EXPECT_EQ(repeat.exit_code, 2) << repeat.err;
 }
 
 TEST_F(Cli, VersionUnknownSubcommandAndIgnoredOptions) {
-  const Result version = slamkit("--version", *work_);
+  const Result version = slamkit_cli("--version", *work_);
   EXPECT_EQ(version.exit_code, 0);
   EXPECT_NE(version.out.find('.'), std::string::npos) << version.out;
 
-  const Result typo = slamkit("rnu --filter ekf", *work_);
+  const Result typo = slamkit_cli("rnu --filter ekf", *work_);
   EXPECT_EQ(typo.exit_code, 2);
   EXPECT_EQ(count_lines(typo.err), 1u) << typo.err;
   EXPECT_NE(typo.err.find("unknown subcommand 'rnu' (did you mean 'run'?); expected one of: simulate, make-world, run"),
@@ -673,7 +669,7 @@ TEST_F(Cli, VersionUnknownSubcommandAndIgnoredOptions) {
       << typo.err;
 
   const fs::path out = *work_ / "ignored";
-  const Result ekf = slamkit("run --filter ekf --particles 50 --data sim:" + (*work_ / "sim").string() + " --out " +
+  const Result ekf = slamkit_cli("run --filter ekf --particles 50 --data sim:" + (*work_ / "sim").string() + " --out " +
                                  out.string(),
                              *work_);
   ASSERT_EQ(ekf.exit_code, 0) << ekf.err;
@@ -681,15 +677,15 @@ TEST_F(Cli, VersionUnknownSubcommandAndIgnoredOptions) {
   // The truth beside the estimate, in the same format and time base.
   EXPECT_TRUE(fs::exists(out / "truth.tum"));
   EXPECT_TRUE(fs::exists(out / "pose_error.svg"));
-  EXPECT_EQ(count_lines(read_file(out / "truth.tum")) > 100, true);
+  EXPECT_EQ(count_lines(read_text(out / "truth.tum")) > 100, true);
 }
 
 TEST_F(Cli, ReplayPageIsSelfContainedAndRewrittenFromItsRecording) {
   const fs::path out = *work_ / "replay";
-  const Result run = slamkit("run --data sim:" + (*work_ / "sim").string() + " --out " + out.string() + " --replay",
+  const Result run = slamkit_cli("run --data sim:" + (*work_ / "sim").string() + " --out " + out.string() + " --replay",
                              *work_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  const std::string page = read_file(out / "replay.html");
+  const std::string page = read_text(out / "replay.html");
   // One file: the script and style inline, nothing fetched.
   EXPECT_EQ(page.find("<script src"), std::string::npos);
   EXPECT_EQ(page.find("<link"), std::string::npos);
@@ -701,9 +697,9 @@ TEST_F(Cli, ReplayPageIsSelfContainedAndRewrittenFromItsRecording) {
   EXPECT_LE(recording.at("frames").size(), 601u);
 
   fs::remove(out / "replay.html");
-  const Result again = slamkit("replay " + out.string(), *work_);
+  const Result again = slamkit_cli("replay " + out.string(), *work_);
   ASSERT_EQ(again.exit_code, 0) << again.err;
-  EXPECT_EQ(read_file(out / "replay.html"), page);
+  EXPECT_EQ(read_text(out / "replay.html"), page);
 }
 
 // --history none keeps the run folder to the start and the final estimate, which evaluate reads back
@@ -711,18 +707,18 @@ TEST_F(Cli, ReplayPageIsSelfContainedAndRewrittenFromItsRecording) {
 TEST_F(Cli, HistoryNoneWritesTheFinalEstimateAndReplayNeedsFullHistory) {
   const fs::path out = *work_ / "history_none";
   const std::string data = " --data sim:" + (*work_ / "sim").string();
-  const Result r = slamkit("run --filter ekf --history none" + data + " --out " + out.string(), *work_);
+  const Result r = slamkit_cli("run --filter ekf --history none" + data + " --out " + out.string(), *work_);
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_EQ(count_lines(read_file(out / "trajectory.tum")), 3u);  // the header, the start, the end
+  EXPECT_EQ(count_lines(read_text(out / "trajectory.tum")), 3u);  // the header, the start, the end
   EXPECT_EQ(read_json(out / "run.json")["history"], "none");
   EXPECT_TRUE(read_json(out / "metrics.json").contains("final_position_error_m"));
-  const Result e = slamkit("evaluate " + out.string(), *work_);
+  const Result e = slamkit_cli("evaluate " + out.string(), *work_);
   EXPECT_EQ(e.exit_code, 0) << e.err;
 
-  const Result replay = slamkit("run --history decimated --replay" + data + " --out " + out.string(), *work_);
+  const Result replay = slamkit_cli("run --history decimated --replay" + data + " --out " + out.string(), *work_);
   EXPECT_EQ(replay.exit_code, 2);
   EXPECT_NE(replay.err.find("--replay records every scan; it needs --history full"), std::string::npos) << replay.err;
-  const Result unknown = slamkit("run --history some" + data + " --out " + out.string(), *work_);
+  const Result unknown = slamkit_cli("run --history some" + data + " --out " + out.string(), *work_);
   EXPECT_EQ(unknown.exit_code, 2);
   EXPECT_NE(unknown.err.find("expected one of: full, decimated, none"), std::string::npos) << unknown.err;
 }
@@ -736,7 +732,7 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
   const std::string out = (*work_ / "sweep").string();
   const std::string course = (fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course").string();
   const std::string run_dir = (*work_ / "sweep-run").string();
-  ASSERT_EQ(slamkit("run --data sim:" + sim + " --out " + run_dir + " --quiet", *work_).exit_code, 0);
+  ASSERT_EQ(slamkit_cli("run --data sim:" + sim + " --out " + run_dir + " --quiet", *work_).exit_code, 0);
   const std::string data = " --data sim:" + sim + " --out " + out;
   const struct {
     std::string command;
@@ -885,7 +881,7 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
   std::map<std::string, std::set<std::string>> exercised;
   for (const auto& c : cases) {
     SCOPED_TRACE(c.command);
-    const Result r = slamkit(c.command, *work_);
+    const Result r = slamkit_cli(c.command, *work_);
     EXPECT_EQ(r.exit_code, c.code) << r.err;
     EXPECT_EQ(count_lines(r.err), 1u) << r.err;
     EXPECT_EQ(r.err.rfind("slamkit: error: ", 0), 0u) << r.err;
@@ -901,7 +897,7 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
     while (words >> word) exercised[command].insert(word.substr(0, word.find('=')));
   }
   for (const char* command : {"simulate", "make-world", "run", "replay", "evaluate", "calibrate", "plot-nees", "plot-bench"}) {
-    std::istringstream help(slamkit(std::string(command) + " --help", *work_).out);
+    std::istringstream help(slamkit_cli(std::string(command) + " --help", *work_).out);
     for (std::string line; std::getline(help, line);) {
       const auto start = line.find_first_not_of(' ');
       if (start == std::string::npos || line.compare(start, 2, "--") != 0 || start == 0) continue;
@@ -924,7 +920,7 @@ TEST_F(Cli, DatasetRecommendedSettingsLieBeneathTheFlagsAndAreRecorded) {
   const std::string data = " --data course:" + course.string() + " --data-config " + file.string();
 
   const fs::path out = *work_ / "recommended";
-  const Result run = slamkit("run" + data + " --out " + out.string(), *work_);
+  const Result run = slamkit_cli("run" + data + " --out " + out.string(), *work_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("course's recommended settings for ekf: association.confirm_after 2, association.method nn (from " +
                          file.string() + "; a flag overrides each)"),
@@ -940,30 +936,30 @@ TEST_F(Cli, DatasetRecommendedSettingsLieBeneathTheFlagsAndAreRecorded) {
   // A flag and the association file each override what they name; the rest of the recommendation stays.
   const fs::path assoc = *work_ / "confirm5.json";
   std::ofstream(assoc) << R"({"confirm_after": 5})";
-  const Result printed = slamkit("run" + data + " --assoc jcbb --assoc-config " + assoc.string() + " --print-config", *work_);
+  const Result printed = slamkit_cli("run" + data + " --assoc jcbb --assoc-config " + assoc.string() + " --print-config", *work_);
   ASSERT_EQ(printed.exit_code, 0) << printed.err;
   const nlohmann::json layered = nlohmann::json::parse(printed.out);
   EXPECT_EQ(layered.at("settings").at("association").at("method"), "jcbb");
   EXPECT_EQ(layered.at("settings").at("association").at("confirm_after"), 5);
   EXPECT_FALSE(layered.contains("recommended_settings")) << layered.dump();
-  const Result fastslam = slamkit("run --filter fastslam2" + data + " --print-config", *work_);
+  const Result fastslam = slamkit_cli("run --filter fastslam2" + data + " --print-config", *work_);
   ASSERT_EQ(fastslam.exit_code, 0) << fastslam.err;
   EXPECT_EQ(nlohmann::json::parse(fastslam.out).at("settings").at("pose_sample_fraction"), 0.5);
 
   // Repeated from run.json alone, with the settings file gone: the same estimate.
   fs::remove(file);
   const fs::path again = *work_ / "recommended-again";
-  const Result repeat = slamkit("run --config " + (out / "run.json").string() + " --out " + again.string(), *work_);
+  const Result repeat = slamkit_cli("run --config " + (out / "run.json").string() + " --out " + again.string(), *work_);
   ASSERT_EQ(repeat.exit_code, 0) << repeat.err;
-  EXPECT_EQ(read_file(out / "trajectory.tum"), read_file(again / "trajectory.tum"));
+  EXPECT_EQ(read_text(out / "trajectory.tum"), read_text(again / "trajectory.tum"));
   EXPECT_EQ(read_json(again / "run.json").at("settings"), recorded.at("settings"));
   EXPECT_EQ(read_json(again / "run.json").at("recommended_settings"), recorded.at("recommended_settings"));
-  EXPECT_EQ(slamkit("evaluate " + again.string(), *work_).exit_code, 0);
+  EXPECT_EQ(slamkit_cli("evaluate " + again.string(), *work_).exit_code, 0);
 
   // A recommendation naming no filter is bad data naming the file, before any data is read.
   settings["recommended"] = {{"fastslam3", nlohmann::json::object()}};
   std::ofstream(file) << settings.dump();
-  const Result bad = slamkit("run" + data + " --out " + out.string(), *work_);
+  const Result bad = slamkit_cli("run" + data + " --out " + out.string(), *work_);
   EXPECT_EQ(bad.exit_code, 1) << bad.err;
   EXPECT_NE(bad.err.find(file.string() + ": in 'recommended': unknown filter 'fastslam3'"), std::string::npos) << bad.err;
 }
@@ -972,7 +968,7 @@ TEST_F(Cli, DatasetRecommendedSettingsLieBeneathTheFlagsAndAreRecorded) {
 TEST_F(Cli, VictoriaParkRecommendsAnAssociationForEveryFilter) {
   const std::string data = " --data victoria-park:/nowhere --print-config";
   const auto settings = [&](const std::string& options) {
-    const Result r = slamkit("run " + options + data, *work_);
+    const Result r = slamkit_cli("run " + options + data, *work_);
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return nlohmann::json::parse(r.out).at("settings");
   };
@@ -989,10 +985,10 @@ TEST_F(Cli, VictoriaParkRecommendsAnAssociationForEveryFilter) {
 TEST_F(Cli, FamilyWorldsRepeatBitForBitAndAreRecorded) {
   const fs::path a = *work_ / "family_a", b = *work_ / "family_b", world = *work_ / "family.world";
   const std::string args = "simulate --family sparse-cluttered --world-seed 17 --seed 2 --loops 1 --out ";
-  ASSERT_EQ(slamkit(args + a.string(), *work_).exit_code, 0);
-  ASSERT_EQ(slamkit(args + b.string(), *work_).exit_code, 0);
+  ASSERT_EQ(slamkit_cli(args + a.string(), *work_).exit_code, 0);
+  ASSERT_EQ(slamkit_cli(args + b.string(), *work_).exit_code, 0);
   for (const char* file : {"events.txt", "truth_poses.txt", "truth_observations.txt", "world.txt", "params.json"})
-    EXPECT_EQ(read_file(a / file), read_file(b / file)) << file;
+    EXPECT_EQ(read_text(a / file), read_text(b / file)) << file;
   const nlohmann::json params = read_json(a / "params.json");
   EXPECT_EQ(params["world"]["family"], "sparse-cluttered");
   EXPECT_EQ(params["world"]["world_seed"], 17);
@@ -1000,29 +996,29 @@ TEST_F(Cli, FamilyWorldsRepeatBitForBitAndAreRecorded) {
   EXPECT_EQ(params["simulator"]["clutter_rate_per_scan"], 1.0);
   EXPECT_EQ(params["simulator"]["fov_deg"], 180.0);
 
-  const Result w = slamkit("make-world --family sparse-cluttered --world-seed 17 --out " + world.string(), *work_);
+  const Result w = slamkit_cli("make-world --family sparse-cluttered --world-seed 17 --out " + world.string(), *work_);
   ASSERT_EQ(w.exit_code, 0) << w.err;
-  EXPECT_EQ(read_file(world), read_file(a / "world.txt"));
-  const Result other = slamkit("simulate --family sparse-cluttered --world-seed 18 --seed 2 --loops 1 --out " +
+  EXPECT_EQ(read_text(world), read_text(a / "world.txt"));
+  const Result other = slamkit_cli("simulate --family sparse-cluttered --world-seed 18 --seed 2 --loops 1 --out " +
                                    (*work_ / "family_c").string(),
                                *work_);
   ASSERT_EQ(other.exit_code, 0) << other.err;
-  EXPECT_NE(read_file(*work_ / "family_c" / "world.txt"), read_file(a / "world.txt"));
+  EXPECT_NE(read_text(*work_ / "family_c" / "world.txt"), read_text(a / "world.txt"));
 
-  const Result help = slamkit("simulate --help", *work_);
+  const Result help = slamkit_cli("simulate --help", *work_);
   EXPECT_NE(help.out.find("sparse, sparse-cluttered, dense, dense-cluttered"), std::string::npos) << help.out;
 }
 
 TEST_F(Cli, FamilyMistakesAreUsageErrors) {
   const std::string out = " --out " + (*work_ / "family_never").string();
-  const Result slip = slamkit("simulate --family sparse-clutered" + out, *work_);
+  const Result slip = slamkit_cli("simulate --family sparse-clutered" + out, *work_);
   EXPECT_EQ(slip.exit_code, 2);
   EXPECT_EQ(count_lines(slip.err), 1u) << slip.err;
   EXPECT_NE(slip.err.find("did you mean 'sparse-cluttered'?"), std::string::npos) << slip.err;
-  EXPECT_EQ(slamkit("make-world --family denes" + out, *work_).exit_code, 2);
-  EXPECT_EQ(slamkit("simulate --world-seed 3" + out, *work_).exit_code, 2);
-  EXPECT_EQ(slamkit("simulate --family sparse --scenario sparse" + out, *work_).exit_code, 2);
-  EXPECT_EQ(slamkit("make-world --family sparse --landmarks 10" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit_cli("make-world --family denes" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit_cli("simulate --world-seed 3" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit_cli("simulate --family sparse --scenario sparse" + out, *work_).exit_code, 2);
+  EXPECT_EQ(slamkit_cli("make-world --family sparse --landmarks 10" + out, *work_).exit_code, 2);
   EXPECT_FALSE(fs::exists(*work_ / "family_never"));
 }
 
@@ -1034,7 +1030,7 @@ TEST_F(Cli, FamilyMistakesAreUsageErrors) {
 TEST_F(Cli, RunJsonWithADatasetOfAnotherKindIsOneErrorNamingTheKey) {
   const fs::path dir = *work_ / "wrong_kinds";
   const Result run =
-      slamkit("run --history none --quiet --data sim:" + (*work_ / "sim").string() + " --out " + (dir / "r").string(),
+      slamkit_cli("run --history none --quiet --data sim:" + (*work_ / "sim").string() + " --out " + (dir / "r").string(),
               *work_);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const nlohmann::json original = read_json(dir / "r" / "run.json");
@@ -1045,7 +1041,7 @@ TEST_F(Cli, RunJsonWithADatasetOfAnotherKindIsOneErrorNamingTheKey) {
       nlohmann::json j = original;
       j[key] = value;
       std::ofstream(variant) << j.dump();
-      const Result r = slamkit("run --config " + variant.string() + " --out " + (dir / "v").string(), *work_);
+      const Result r = slamkit_cli("run --config " + variant.string() + " --out " + (dir / "v").string(), *work_);
       EXPECT_EQ(r.exit_code, 1) << key << " = " << value << ": " << r.err;
       EXPECT_EQ(count_lines(r.err), 1u) << r.err;
       EXPECT_NE(r.err.find("slamkit: error: " + variant.string() + ": '" + key + "' must be"), std::string::npos)
@@ -1061,7 +1057,7 @@ TEST_F(Cli, EmptyVictoriaParkLaserFileIsRefusedNamingIt) {
   std::ofstream(dir / "DRS.txt") << "0.025\t1.0\t0.01\r\n0.050\t1.0\t0.01\r\n";
   std::ofstream(dir / "GPS.txt") << "0.000\t0.00\t0.00\r\n";
   std::ofstream(dir / "LASER.txt.gz");
-  const Result r = slamkit("run --data victoria-park:" + dir.string() + " --out " + (dir / "r").string(), *work_);
+  const Result r = slamkit_cli("run --data victoria-park:" + dir.string() + " --out " + (dir / "r").string(), *work_);
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find((dir / "LASER.txt.gz").string() + ": no laser scans"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "r" / "run.json"));
@@ -1073,7 +1069,7 @@ TEST_F(Cli, EmptyVictoriaParkLaserFileIsRefusedNamingIt) {
 TEST_F(Cli, PositionsBeyondTheCoordinateBoundAreRefusedWhereTheyAreRead) {
   const fs::path log = copy_of_log("far_landmark");
   replace_line(log / "truth_landmarks.txt", 3, "0 1e300 5");
-  const Result far = slamkit("run --data sim:" + log.string() + " --out " + (log / "r").string(), *work_);
+  const Result far = slamkit_cli("run --data sim:" + log.string() + " --out " + (log / "r").string(), *work_);
   EXPECT_EQ(far.exit_code, 1);
   EXPECT_NE(far.err.find("truth_landmarks.txt:3: expected x within +-2e6 m, found 1e+300"), std::string::npos)
       << far.err;
@@ -1083,7 +1079,7 @@ TEST_F(Cli, PositionsBeyondTheCoordinateBoundAreRefusedWhereTheyAreRead) {
   nlohmann::json params = read_json(moved / "params.json");
   params["initial_pose"] = {1e20, 0.0, 0.0};
   std::ofstream(moved / "params.json") << params.dump(2);
-  const Result start = slamkit("run --data sim:" + moved.string() + " --out " + (moved / "r").string(), *work_);
+  const Result start = slamkit_cli("run --data sim:" + moved.string() + " --out " + (moved / "r").string(), *work_);
   EXPECT_EQ(start.exit_code, 1);
   EXPECT_NE(start.err.find("params.json: expected \"initial_pose\" x and y within +-2e6 m"), std::string::npos)
       << start.err;
@@ -1102,7 +1098,7 @@ TEST_F(Cli, FifoGivenAsAnInputFileIsRefusedNotWaitedOn) {
   for (const std::string& args : {"run --config " + fifo.string() + " --out " + (dir / "r").string(),
                                   "simulate --world " + fifo.string() + " --out " + (dir / "s").string(),
                                   "run --data sim:" + log.string() + " --out " + (dir / "r").string()}) {
-    const Result r = slamkit(args, *work_, {}, "timeout 60 ");
+    const Result r = slamkit_cli(args, *work_, {}, "timeout 60 ");
     EXPECT_EQ(r.exit_code, 1) << args << ": " << r.err;
     EXPECT_NE(r.err.find("is a FIFO (named pipe); expected a regular file"), std::string::npos) << r.err;
   }
@@ -1114,7 +1110,7 @@ TEST_F(Cli, FifoGivenAsAnInputFileIsRefusedNotWaitedOn) {
 // flag; and whatever runs out of memory regardless ends in a message, not the exception's name.
 TEST_F(Cli, RunsBeyondTheMemoryLimitAreRefusedUpFrontAndOutOfMemoryIsAMessage) {
   const fs::path dir = *work_ / "memory";
-  const Result particles = slamkit("run --filter fastslam2 --particles 1000000 --data sim:" +
+  const Result particles = slamkit_cli("run --filter fastslam2 --particles 1000000 --data sim:" +
                                        (*work_ / "sim").string() + " --out " + (dir / "r").string(),
                                    *work_, {}, "ulimit -v 4194304; ");
   EXPECT_EQ(particles.exit_code, 1);
@@ -1126,7 +1122,7 @@ TEST_F(Cli, RunsBeyondTheMemoryLimitAreRefusedUpFrontAndOutOfMemoryIsAMessage) {
       << particles.err;
 
   // Ten million landmarks take more than 300 MiB before the generator has placed any.
-  const Result world = slamkit("make-world --landmarks 10000000 --out " + (dir / "w.txt").string(), *work_, {},
+  const Result world = slamkit_cli("make-world --landmarks 10000000 --out " + (dir / "w.txt").string(), *work_, {},
                                "ulimit -v 307200; ");
   EXPECT_EQ(world.exit_code, 1);
   EXPECT_EQ(world.err.find("bad_alloc"), std::string::npos) << world.err;

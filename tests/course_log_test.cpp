@@ -24,6 +24,8 @@
 #include "slamkit/models/motion_model.hpp"
 #include "test_data.hpp"
 
+using slamkit::test_data::read_text;
+
 using namespace slamkit;
 namespace fs = std::filesystem;
 
@@ -95,13 +97,6 @@ GeneratedLog generate_log(std::uint64_t seed) {
     }
   }
   return log;
-}
-
-std::string read_text(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
 }
 
 /// A fresh directory per test, so tests may run in parallel processes.

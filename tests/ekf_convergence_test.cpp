@@ -9,17 +9,14 @@
 #include "slamkit/eval/metrics.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/sim/simulator.hpp"
+#include "sim_test_support.hpp"
 
 using namespace slamkit;
 
 namespace {
 
 /// The dataset cut at time `t_end`: a short simulation of the default world.
-Dataset truncated(Dataset d, double t_end) {
-  std::erase_if(d.events, [&](const Event& e) { return std::visit([](const auto& ev) { return ev.t; }, e) > t_end; });
-  std::erase_if(d.truth.poses, [&](const StampedPose& p) { return p.t > t_end; });
-  return d;
-}
+using test_sim::truncated;
 
 EkfSlam make_ekf(const Dataset& d) {
   EkfSlamOptions options;

@@ -26,20 +26,7 @@ using namespace slamkit;
 
 namespace {
 
-double event_time(const Event& e) {
-  return std::visit([](const auto& ev) { return ev.t; }, e);
-}
-
-/// The dataset cut at time `t_end`.
-Dataset truncated(Dataset d, double t_end) {
-  std::size_t scans = 0;
-  for (const Event& e : d.events)
-    if (event_time(e) <= t_end && std::holds_alternative<ScanEvent>(e)) ++scans;
-  std::erase_if(d.events, [&](const Event& e) { return event_time(e) > t_end; });
-  std::erase_if(d.truth.poses, [&](const StampedPose& p) { return p.t > t_end; });
-  if (d.truth.observation_ids.size() > scans) d.truth.observation_ids.resize(scans);
-  return d;
-}
+using test_sim::truncated;
 
 FastSlamConfig config_for(const Dataset& d, int version, int particles, std::uint64_t seed = 1) {
   FastSlamConfig c = test_sim::fastslam_config_for(d, version, particles);

@@ -141,12 +141,12 @@ TEST(InvariantEkf, ObservationUpdateIsTheKalmanUpdateOfTheInvariantError) {
 
 namespace {
 
-constexpr int kIterations = 10;
+constexpr int kUpdateIterations = 10;
 
 // A loop closure after a long drift (position std 3 m, heading 5 degrees, the landmark mapped well at
 // the start): one linearisation at the drifted pose stops far from the maximum a posteriori
 // estimate.
-struct LoopClosure {
+struct InvariantLoopClosure {
   std::shared_ptr<RangeBearingModel> observation = std::make_shared<RangeBearingModel>();
   Pose2 prior_pose{4.0, -3.0, 0.0};
   Vector2 landmark{20.0, 5.0};
@@ -184,7 +184,7 @@ TEST(InvariantEkf, IteratedUpdateEqualsTheSingleUpdateWhereItIsLinear) {
                                            Eigen::Vector3d(1.0, 2.0, 0.0).asDiagonal().toDenseMatrix(),
                                            Linearisation::kInvariant, iterations);
   };
-  auto single = make(1), iterated = make(kIterations);
+  auto single = make(1), iterated = make(kUpdateIterations);
   for (JointGaussian* g : {single.get(), iterated.get()}) {
     g->add_landmark(Vector2(3.0, -1.0));
     g->add_landmark(Vector2(-2.0, 4.0));
@@ -201,7 +201,7 @@ TEST(InvariantEkf, IteratedUpdateEqualsTheSingleUpdateWhereItIsLinear) {
 // in the invariant error there, has no gradient, and its covariance is the Kalman update's in that
 // error with the observation Jacobian at the estimate.
 TEST(InvariantEkf, IteratedUpdateStopsWhereThePosteriorOnTheGroupHasNoGradient) {
-  const LoopClosure c;
+  const InvariantLoopClosure c;
   const auto g0 = c.prior(1);
   const Eigen::VectorXd x0 = g0->state();
   const Eigen::Index n = x0.size();
@@ -214,7 +214,7 @@ TEST(InvariantEkf, IteratedUpdateStopsWhereThePosteriorOnTheGroupHasNoGradient) 
     }
     return grad.norm();
   };
-  auto single = c.prior(1), iterated = c.prior(kIterations);
+  auto single = c.prior(1), iterated = c.prior(kUpdateIterations);
   ASSERT_TRUE(single->update_landmark(0, c.z));
   ASSERT_TRUE(iterated->update_landmark(0, c.z));
   const Eigen::VectorXd x = iterated->state();

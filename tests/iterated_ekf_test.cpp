@@ -23,7 +23,7 @@ constexpr int kIterations = 10;
 // A vehicle that has driven far without seeing anything (position std 3 m, heading 5 degrees) and
 // a landmark mapped precisely at the start: the geometry of a loop closure, where the observation
 // Jacobian at the predicted pose is far from the one at the truth.
-struct LoopClosure {
+struct IteratedLoopClosure {
   Pose2 prior_pose{4.0, -3.0, 0.0};
   Matrix3 prior_covariance = Eigen::Vector3d(9.0, 9.0, deg2rad(5.0) * deg2rad(5.0)).asDiagonal();
   Vector2 landmark{20.0, 5.0};
@@ -58,7 +58,7 @@ TEST(IteratedEkfUpdate, EqualsTheSingleUpdateForLinearModels) {
 // (x - x0)^T P0^-1 (x - x0) + (z - h(x))^T R^-1 (z - h(x)) vanishes; the single update stops short of
 // it when the prior is wide.
 TEST(IteratedEkfUpdate, ReachesTheMaximumAPosterioriEstimateAtALoopClosure) {
-  const LoopClosure c;
+  const IteratedLoopClosure c;
   const auto observation = std::make_shared<RangeBearingModel>();
   const Vector2 z = observation->predict(c.true_pose, c.landmark);
   auto gradient_norm = [&](int iterations) {

@@ -13,14 +13,14 @@ using namespace slamkit;
 
 namespace {
 
-struct Case {
+struct DowndateCase {
   Eigen::MatrixXd p;  // with a margin of rows and columns beyond the n x n block downdated
   Eigen::MatrixXd a, b;
 };
 
-Case make_case(Eigen::Index n, Eigen::Index k, bool symmetric) {
+DowndateCase make_case(Eigen::Index n, Eigen::Index k, bool symmetric) {
   std::srand(static_cast<unsigned>(n * 131 + k));
-  Case c;
+  DowndateCase c;
   c.p = Eigen::MatrixXd::Random(n + 5, n + 3);
   c.a = Eigen::MatrixXd::Random(n, k);
   c.b = symmetric ? c.a : Eigen::MatrixXd::Random(n, k);
@@ -35,7 +35,7 @@ TEST(LowerDowndate, EqualsTheProductOnTheLowerTriangleAndLeavesTheRestAlone) {
   for (const Eigen::Index n : {1, 2, 7, 8, 9, 16, 23, 24, 25, 95, 96, 97, 200, 389})
     for (const Eigen::Index k : {1, 2, 3, 20, 33})
       for (const bool symmetric : {true, false}) {
-        const Case c = make_case(n, k, symmetric);
+        const DowndateCase c = make_case(n, k, symmetric);
         Eigen::MatrixXd expected = c.p;
         expected.topLeftCorner(n, n) -= c.a * c.b.transpose();
         Eigen::MatrixXd p = c.p;
@@ -54,7 +54,7 @@ TEST(LowerDowndate, EqualsTheProductOnTheLowerTriangleAndLeavesTheRestAlone) {
 TEST(LowerDowndate, SameBitsOnAnyNumberOfThreads) {
   // Large enough (about 9 million multiply-adds) that the work is shared out.
   const Eigen::Index n = 1003, k = 18;
-  const Case c = make_case(n, k, false);
+  const DowndateCase c = make_case(n, k, false);
   Eigen::MatrixXd one = c.p;
   LowerDowndate serial;
   serial.apply(one.topLeftCorner(n, n), c.a, c.b);
@@ -74,7 +74,7 @@ TEST(LowerDowndate, EveryEntryIsItsProductsSummedInOrderFromZero) {
   // P(i, j) minus its k products summed in order by multiply-adds from zero, to the bit.
   for (const Eigen::Index n : {3, 9, 23, 97, 389}) {
     const Eigen::Index k = 20;
-    const Case c = make_case(n, k, false);
+    const DowndateCase c = make_case(n, k, false);
     Eigen::MatrixXd p = c.p;
     LowerDowndate downdate;
     downdate.apply(p.topLeftCorner(n, n), c.a, c.b);
@@ -97,7 +97,7 @@ TEST(LowerDowndate, ReusesItsWorkspaceAcrossShapes) {
   // call must not leak into a later one.
   LowerDowndate downdate;
   for (const auto& [n, k] : {std::pair<Eigen::Index, Eigen::Index>{300, 20}, {50, 4}, {120, 40}}) {
-    const Case c = make_case(n, k, false);
+    const DowndateCase c = make_case(n, k, false);
     Eigen::MatrixXd p = c.p;
     downdate.apply(p.topLeftCorner(n, n), c.a, c.b);
     const Eigen::MatrixXd expected = c.p.topLeftCorner(n, n) - c.a * c.b.transpose();

@@ -18,7 +18,7 @@ using namespace slamkit::eval;
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kPlusInfinity = std::numeric_limits<double>::infinity();
 
 std::vector<Vector2> random_points(std::size_t n, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> coordinate(-50.0, 50.0);
@@ -398,14 +398,14 @@ TEST(PoseNees, InvalidCovarianceOrInputGivesInfinity) {
   const Pose2 x(1.0, 0.0, 0.0);
   Matrix3 indefinite = Matrix3::Identity();
   indefinite(1, 1) = -1.0;
-  EXPECT_EQ(pose_nees(x, indefinite, Pose2::Zero()), kInf);
+  EXPECT_EQ(pose_nees(x, indefinite, Pose2::Zero()), kPlusInfinity);
   Matrix3 singular = Matrix3::Identity();
   singular(2, 2) = 0.0;
-  EXPECT_EQ(pose_nees(x, singular, Pose2::Zero()), kInf);
+  EXPECT_EQ(pose_nees(x, singular, Pose2::Zero()), kPlusInfinity);
   Matrix3 with_nan = Matrix3::Identity();
   with_nan(2, 2) = std::nan("");
-  EXPECT_EQ(pose_nees(x, with_nan, Pose2::Zero()), kInf);
-  EXPECT_EQ(pose_nees(Pose2(std::nan(""), 0, 0), Matrix3::Identity(), Pose2::Zero()), kInf);
+  EXPECT_EQ(pose_nees(x, with_nan, Pose2::Zero()), kPlusInfinity);
+  EXPECT_EQ(pose_nees(Pose2(std::nan(""), 0, 0), Matrix3::Identity(), Pose2::Zero()), kPlusInfinity);
 }
 
 TEST(PoseNees, SamplesFromTheCovarianceAreConsistent) {
@@ -443,8 +443,8 @@ TEST(SummarizeNees, MeanAndShareInsideTheInterval) {
 }
 
 TEST(SummarizeNees, InfinityCountsAsOutside) {
-  const NeesSummary s = summarize_nees({1.0, kInf}, 1);
-  EXPECT_EQ(s.mean, kInf);
+  const NeesSummary s = summarize_nees({1.0, kPlusInfinity}, 1);
+  EXPECT_EQ(s.mean, kPlusInfinity);
   EXPECT_DOUBLE_EQ(s.in_interval_fraction, 0.5);
 }
 

@@ -19,6 +19,7 @@
 #include "slamkit/core/error.hpp"
 #include "slamkit/eval/metrics.hpp"
 #include "slamkit/io/mrclam.hpp"
+#include "slamkit/pipeline/runner.hpp"
 #include "test_data.hpp"
 
 using namespace slamkit;
@@ -36,14 +37,6 @@ fs::path mrclam_root() {
   if (!fs::is_directory(dir))                                                                          \
   GTEST_SKIP() << "MRCLAM data not found at " << (dir).string()                                        \
                << " (set SLAMKIT_DATA to a folder holding mrclam/)"
-
-std::vector<StampedPose> dead_reckoning(const Dataset& d) {
-  std::vector<StampedPose> poses{{0.0, d.initial_pose}};
-  for (const Event& e : d.events)
-    if (const auto* c = std::get_if<ControlEvent>(&e))
-      poses.push_back({c->t, d.motion->predict(poses.back().pose, c->u, c->dt)});
-  return poses;
-}
 
 /// The stream's invariants: time never decreases, each control starts where the previous event
 /// ended, no control has a zero span, and every observation names a landmark of the truth.

@@ -7,17 +7,13 @@
 
 #include "slamkit/plot/report.hpp"
 #include "slamkit/plot/svg_plot.hpp"
+#include "test_data.hpp"
+
+using slamkit::test_data::read_text;
 
 using namespace slamkit;
 
 namespace {
-
-std::string read(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 Metrics run_with(std::vector<Vector2> series) {
   Metrics m;
@@ -34,7 +30,7 @@ TEST(MonteCarloNees, AveragesTheStepTimesAllRunsShareAndCountsThemAgainstTheMean
   write_monte_carlo_nees(path.string(),
                          {run_with({{0.1, 1e6}, {0.2, 3.0}, {0.3, 2.0}}), run_with({{0.2, 5.0}, {0.3, 2.0}, {0.4, 7.0}})},
                          "test");
-  const std::string svg = read(path);
+  const std::string svg = read_text(path);
   EXPECT_NE(svg.find("2 runs: mean NEES 3.00, 100% of steps inside the 95% interval of the 2-run mean"),
             std::string::npos);
   std::filesystem::remove(path);

@@ -102,12 +102,12 @@ Dataset cluttered_world(std::uint64_t seed) {
   return simulate(s.world, s.config);
 }
 
-struct Outcome {
+struct RunOutcome {
   Metrics metrics;
   std::map<std::string, double> statistics;
 };
 
-Outcome run(FilterConfig config, const Dataset& d) {
+RunOutcome run(FilterConfig config, const Dataset& d) {
   RunResult r = run_filter(*make_filter(config, d), d);
   r.association = to_string(config.association.method);
   return {evaluate_run(r, d.truth), r.statistics};
@@ -120,9 +120,9 @@ TEST(PendingLandmarks, KeepClutterOutOfTheEkfsState) {
   const Dataset d = cluttered_world(3);
   FilterConfig config;
   config.association = cluttered(0.0);
-  const Outcome immediate = run(config, d);
+  const RunOutcome immediate = run(config, d);
   config.association.clutter_per_scan = 1.0;
-  const Outcome pending = run(config, d);
+  const RunOutcome pending = run(config, d);
   ASSERT_TRUE(pending.metrics.association && immediate.metrics.association);
   const std::size_t true_landmarks = pending.metrics.association->landmarks_true_seen;
   // Every landmark ever in the state, removed or not: about one per true landmark, against over a

@@ -20,6 +20,10 @@
 #include <vector>
 
 #include "slamkit/core/atomic_folder.hpp"
+#include "test_data.hpp"
+
+using slamkit::test_data::read_json;
+using slamkit::test_data::read_text;
 
 namespace fs = std::filesystem;
 
@@ -37,13 +41,6 @@ struct Outcome {
   int exit_code = -1;  // -1 if the child did not exit (a signal ended it)
   std::string err;
 };
-
-std::string read_file(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 /// Runs the slamkit binary with `args`; stdout is discarded, stderr returned.
 Outcome run_cli(const std::vector<std::string>& args, const fs::path& work, const ChildSetup& setup = {}) {
@@ -78,13 +75,13 @@ Outcome run_cli(const std::vector<std::string>& args, const fs::path& work, cons
   ::close(null);
   int status = 0;
   ::waitpid(pid, &status, 0);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(err_path)};
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_text(err_path)};
 }
 
 /// Every file of a folder by name, with its contents.
 std::map<std::string, std::string> contents(const fs::path& dir) {
   std::map<std::string, std::string> files;
-  for (const auto& entry : fs::directory_iterator(dir)) files[entry.path().filename().string()] = read_file(entry);
+  for (const auto& entry : fs::directory_iterator(dir)) files[entry.path().filename().string()] = read_text(entry);
   return files;
 }
 
@@ -96,7 +93,6 @@ std::vector<std::string> entries_starting(const fs::path& parent, const std::str
   return names;
 }
 
-nlohmann::json read_json(const fs::path& file) { return nlohmann::json::parse(read_file(file)); }
 
 class RunFolderCli : public ::testing::Test {
  protected:
@@ -193,7 +189,7 @@ TEST_F(RunFolderCli, StopSignalsWriteThePartialRunWithTheSignalsExitCode) {
   }
   const fs::path help = *work_ / "help.txt";
   ASSERT_EQ(std::system((std::string(SLAMKIT_CLI) + " run --help > " + help.string()).c_str()), 0);
-  EXPECT_NE(read_file(help).find("(130 Ctrl-C, 143 SIGTERM, 129 SIGHUP)"), std::string::npos);
+  EXPECT_NE(read_text(help).find("(130 Ctrl-C, 143 SIGTERM, 129 SIGHUP)"), std::string::npos);
 }
 
 // Two writers of one folder would interleave their files. The second, a run or an evaluate, fails at
@@ -226,7 +222,7 @@ TEST_F(RunFolderCli, AFolderThatIsNotARunIsNotReplaced) {
   const Outcome r = run_cli({"run", "--filter", "ekf", "--data", data(), "--out", notes.string()}, *work_);
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.err.find("is not empty and holds no run.json"), std::string::npos) << r.err;
-  EXPECT_EQ(read_file(notes / "ideas.txt"), "keep me\n");
+  EXPECT_EQ(read_text(notes / "ideas.txt"), "keep me\n");
 
   const fs::path empty = *work_ / "empty";
   fs::create_directory(empty);

@@ -19,7 +19,7 @@
 namespace slamkit {
 namespace {
 
-Dataset default_world() {
+Dataset default_dataset() {
   const Scenario s = scenario("default");
   return simulate(s.world, s.config);
 }
@@ -48,7 +48,7 @@ class StopAfter : public RunObserver {
 };
 
 TEST(RunObserver, StopGivesAPartialResultThatTheRunFolderKeeps) {
-  const Dataset data = default_world();
+  const Dataset data = default_dataset();
   auto filter = make_filter(FilterConfig{}, data);
   std::atomic<bool> stop{false};
   StopAfter observer(25, stop);
@@ -110,7 +110,7 @@ class DivergedRun : public ::testing::TestWithParam<FilterKind> {};
 // Without the stop, the NaN pose gates out every observation and, without identities, each one would
 // start a landmark for the rest of the run.
 TEST_P(DivergedRun, StopsAtTheLastFiniteEstimateAndTheRunFolderSaysWhen) {
-  const Dataset data = default_world();
+  const Dataset data = default_dataset();
   FilterConfig config;
   config.filter = GetParam();
   config.particles = 10;
@@ -151,7 +151,7 @@ INSTANTIATE_TEST_SUITE_P(Filters, DivergedRun, ::testing::Values(FilterKind::kEk
                          [](const auto& info) { return to_string(info.param); });
 
 TEST(ReplayRecorder, FramesHoldTheMapAndEachObservationsDecision) {
-  const Dataset data = default_world();
+  const Dataset data = default_dataset();
   FilterConfig config;
   config.filter = FilterKind::kFastSlam2;
   config.particles = 30;

@@ -16,18 +16,14 @@
 #include <vector>
 
 #include "svg_test_support.hpp"
+#include "test_data.hpp"
+
+using slamkit::test_data::read_text;
 
 namespace slamkit {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string read(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 /// The numbers of the y tick labels (right-aligned text) in `svg` from `from` on.
 std::vector<double> y_tick_labels(const std::string& svg, std::size_t from) {
@@ -74,7 +70,7 @@ class RunPlots : public ::testing::Test {
 
 TEST_F(RunPlots, PoseErrorHasAHeadingPanelWrappedInDegreesWithItsBand) {
   plots_of("ekf");
-  const std::string svg = read(dir_ / "pose_error.svg");
+  const std::string svg = read_text(dir_ / "pose_error.svg");
   EXPECT_EQ(plot::test_svg::xml_error(svg), "");
   for (const char* text : {">position error [m]<", ">x error<", ">y error<", ">x: +-2 sigma<", ">heading error [deg]<",
                            ">heading error<", ">heading: +-2 sigma<", ">time [s]<"})
@@ -93,7 +89,7 @@ TEST_F(RunPlots, PoseErrorHasAHeadingPanelWrappedInDegreesWithItsBand) {
 TEST_F(RunPlots, FastSlamsNeesSaysItIsTheParticleCloudsAndNoConsistencyTest) {
   const Metrics fastslam = plots_of("fastslam2");
   ASSERT_TRUE(fastslam.nees_pose.has_value());
-  const std::string svg = read(dir_ / "nees.svg");
+  const std::string svg = read_text(dir_ / "nees.svg");
   EXPECT_EQ(plot::test_svg::xml_error(svg), "");
   for (const char* text : {"For FastSLAM 2.0 this is the NEES of the particle cloud", "no consistency test",
                            "resampling", "judge accuracy by ate_rmse_m"})
@@ -103,7 +99,7 @@ TEST_F(RunPlots, FastSlamsNeesSaysItIsTheParticleCloudsAndNoConsistencyTest) {
   EXPECT_EQ(to_json(fastslam).at("nees_pose_note"), std::string(kParticleCloudNeesNote));
 
   const Metrics ekf = plots_of("ekf");
-  EXPECT_EQ(read(dir_ / "nees.svg").find("particle cloud"), std::string::npos);
+  EXPECT_EQ(read_text(dir_ / "nees.svg").find("particle cloud"), std::string::npos);
   EXPECT_FALSE(to_json(ekf).contains("nees_pose_note"));
 }
 

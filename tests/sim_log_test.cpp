@@ -20,6 +20,8 @@
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 
+using slamkit::test_data::write_text;
+
 namespace slamkit {
 namespace {
 
@@ -38,8 +40,6 @@ void write_lines(const std::string& path, const std::vector<std::string>& lines)
   std::ofstream out(path);
   for (const std::string& line : lines) out << line << '\n';
 }
-
-void write_text(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
 // 1-based number of the first line starting with `prefix`.
 std::size_t line_starting(const std::string& path, const std::string& prefix) {

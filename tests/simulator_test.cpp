@@ -16,6 +16,7 @@
 #include "slamkit/sim/world.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
+#include "sim_test_support.hpp"
 
 namespace slamkit {
 namespace {
@@ -27,12 +28,7 @@ std::vector<ControlEvent> controls_of(const Dataset& d) {
   return out;
 }
 
-std::vector<ScanEvent> scans_of(const Dataset& d) {
-  std::vector<ScanEvent> out;
-  for (const Event& e : d.events)
-    if (const auto* s = std::get_if<ScanEvent>(&e)) out.push_back(*s);
-  return out;
-}
+using test_sim::scans_of;
 
 // The truth pose at a control-grid time; the simulator records one per control step from t = 0.
 const Pose2& true_pose_at(const Dataset& d, double t, double dt) {
@@ -49,7 +45,7 @@ const Landmark& landmark_with_id(const World& w, int id) {
 }
 
 // Distance from p to the closed polyline through the waypoints.
-double distance_to_route(const World& w, const Vector2& p) {
+double distance_to_waypoint_loop(const World& w, const Vector2& p) {
   double best = INFINITY;
   for (std::size_t i = 0; i < w.waypoints.size(); ++i) {
     const Vector2& a = w.waypoints[i];
@@ -138,7 +134,7 @@ TEST(World, DefaultWorldIsAClosedLoopWithSpacedLandmarksInTheBand) {
     ids.insert(l.id);
     EXPECT_TRUE(l.covariance.isZero());
     // The band is measured from the rounded route; chords cut its corners by up to 0.7 m.
-    const double d = distance_to_route(w, l.position);
+    const double d = distance_to_waypoint_loop(w, l.position);
     EXPECT_GT(d, 4.0 - 0.7);
     EXPECT_LT(d, 20.0 + 0.7);
   }

@@ -7,7 +7,10 @@
 #include <Eigen/Core>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <functional>
+#include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -15,6 +18,21 @@
 #include "slamkit/core/error.hpp"
 
 namespace slamkit::test_data {
+
+/// A file's whole text, byte for byte ("" when it cannot be read).
+inline std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+inline nlohmann::json read_json(const std::filesystem::path& path) { return nlohmann::json::parse(read_text(path)); }
+
+/// Writes `text` to `path` as it is, replacing the file.
+inline void write_text(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
 
 inline std::filesystem::path shared_dataset(const std::string& folder) {
   const char* env = std::getenv("SLAMKIT_DATA");

@@ -60,8 +60,6 @@ void add_wall(std::vector<double>& scan, const Eigen::Vector2d& p, const Eigen::
   }
 }
 
-fs::path victoria_park_dir() { return slamkit::test_data::shared_dataset("victoria_park"); }
-
 }  // namespace
 
 TEST(TreeDetector, FindsALoneTrunkWithItsRangeBearingAndDiameter) {
@@ -143,7 +141,7 @@ TEST(TreeDetector, IgnoresTrunksAtTheEdgesOrTooClose) {
 }
 
 TEST(TreeDetector, MatchesDetectTreesI16OnTheVictoriaParkLaser) {
-  const fs::path dir = victoria_park_dir();
+  const fs::path dir = slamkit::test_data::shared_dataset("victoria_park");
   const fs::path laser = dir / "acfr_ascii" / "LASER.txt.gz";
   const fs::path reference = dir / "trees_ufastslam" / "trees.txt";
   if (!fs::exists(laser) || !fs::exists(reference))

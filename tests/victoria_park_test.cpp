@@ -35,6 +35,8 @@
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 
+using slamkit::test_data::write_text;
+
 using namespace slamkit;
 
 namespace {
@@ -44,11 +46,6 @@ namespace fs = std::filesystem;
 fs::path victoria_park_dir() { return slamkit::test_data::shared_dataset("victoria_park"); }
 
 using test_data::ScratchDir;
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-}
 
 void write_gzip(const std::string& path, const std::string& text) {
   gzFile f = gzopen(path.c_str(), "wb");

@@ -10,12 +10,12 @@ namespace slamkit {
 
 namespace {
 
-constexpr double kInfinity = std::numeric_limits<double>::infinity();
+constexpr double kInfiniteDistance = std::numeric_limits<double>::infinity();
 
 /// nu^T S^-1 nu for a 2x2 covariance, infinite unless S is positive definite.
 double mahalanobis2(const Vector2& nu, const Matrix2& s) {
   const double det = s(0, 0) * s(1, 1) - s(0, 1) * s(1, 0);
-  if (!(s(0, 0) > 0.0 && det > 0.0)) return kInfinity;
+  if (!(s(0, 0) > 0.0 && det > 0.0)) return kInfiniteDistance;
   return (s(1, 1) * nu[0] * nu[0] - (s(0, 1) + s(1, 0)) * nu[0] * nu[1] + s(0, 0) * nu[1] * nu[1]) / det;
 }
 
@@ -64,7 +64,7 @@ const std::vector<LandmarkPair>& MapMatcher::match(std::span<const std::size_t> 
   current_.clear();
   current_d2_.clear();
   best_.clear();
-  best_d2_ = kInfinity;
+  best_d2_ = kInfiniteDistance;
   search(0);
   if (stats) stats->nodes += nodes_;
   return best_;
@@ -91,7 +91,7 @@ double MapMatcher::joint_d2() {
     for (Eigen::Index j = 0; j <= i; ++j) s.block<2, 2>(2 * i, 2 * j) = covariance(current_[i], current_[j]);
   }
   const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(s);  // in place, from the lower triangle
-  if (llt.info() != Eigen::Success) return kInfinity;
+  if (llt.info() != Eigen::Success) return kInfiniteDistance;
   llt.matrixL().solveInPlace(nu);
   return nu.squaredNorm();
 }

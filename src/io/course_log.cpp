@@ -23,31 +23,31 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kSensorFile = "sensor_data.dat";
-constexpr const char* kWorldFile = "world.dat";
+constexpr const char* kCourseWorldFile = "world.dat";
 
 // ---- Options ----------------------------------------------------------------------------------------
 
 using namespace option_ranges;
-using Real = RealOption<CourseOptions>;
+using CourseReal = RealOption<CourseOptions>;
 
-const OptionKey<CourseOptions> kOptionKeys[] = {
-    {"alpha_rot_rot", Real{[](CourseOptions& o) -> double& { return o.motion.alpha_rot_rot; }, kNonNegative}},
-    {"alpha_rot_trans", Real{[](CourseOptions& o) -> double& { return o.motion.alpha_rot_trans; }, kNonNegative}},
+const OptionKey<CourseOptions> kCourseOptionKeys[] = {
+    {"alpha_rot_rot", CourseReal{[](CourseOptions& o) -> double& { return o.motion.alpha_rot_rot; }, kNonNegative}},
+    {"alpha_rot_trans", CourseReal{[](CourseOptions& o) -> double& { return o.motion.alpha_rot_trans; }, kNonNegative}},
     {"alpha_trans_trans",
-     Real{[](CourseOptions& o) -> double& { return o.motion.alpha_trans_trans; }, kNonNegative}},
-    {"alpha_trans_rot", Real{[](CourseOptions& o) -> double& { return o.motion.alpha_trans_rot; }, kNonNegative}},
+     CourseReal{[](CourseOptions& o) -> double& { return o.motion.alpha_trans_trans; }, kNonNegative}},
+    {"alpha_trans_rot", CourseReal{[](CourseOptions& o) -> double& { return o.motion.alpha_trans_rot; }, kNonNegative}},
     // A floor of zero would leave a robot standing still with a singular control noise.
-    {"min_variance", Real{[](CourseOptions& o) -> double& { return o.motion.min_variance; }, kPositive}},
-    {"sigma_range_m", Real{[](CourseOptions& o) -> double& { return o.measurement.sigma_range; }, kPositive}},
+    {"min_variance", CourseReal{[](CourseOptions& o) -> double& { return o.motion.min_variance; }, kPositive}},
+    {"sigma_range_m", CourseReal{[](CourseOptions& o) -> double& { return o.measurement.sigma_range; }, kPositive}},
     {"sigma_bearing_deg",
-     Real{[](CourseOptions& o) -> double& { return o.measurement.sigma_bearing; }, kPositive, Unit::kDegrees}},
-    {"max_range_m", Real{[](CourseOptions& o) -> double& { return o.sensor.max_range; }, kPositive}},
-    {"fov_deg", Real{[](CourseOptions& o) -> double& { return o.sensor.fov; }, kFieldOfView, Unit::kDegrees}},
-    {"step_period_s", Real{[](CourseOptions& o) -> double& { return o.step_period; }, kPositive}},
+     CourseReal{[](CourseOptions& o) -> double& { return o.measurement.sigma_bearing; }, kPositive, Unit::kDegrees}},
+    {"max_range_m", CourseReal{[](CourseOptions& o) -> double& { return o.sensor.max_range; }, kPositive}},
+    {"fov_deg", CourseReal{[](CourseOptions& o) -> double& { return o.sensor.fov; }, kFieldOfView, Unit::kDegrees}},
+    {"step_period_s", CourseReal{[](CourseOptions& o) -> double& { return o.step_period; }, kPositive}},
 };
 
 void validate(const CourseOptions& options, const std::string& source) {
-  validate_options<CourseOptions>(options, source, kOptionKeys);
+  validate_options<CourseOptions>(options, source, kCourseOptionKeys);
 }
 
 // ---- Files ------------------------------------------------------------------------------------------
@@ -122,17 +122,17 @@ std::string label(const fs::path& path) {
 }  // namespace
 
 CourseOptions course_options_from_json(const nlohmann::json& json, const std::string& source) {
-  return options_from_json<CourseOptions>(json, source, "the course log options", CourseOptions{}, kOptionKeys);
+  return options_from_json<CourseOptions>(json, source, "the course log options", CourseOptions{}, kCourseOptionKeys);
 }
 
-nlohmann::json to_json(const CourseOptions& options) { return options_to_json<CourseOptions>(options, kOptionKeys); }
+nlohmann::json to_json(const CourseOptions& options) { return options_to_json<CourseOptions>(options, kCourseOptionKeys); }
 
 Dataset read_course_log(const std::string& path, const CourseOptions& options) {
   validate(options, "course log options");
   const fs::path given(path);
   const bool is_dir = fs::is_directory(given);
   const fs::path sensor_file = is_dir ? given / kSensorFile : given;
-  const fs::path world_file = sensor_file.parent_path() / kWorldFile;
+  const fs::path world_file = sensor_file.parent_path() / kCourseWorldFile;
 
   Dataset dataset;
   dataset.spec = "course:" + path;

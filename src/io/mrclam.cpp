@@ -22,6 +22,7 @@
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/pose_at.hpp"
 #include "slamkit/core/text_reader.hpp"
+#include "reader_common.hpp"
 
 namespace slamkit {
 namespace {
@@ -34,28 +35,28 @@ constexpr int kRobots = 5;
 // ---- Options ----------------------------------------------------------------------------------------
 
 using namespace option_ranges;
-using Real = RealOption<MrclamOptions>;
+using MrclamReal = RealOption<MrclamOptions>;
 
 // A robot that takes seconds to act on a command is not following its log; the bound also keeps the
 // shifted times far inside the range the time checks allow.
 constexpr RealRange kCommandDelay{[](double v) { return v >= 0.0 && v <= 10.0; }, ">= 0 and <= 10 (s)"};
 
-const OptionKey<MrclamOptions> kOptionKeys[] = {
-    {"q_v_m2_per_s", Real{[](MrclamOptions& o) -> double& { return o.motion.q_v; }, kNonNegative}},
-    {"q_omega_rad2_per_s", Real{[](MrclamOptions& o) -> double& { return o.motion.q_omega; }, kNonNegative}},
-    {"sigma_range_m", Real{[](MrclamOptions& o) -> double& { return o.measurement.sigma_range; }, kPositive}},
+const OptionKey<MrclamOptions> kMrclamOptionKeys[] = {
+    {"q_v_m2_per_s", MrclamReal{[](MrclamOptions& o) -> double& { return o.motion.q_v; }, kNonNegative}},
+    {"q_omega_rad2_per_s", MrclamReal{[](MrclamOptions& o) -> double& { return o.motion.q_omega; }, kNonNegative}},
+    {"sigma_range_m", MrclamReal{[](MrclamOptions& o) -> double& { return o.measurement.sigma_range; }, kPositive}},
     {"sigma_bearing_deg",
-     Real{[](MrclamOptions& o) -> double& { return o.measurement.sigma_bearing; }, kPositive, Unit::kDegrees}},
-    {"sensor_offset_x_m", Real{[](MrclamOptions& o) -> double& { return o.measurement.offset_x; }, kFinite}},
-    {"sensor_offset_y_m", Real{[](MrclamOptions& o) -> double& { return o.measurement.offset_y; }, kFinite}},
-    {"max_range_m", Real{[](MrclamOptions& o) -> double& { return o.sensor.max_range; }, kPositive}},
-    {"fov_deg", Real{[](MrclamOptions& o) -> double& { return o.sensor.fov; }, kFieldOfView, Unit::kDegrees}},
-    {"scan_window_s", Real{[](MrclamOptions& o) -> double& { return o.scan_window; }, kNonNegative}},
-    {"command_delay_s", Real{[](MrclamOptions& o) -> double& { return o.command_delay; }, kCommandDelay}},
+     MrclamReal{[](MrclamOptions& o) -> double& { return o.measurement.sigma_bearing; }, kPositive, Unit::kDegrees}},
+    {"sensor_offset_x_m", MrclamReal{[](MrclamOptions& o) -> double& { return o.measurement.offset_x; }, kFinite}},
+    {"sensor_offset_y_m", MrclamReal{[](MrclamOptions& o) -> double& { return o.measurement.offset_y; }, kFinite}},
+    {"max_range_m", MrclamReal{[](MrclamOptions& o) -> double& { return o.sensor.max_range; }, kPositive}},
+    {"fov_deg", MrclamReal{[](MrclamOptions& o) -> double& { return o.sensor.fov; }, kFieldOfView, Unit::kDegrees}},
+    {"scan_window_s", MrclamReal{[](MrclamOptions& o) -> double& { return o.scan_window; }, kNonNegative}},
+    {"command_delay_s", MrclamReal{[](MrclamOptions& o) -> double& { return o.command_delay; }, kCommandDelay}},
 };
 
 void validate(const MrclamOptions& options, const std::string& source) {
-  validate_options<MrclamOptions>(options, source, kOptionKeys);
+  validate_options<MrclamOptions>(options, source, kMrclamOptionKeys);
 }
 
 // ---- Times ------------------------------------------------------------------------------------------
@@ -88,14 +89,12 @@ bool parse_time(std::string_view s, UnixTime& out) {
 
 // Times are Unix times (about 1.25e9 s for these logs). A bound far beyond any log's clock keeps the
 // difference of two times, whole seconds and fractions alike, inside a long and exact in a double.
-constexpr double kMaxAbsTime = 1e12;  // about 31,700 years
-
 UnixTime read_time(const TextReader& in, std::size_t i) {
   UnixTime t;
   if (!parse_time(in.field(i), t))
     in.fail(fmt::format("expected a finite number for the time, found '{}'", in.field(i)));
-  if (std::abs(static_cast<double>(t.seconds) + t.fraction) > kMaxAbsTime)
-    in.fail(fmt::format("expected a Unix time in seconds within +-{:g}, found '{}'", kMaxAbsTime, in.field(i)));
+  if (std::abs(static_cast<double>(t.seconds) + t.fraction) > io_detail::kMaxAbsTime)
+    in.fail(fmt::format("expected a Unix time in seconds within +-{:g}, found '{}'", io_detail::kMaxAbsTime, in.field(i)));
   return t;
 }
 
@@ -117,7 +116,7 @@ fs::path require_file(const fs::path& dir, const std::string& name) {
 }
 
 // Times must not go backwards: scans are grouped and controls are cut in file order.
-class TimeOrder {
+class MrclamTimeOrder {
  public:
   double check(const TextReader& in, double t) {
     if (t < last_)
@@ -185,7 +184,7 @@ struct Command {
 std::vector<Command> read_odometry(const fs::path& file, double delay, UnixTime& origin, MrclamStats& stats) {
   TextReader in(file.string());
   std::vector<Command> rows;
-  TimeOrder order;
+  MrclamTimeOrder order;
   while (in.next()) {
     in.expect_fields(3, "<time> <v> <omega>");
     const UnixTime time = read_time(in, 0);
@@ -209,7 +208,7 @@ std::vector<ScanEvent> read_scans(const fs::path& file, const std::unordered_map
                                   const UnixTime& origin, double end, double window, MrclamStats& stats) {
   TextReader in(file.string());
   std::vector<ScanEvent> scans;
-  TimeOrder order;
+  MrclamTimeOrder order;
   while (in.next()) {
     in.expect_fields(4, "<time> <barcode> <range> <bearing>");
     ++stats.measurement_rows;
@@ -250,7 +249,7 @@ std::vector<ScanEvent> read_scans(const fs::path& file, const std::unordered_map
 std::vector<StampedPose> read_truth_poses(const fs::path& file, const UnixTime& origin) {
   TextReader in(file.string());
   std::vector<StampedPose> poses;
-  TimeOrder order;
+  MrclamTimeOrder order;
   while (in.next()) {
     in.expect_fields(4, "<time> <x> <y> <theta>");
     const double t = order.check(in, read_time(in, 0).minus(origin));
@@ -291,19 +290,13 @@ std::vector<Event> merge(const std::vector<Command>& commands, const std::vector
   return events;
 }
 
-std::string last_component(std::string dir) {
-  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
-  const std::string name = fs::path(dir).filename().string();
-  return name.empty() ? dir : name;
-}
-
 }  // namespace
 
 MrclamOptions mrclam_options_from_json(const nlohmann::json& json, const std::string& source) {
-  return options_from_json<MrclamOptions>(json, source, "the MRCLAM options", MrclamOptions{}, kOptionKeys);
+  return options_from_json<MrclamOptions>(json, source, "the MRCLAM options", MrclamOptions{}, kMrclamOptionKeys);
 }
 
-nlohmann::json to_json(const MrclamOptions& options) { return options_to_json<MrclamOptions>(options, kOptionKeys); }
+nlohmann::json to_json(const MrclamOptions& options) { return options_to_json<MrclamOptions>(options, kMrclamOptionKeys); }
 
 Dataset read_mrclam(const std::string& dataset_dir, int robot, const MrclamOptions& options) {
   MrclamStats stats;
@@ -337,7 +330,7 @@ Dataset read_mrclam(const std::string& dataset_dir, int robot, const MrclamOptio
 
   Dataset dataset;
   dataset.spec = fmt::format("mrclam:{}/Robot{}", dataset_dir, robot);
-  dataset.name = fmt::format("mrclam:{}/Robot{}", last_component(dataset_dir), robot);
+  dataset.name = fmt::format("mrclam:{}/Robot{}", io_detail::last_component(dataset_dir), robot);
   dataset.motion = std::make_shared<const VelocityModel>(options.motion);
   dataset.observation = std::make_shared<const RangeBearingModel>(options.measurement);
   dataset.sensor = options.sensor;

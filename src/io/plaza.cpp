@@ -19,6 +19,7 @@
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
+#include "reader_common.hpp"
 
 namespace slamkit {
 namespace {
@@ -28,24 +29,24 @@ namespace fs = std::filesystem;
 // ---- Options ----------------------------------------------------------------------------------------
 
 using namespace option_ranges;
-using Real = RealOption<PlazaOptions>;
+using PlazaReal = RealOption<PlazaOptions>;
 
-const OptionKey<PlazaOptions> kOptionKeys[] = {
-    {"alpha_rot_rot", Real{[](PlazaOptions& o) -> double& { return o.motion.alpha_rot_rot; }, kNonNegative}},
-    {"alpha_rot_trans", Real{[](PlazaOptions& o) -> double& { return o.motion.alpha_rot_trans; }, kNonNegative}},
-    {"alpha_trans_trans", Real{[](PlazaOptions& o) -> double& { return o.motion.alpha_trans_trans; }, kNonNegative}},
-    {"alpha_trans_rot", Real{[](PlazaOptions& o) -> double& { return o.motion.alpha_trans_rot; }, kNonNegative}},
+const OptionKey<PlazaOptions> kPlazaOptionKeys[] = {
+    {"alpha_rot_rot", PlazaReal{[](PlazaOptions& o) -> double& { return o.motion.alpha_rot_rot; }, kNonNegative}},
+    {"alpha_rot_trans", PlazaReal{[](PlazaOptions& o) -> double& { return o.motion.alpha_rot_trans; }, kNonNegative}},
+    {"alpha_trans_trans", PlazaReal{[](PlazaOptions& o) -> double& { return o.motion.alpha_trans_trans; }, kNonNegative}},
+    {"alpha_trans_rot", PlazaReal{[](PlazaOptions& o) -> double& { return o.motion.alpha_trans_rot; }, kNonNegative}},
     // A floor of zero would leave the mower standing still with a singular control noise.
-    {"min_variance", Real{[](PlazaOptions& o) -> double& { return o.motion.min_variance; }, kPositive}},
-    {"sigma_range_m", Real{[](PlazaOptions& o) -> double& { return o.measurement.sigma_range; }, kPositive}},
-    {"sensor_offset_x_m", Real{[](PlazaOptions& o) -> double& { return o.measurement.offset_x; }, kFinite}},
-    {"sensor_offset_y_m", Real{[](PlazaOptions& o) -> double& { return o.measurement.offset_y; }, kFinite}},
-    {"max_range_m", Real{[](PlazaOptions& o) -> double& { return o.sensor.max_range; }, kPositive}},
-    {"fov_deg", Real{[](PlazaOptions& o) -> double& { return o.sensor.fov; }, kFieldOfView, Unit::kDegrees}},
+    {"min_variance", PlazaReal{[](PlazaOptions& o) -> double& { return o.motion.min_variance; }, kPositive}},
+    {"sigma_range_m", PlazaReal{[](PlazaOptions& o) -> double& { return o.measurement.sigma_range; }, kPositive}},
+    {"sensor_offset_x_m", PlazaReal{[](PlazaOptions& o) -> double& { return o.measurement.offset_x; }, kFinite}},
+    {"sensor_offset_y_m", PlazaReal{[](PlazaOptions& o) -> double& { return o.measurement.offset_y; }, kFinite}},
+    {"max_range_m", PlazaReal{[](PlazaOptions& o) -> double& { return o.sensor.max_range; }, kPositive}},
+    {"fov_deg", PlazaReal{[](PlazaOptions& o) -> double& { return o.sensor.fov; }, kFieldOfView, Unit::kDegrees}},
 };
 
 void validate(const PlazaOptions& options, const std::string& source) {
-  validate_options<PlazaOptions>(options, source, kOptionKeys);
+  validate_options<PlazaOptions>(options, source, kPlazaOptionKeys);
 }
 
 // ---- Fields ---------------------------------------------------------------------------------------------
@@ -53,12 +54,10 @@ void validate(const PlazaOptions& options, const std::string& source) {
 // The files give times as doubles (%.16e), so a time relative to the origin is their difference,
 // which loses nothing the file has. A bound far beyond any clock keeps the origin's whole seconds
 // inside a long.
-constexpr double kMaxAbsTime = 1e12;
-
 double read_time(const TextReader& in) {
   const double t = in.number(0, "the time");
-  if (std::abs(t) > kMaxAbsTime)
-    in.fail(fmt::format("expected a time in seconds within +-{:g}, found '{}'", kMaxAbsTime, in.field(0)));
+  if (std::abs(t) > io_detail::kMaxAbsTime)
+    in.fail(fmt::format("expected a time in seconds within +-{:g}, found '{}'", io_detail::kMaxAbsTime, in.field(0)));
   return t;
 }
 
@@ -221,10 +220,10 @@ std::vector<Event> merge(std::vector<ControlEvent> controls, std::vector<ScanEve
 }  // namespace
 
 PlazaOptions plaza_options_from_json(const nlohmann::json& json, const std::string& source) {
-  return options_from_json<PlazaOptions>(json, source, "the Plaza options", PlazaOptions{}, kOptionKeys);
+  return options_from_json<PlazaOptions>(json, source, "the Plaza options", PlazaOptions{}, kPlazaOptionKeys);
 }
 
-nlohmann::json to_json(const PlazaOptions& options) { return options_to_json<PlazaOptions>(options, kOptionKeys); }
+nlohmann::json to_json(const PlazaOptions& options) { return options_to_json<PlazaOptions>(options, kPlazaOptionKeys); }
 
 std::optional<std::string> plaza_run_name(std::string_view given) {
   constexpr std::string_view kPrefix = "plaza";

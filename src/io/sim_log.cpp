@@ -20,6 +20,7 @@
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
 #include "slamkit/models/observation_model.hpp"
+#include "reader_common.hpp"
 
 namespace slamkit {
 namespace {
@@ -33,7 +34,7 @@ constexpr const char* kEventsFile = "events.txt";
 constexpr const char* kTruthPosesFile = "truth_poses.txt";
 constexpr const char* kTruthLandmarksFile = "truth_landmarks.txt";
 constexpr const char* kTruthObservationsFile = "truth_observations.txt";
-constexpr const char* kWorldFile = "world.txt";
+constexpr const char* kSimWorldFile = "world.txt";
 
 // ---- Writing ------------------------------------------------------------------------------------------
 
@@ -345,12 +346,6 @@ void read_truth_observations(const fs::path& file, const std::vector<Event>& eve
   }
 }
 
-std::string last_component(std::string dir) {
-  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
-  const std::string name = fs::path(dir).filename().string();
-  return name.empty() ? dir : name;
-}
-
 }  // namespace
 
 void write_sim_log(const std::string& dir, const Dataset& dataset, const SimulatorConfig& config,
@@ -369,7 +364,7 @@ void write_sim_log(const std::string& dir, const Dataset& dataset, const Simulat
     remove_stale(root / kTruthPosesFile);
     remove_stale(root / kTruthLandmarksFile);
   }
-  write_world((root / kWorldFile).string(), world);
+  write_world((root / kSimWorldFile).string(), world);
 }
 
 Dataset read_sim_log(const std::string& dir) {
@@ -379,7 +374,7 @@ Dataset read_sim_log(const std::string& dir) {
   const Params params = read_params(root / kParamsFile);
   Dataset dataset;
   dataset.spec = "sim:" + dir;
-  dataset.name = "sim:" + last_component(dir);
+  dataset.name = "sim:" + io_detail::last_component(dir);
   set_platform(dataset, params.config);
   dataset.initial_pose = params.initial_pose;
 

@@ -29,50 +29,50 @@ constexpr std::size_t kBeams = 361;
 
 using namespace option_ranges;
 using Key = OptionKey<VictoriaParkOptions>;
-using Real = RealOption<VictoriaParkOptions>;
+using VictoriaParkReal = RealOption<VictoriaParkOptions>;
 
 const Key kCarKeys[] = {
-    {"wheelbase_m", Real{[](VictoriaParkOptions& o) -> double& { return o.car.wheelbase; }, kPositive}},
-    {"encoder_offset_m", Real{[](VictoriaParkOptions& o) -> double& { return o.car.encoder_offset; }, kNonNegative}},
-    {"laser_forward_m", Real{[](VictoriaParkOptions& o) -> double& { return o.car.laser_forward; }, kFinite}},
-    {"laser_left_m", Real{[](VictoriaParkOptions& o) -> double& { return o.car.laser_left; }, kFinite}},
+    {"wheelbase_m", VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.car.wheelbase; }, kPositive}},
+    {"encoder_offset_m", VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.car.encoder_offset; }, kNonNegative}},
+    {"laser_forward_m", VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.car.laser_forward; }, kFinite}},
+    {"laser_left_m", VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.car.laser_left; }, kFinite}},
 };
 
 const Key kDetectorKeys[] = {
     {"max_beam_range_m",
-     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.max_beam_range; }, kPositive}},
+     VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.detector.max_beam_range; }, kPositive}},
     {"segment_range_jump_m",
-     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.segment_range_jump; }, kPositive}},
+     VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.detector.segment_range_jump; }, kPositive}},
     {"segment_angle_gap_deg",
-     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.segment_angle_gap; }, kPositive,
+     VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.detector.segment_angle_gap; }, kPositive,
           Unit::kDegrees}},
     {"clutter_distance_m",
-     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.clutter_distance; }, kNonNegative}},
+     VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.detector.clutter_distance; }, kNonNegative}},
     {"clutter_lookahead", IntegerOption<VictoriaParkOptions, int>{
                               [](VictoriaParkOptions& o) -> int& { return o.detector.clutter_lookahead; }}},
     {"occlusion_angle_deg",
-     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.occlusion_angle; }, kNonNegative,
+     VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.detector.occlusion_angle; }, kNonNegative,
           Unit::kDegrees}},
-    {"max_extent_m", Real{[](VictoriaParkOptions& o) -> double& { return o.detector.max_extent; }, kPositive}},
-    {"min_range_m", Real{[](VictoriaParkOptions& o) -> double& { return o.detector.min_range; }, kNonNegative}},
+    {"max_extent_m", VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.detector.max_extent; }, kPositive}},
+    {"min_range_m", VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.detector.min_range; }, kNonNegative}},
     {"edge_margin_deg",
-     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.edge_margin; }, kNonNegative, Unit::kDegrees}},
+     VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.detector.edge_margin; }, kNonNegative, Unit::kDegrees}},
     {"max_depth_ratio",
-     Real{[](VictoriaParkOptions& o) -> double& { return o.detector.max_depth_ratio; }, kPositive}},
+     VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.detector.max_depth_ratio; }, kPositive}},
 };
 
-const Key kOptionKeys[] = {
-    {"max_range_m", Real{[](VictoriaParkOptions& o) -> double& { return o.max_range; }, kPositive}},
-    {"sigma_speed_mps", Real{[](VictoriaParkOptions& o) -> double& { return o.car.sigma_speed; }, kNonNegative}},
+const Key kVictoriaParkOptionKeys[] = {
+    {"max_range_m", VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.max_range; }, kPositive}},
+    {"sigma_speed_mps", VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.car.sigma_speed; }, kNonNegative}},
     {"sigma_steer_deg",
-     Real{[](VictoriaParkOptions& o) -> double& { return o.car.sigma_steer; }, kNonNegative, Unit::kDegrees}},
-    {"sigma_range_m", Real{[](VictoriaParkOptions& o) -> double& { return o.sigma_range; }, kNonNegative}},
+     VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.car.sigma_steer; }, kNonNegative, Unit::kDegrees}},
+    {"sigma_range_m", VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.sigma_range; }, kNonNegative}},
     {"sigma_bearing_deg",
-     Real{[](VictoriaParkOptions& o) -> double& { return o.sigma_bearing; }, kNonNegative, Unit::kDegrees}},
+     VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.sigma_bearing; }, kNonNegative, Unit::kDegrees}},
     {"initial_heading_deg",
-     Real{[](VictoriaParkOptions& o) -> double& { return o.initial_heading; }, kFinite, Unit::kDegrees}},
-    {"start_time_s", Real{[](VictoriaParkOptions& o) -> double& { return o.start_time; }, kNonNegative}},
-    {"end_time_s", Real{[](VictoriaParkOptions& o) -> double& { return o.end_time; }, kNonNegativeOrInfinite}},
+     VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.initial_heading; }, kFinite, Unit::kDegrees}},
+    {"start_time_s", VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.start_time; }, kNonNegative}},
+    {"end_time_s", VictoriaParkReal{[](VictoriaParkOptions& o) -> double& { return o.end_time; }, kNonNegativeOrInfinite}},
     {"car", section(kCarKeys)},
     {"tree_detector", section(kDetectorKeys)},
 };
@@ -85,7 +85,7 @@ void check_time_window(const VictoriaParkOptions& options, const std::string& so
 }
 
 void validate(const VictoriaParkOptions& options, const std::string& source) {
-  validate_options<VictoriaParkOptions>(options, source, kOptionKeys);
+  validate_options<VictoriaParkOptions>(options, source, kVictoriaParkOptionKeys);
   check_time_window(options, source);
 }
 
@@ -211,7 +211,7 @@ std::vector<Event> merge(const std::vector<DrRow>& dr, std::vector<ScanEvent>& s
 
 VictoriaParkOptions victoria_park_options_from_json(const nlohmann::json& json, const std::string& source) {
   const VictoriaParkOptions options =
-      options_from_json<VictoriaParkOptions>(json, source, "the Victoria Park options", {}, kOptionKeys);
+      options_from_json<VictoriaParkOptions>(json, source, "the Victoria Park options", {}, kVictoriaParkOptionKeys);
   check_time_window(options, source);
   return options;
 }

@@ -6,14 +6,11 @@
 #include <stdexcept>
 
 #include "slamkit/plot/svg_plot.hpp"
+#include "svg_elements.hpp"
 
 namespace slamkit::plot {
 
-namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-}  // namespace
+using svg::kNaN;
 
 Figure map_figure(const MapPlotData& data) {
   Figure fig(960, 800);

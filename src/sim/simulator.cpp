@@ -19,6 +19,7 @@
 #include "slamkit/core/memory_budget.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
+#include "uniform.hpp"
 
 namespace slamkit {
 namespace {
@@ -107,8 +108,7 @@ void check_periods(const SimulatorConfig& c, const std::string& source) {
 // distributions (and std::shuffle) differ between implementations, and a seed must give the same
 // dataset with all of them.
 
-// Uniform on [0, 1) from the top 53 bits.
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+using sim_detail::uniform01;
 
 // Standard normal samples by Box-Muller.
 class Gaussian {

@@ -21,13 +21,12 @@
 #include "slamkit/core/coordinates.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/text_reader.hpp"
+#include "uniform.hpp"
 
 namespace slamkit {
 namespace {
 
-// Uniform on [0, 1) from the top 53 bits: unlike std::uniform_real_distribution its output is fixed
-// by the standard engine alone, so a seed gives the same world with every standard library.
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+using sim_detail::uniform01;
 
 // The route of a generated world: a rounded rectangle, lower straight centred on the origin, driven
 // counter-clockwise from (0, 0).
