@@ -78,10 +78,8 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
   if (estimator_->calibrates_ranges() && association_.method != AssociationMethod::kKnown)
     throw std::invalid_argument("a range calibration is estimated with association 'known': nn and jcbb predict "
                                 "measurements without it");
-  DelayedInitialisationOptions delayed = options.delayed_initialisation;
-  require_range_for(likelihood_, estimator_->observation_model().rows().range, estimator_->observation_model().name());
-  delayed.outliers_expected = likelihood_.robust();
-  delayed.outliers_read_long = likelihood_.outliers_read_long();
+  const DelayedInitialisationOptions delayed =
+      expecting_outliers_of(options.delayed_initialisation, likelihood_, estimator_->observation_model());
   reach_ = options.sensor.max_range;
   if (options.initialisation == LandmarkInitialisation::kInverseDistance) {
     if (!estimator_->keeps_inverse_distance())

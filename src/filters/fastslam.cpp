@@ -108,10 +108,8 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
                                   "delayed start; with --range-calibration use --landmark-init delayed");
     start = start.value_or(LandmarkInitialisation::kDelayed);
   }
-  DelayedInitialisationOptions delayed = config.delayed_initialisation;
-  require_range_for(config.likelihood, observation->rows().range, observation->name());
-  delayed.outliers_expected = config.likelihood.robust();
-  delayed.outliers_read_long = config.likelihood.outliers_read_long();
+  const DelayedInitialisationOptions delayed =
+      expecting_outliers_of(config.delayed_initialisation, config.likelihood, *observation);
   initialiser = make_landmark_initialiser(start, observation, known(), calibrating(), delayed, config.ring_initialisation);
   relocalise_association.method = AssociationMethod::kJcbb;
   with_measurement_dim(observation->dim(), [&]<int D>(std::integral_constant<int, D>) {

@@ -26,6 +26,15 @@ void validate(const DelayedInitialisationOptions& o) {
     fail(fmt::format("gate_probability must be > 0.5 and < 1, found {}", o.gate_probability));
 }
 
+DelayedInitialisationOptions expecting_outliers_of(DelayedInitialisationOptions options,
+                                                   const MeasurementLikelihood& likelihood,
+                                                   const ObservationModel& model) {
+  require_range_for(likelihood, model.rows().range, model.name());
+  options.outliers_expected = likelihood.robust();
+  options.outliers_read_long = likelihood.outliers_read_long();
+  return options;
+}
+
 Matrix23 attached_to_pose(const Pose2& x, const Vector2& m) {
   const Vector2 lever = m - x.head<2>();
   Matrix23 gx;

@@ -53,6 +53,7 @@
 #include <string>
 #include <vector>
 
+#include "slamkit/models/measurement_likelihood.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 
@@ -89,6 +90,13 @@ struct DelayedInitialisationOptions {
 
 /// Throws std::invalid_argument naming the first setting out of its range.
 void validate(const DelayedInitialisationOptions& options);
+
+/// `options` with the outliers the filter's `likelihood` expects of `model`'s measurements (its two
+/// outlier flags). Throws std::invalid_argument where the likelihood takes outliers to be ranges read
+/// long and the model measures no range.
+DelayedInitialisationOptions expecting_outliers_of(DelayedInitialisationOptions options,
+                                                   const MeasurementLikelihood& likelihood,
+                                                   const ObservationModel& model);
 
 /// The ring start's own setting; it shares max_std_m and window_s with the delayed start.
 struct RingInitialisationOptions {
