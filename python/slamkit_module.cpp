@@ -91,7 +91,7 @@ class PyEvent {
 
   const Event& event() const { return dataset_->events[index_]; }
   std::size_t index() const { return index_; }
-  double t() const { return std::visit([](const auto& e) { return e.t; }, event()); }
+  double t() const { return event_time(event()); }
   const char* kind() const { return std::holds_alternative<ControlEvent>(event()) ? "control" : "scan"; }
   py::object dt() const {
     const auto* control = std::get_if<ControlEvent>(&event());

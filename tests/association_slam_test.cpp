@@ -86,7 +86,7 @@ TEST_P(UnknownAssociation, ClutterIsRemovedAndTheFilterStaysConsistent) {
   std::map<long, int> nees_count;
   for (int run = 0; run < kRuns; ++run) {
     Dataset d = simulate_scenario("cluttered", 500 + static_cast<std::uint64_t>(run));
-    std::erase_if(d.events, [&](const Event& e) { return std::visit([](const auto& ev) { return ev.t; }, e) > kDuration; });
+    std::erase_if(d.events, [&](const Event& e) { return event_time(e) > kDuration; });
     EkfSlam ekf = make_ekf(d, GetParam());
     std::map<double, Pose2> truth;
     for (const auto& p : d.truth.poses) truth[p.t] = p.pose;

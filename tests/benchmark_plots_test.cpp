@@ -6,8 +6,6 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "slamkit/core/error.hpp"
@@ -16,16 +14,9 @@
 namespace slamkit {
 namespace {
 
+using test_data::read_text;
 using test_data::ScratchDir;
-
-std::string read_all(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+using test_data::write_text;
 
 std::string entry(const std::string& name, const std::string& type, const std::string& aggregate, double cpu,
                   const std::string& unit) {
@@ -43,10 +34,10 @@ TEST(BenchmarkPlots, DrawsMediansOfThePresentSeries) {
       entry("BM_EkfObservationUpdate/1000", "aggregate", "median", 1.2, "ms") + ", " +
       entry("BM_AssociationJcbb/100", "iteration", "", 20000.0, "ns") + ", " +
       entry("BM_AssociationJcbb/5000", "iteration", "", 21000.0, "ns") + "]}";
-  write(dir.file("bench.json"), json);
+  write_text(dir.file("bench.json"), json);
   const auto files = plot::write_benchmark_plots({dir.file("bench.json")}, dir.file("plots"));
   ASSERT_EQ(files.size(), 2U);  // no FastSLAM benchmarks in the file, so no FastSLAM plots
-  const std::string ekf = read_all(dir.file("plots/ekf_vs_landmarks.svg"));
+  const std::string ekf = read_text(dir.file("plots/ekf_vs_landmarks.svg"));
   EXPECT_NE(ekf.find("observation update (one landmark)"), std::string::npos);
   EXPECT_EQ(ekf.find("scan of 15 observations"), std::string::npos);
   // The log axis spans the medians, 15 us to 1.2 ms; had it taken the 999 us mean, 10^-4 would be off it.
@@ -57,7 +48,7 @@ TEST(BenchmarkPlots, DrawsMediansOfThePresentSeries) {
 
 TEST(BenchmarkPlots, RejectsWhatIsNotBenchmarkOutput) {
   ScratchDir dir;
-  write(dir.file("bad.json"), "{\"benchmarks\": 3}");
+  write_text(dir.file("bad.json"), "{\"benchmarks\": 3}");
   try {
     plot::write_benchmark_plots({dir.file("bad.json")}, dir.file("plots"));
     FAIL() << "expected an InputError";

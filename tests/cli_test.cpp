@@ -44,10 +44,7 @@ Result slamkit_cli(const std::string& args, const fs::path& work, const fs::path
   while (fgets(buffer.data(), buffer.size(), pipe) != nullptr) r.out += buffer.data();
   const int status = pclose(pipe);
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(err_file);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  r.err = ss.str();
+  r.err = read_text(err_file);
   return r;
 }
 
@@ -147,11 +144,7 @@ TEST_F(Cli, UkfAndConsistentVariantsRunAndPlotNees) {
 TEST_F(Cli, SameSeedSameLog) {
   const Result a = slamkit_cli("simulate --seed 3 --out " + (*work_ / "again").string(), *work_);
   ASSERT_EQ(a.exit_code, 0);
-  std::ifstream x(*work_ / "sim" / "events.txt"), y(*work_ / "again" / "events.txt");
-  std::stringstream sx, sy;
-  sx << x.rdbuf();
-  sy << y.rdbuf();
-  EXPECT_EQ(sx.str(), sy.str());
+  EXPECT_EQ(read_text(*work_ / "sim" / "events.txt"), read_text(*work_ / "again" / "events.txt"));
 }
 
 TEST_F(Cli, EveryCommandHasHelp) {

@@ -2,8 +2,6 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 
 #include "slamkit/plot/report.hpp"
 #include "slamkit/plot/svg_plot.hpp"

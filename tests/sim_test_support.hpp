@@ -45,11 +45,10 @@ inline std::vector<ScanEvent> scans_of(const Dataset& d) {
 
 /// The dataset cut at time `t_end`: its events, truth poses and the identities of the scans kept.
 inline Dataset truncated(Dataset d, double t_end) {
-  const auto time_of = [](const Event& e) { return std::visit([](const auto& event) { return event.t; }, e); };
   std::size_t scans = 0;
   for (const Event& e : d.events)
-    if (time_of(e) <= t_end && std::holds_alternative<ScanEvent>(e)) ++scans;
-  std::erase_if(d.events, [&](const Event& e) { return time_of(e) > t_end; });
+    if (event_time(e) <= t_end && std::holds_alternative<ScanEvent>(e)) ++scans;
+  std::erase_if(d.events, [&](const Event& e) { return event_time(e) > t_end; });
   std::erase_if(d.truth.poses, [&](const StampedPose& p) { return p.t > t_end; });
   if (d.truth.observation_ids.size() > scans) d.truth.observation_ids.resize(scans);
   return d;

@@ -7,12 +7,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <numbers>
 #include <string>
 #include <vector>
 
 #include "svg_test_support.hpp"
+#include "test_data.hpp"
 
 using namespace slamkit;
 using namespace slamkit::plot;
@@ -350,10 +350,7 @@ TEST(SvgPlotStacked, PanelsShareTheirPlotAreasLeftAndRightAndHaveIdsOfTheirOwn) 
 TEST(SvgPlotFile, SaveWritesTheSvg) {
   const std::string path = ::testing::TempDir() + "/slamkit_svg_plot_map.svg";
   write_map_svg(path, sample_map());
-  std::ifstream in(path);
-  std::stringstream content;
-  content << in.rdbuf();
-  EXPECT_EQ(content.str(), map_figure(sample_map()).to_svg());
+  EXPECT_EQ(test_data::read_text(path), map_figure(sample_map()).to_svg());
   std::remove(path.c_str());
 }
 

@@ -40,13 +40,6 @@ class TrajectoryIo : public testing::Test {
     return p;
   }
 
-  static std::string read_text(const std::string& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-  }
-
   /// Runs `f`, which must throw an InputError at `line` of `file`, and returns its message.
   template <typename F>
   static std::string input_error(F f, const std::string& file, std::size_t line) {
@@ -89,7 +82,7 @@ TEST_F(TrajectoryIo, TumRoundTripIsExact) {
 
 TEST_F(TrajectoryIo, TumLinesHoldAPlanarYawQuaternion) {
   write_tum(path("t.tum"), {{2.5, Pose2(1.0, -2.0, kPi / 2)}});
-  std::istringstream lines(read_text(path("t.tum")));
+  std::istringstream lines(test_data::read_text(path("t.tum")));
   std::string header;
   std::getline(lines, header);
   EXPECT_EQ(header.front(), '#');

@@ -298,7 +298,7 @@ TEST_F(VictoriaParkData, TimeWindowKeepsOnlyItsEventsAndFixes) {
   ASSERT_FALSE(data.events.empty());
   ASSERT_FALSE(data.truth.poses.empty());
   for (const Event& e : data.events) {
-    const double t = std::visit([](const auto& ev) { return ev.t; }, e);
+    const double t = event_time(e);
     EXPECT_GE(t, 150.0);
     EXPECT_LE(t, 200.0);
   }

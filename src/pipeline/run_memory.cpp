@@ -45,8 +45,8 @@ RunMemoryEstimate estimate_run_memory(const FilterConfig& config, const Dataset&
       scans += 1.0;
       observations += static_cast<double>(scan->observations.size());
     }
-  const auto time_of = [](const Event& e) { return std::visit([](const auto& ev) { return ev.t; }, e); };
-  const double duration = dataset.events.empty() ? 0.0 : time_of(dataset.events.back()) - time_of(dataset.events.front());
+  const double duration =
+      dataset.events.empty() ? 0.0 : event_time(dataset.events.back()) - event_time(dataset.events.front());
   // Landmark and particle samples are taken at most once per std_interval_s, at scans.
   double samples = options.std_interval_s > 0.0 ? std::min(scans, std::floor(duration / options.std_interval_s) + 1.0)
                                                 : scans;

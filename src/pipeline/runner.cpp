@@ -16,10 +16,6 @@ namespace slamkit {
 
 namespace {
 
-double event_time(const Event& e) {
-  return std::visit([](const auto& ev) { return ev.t; }, e);
-}
-
 /// Time of the pose the stream starts from: just before the first control is applied.
 double start_time(const Dataset& dataset) {
   for (const Event& e : dataset.events)

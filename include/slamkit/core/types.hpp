@@ -55,6 +55,10 @@ struct ScanEvent {
 
 using Event = std::variant<ControlEvent, ScanEvent>;
 
+inline double event_time(const Event& e) {
+  return std::visit([](const auto& event) { return event.t; }, e);
+}
+
 /// A timestamped pose, e.g. a ground-truth or estimated trajectory sample.
 struct StampedPose {
   double t = 0.0;
