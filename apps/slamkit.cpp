@@ -483,9 +483,9 @@ int run_command(int argc, char** argv) {
                     "How a landmark starts: immediate (from one measurement's inverse), delayed "
                     "(triangulated from several observations at well-spread poses; known ids only), ring (range "
                     "only: a ring of Gaussian hypotheses that collapses as the ranges agree; known ids only), "
-                    "inverse-distance (bearing only, ekf full or fej; experimental: accurate but overconfident, docs/sensing.md; "
-                    "the landmark joins the state at its first bearing as an azimuth and inverse distance, and "
-                    "becomes a point once its distance is known) or "
+                    "inverse-distance (bearing only, ekf full or fej, known ids; the landmark joins the state at its first "
+                    "bearing as an azimuth and inverse distance from its origin, and becomes a point once its "
+                    "distance is known; docs/sensing.md) or "
                     "auto (immediate where one measurement places a landmark, delayed for range-only and "
                     "bearing-only sensors)",
                     defaults.landmark_init);

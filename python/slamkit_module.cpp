@@ -447,7 +447,10 @@ PYBIND11_MODULE(slamkit, m) {
       .def_property_readonly("state", &Filter::state,
                              "EKF and UKF: the joint state, shape (3 + 2n,): [x y theta | m1x m1y | m2x m2y | ...] "
                              "[m, rad], landmark i being state_ids[i] (provisional landmarks included, so it can "
-                             "hold more than map). FastSLAM: pose, shape (3,); its maps are per particle")
+                             "hold more than map). A range calibration (offset, scale error) comes before the "
+                             "landmarks where it is estimated, and a landmark at inverse distance holds four rows "
+                             "(theta, rho, origin x, origin y) until it becomes a point. FastSLAM: pose, shape (3,); "
+                             "its maps are per particle")
       .def_property_readonly("covariance", &Filter::covariance,
                              "EKF and UKF: the joint covariance of state, shape (3 + 2n, 3 + 2n), symmetric. "
                              "FastSLAM: pose_covariance")

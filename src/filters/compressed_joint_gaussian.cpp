@@ -193,7 +193,7 @@ std::size_t CompressedJointGaussian::add_landmark(const InitialLandmark& landmar
   if (!in_area()) begin_area();
   x_.segment<2>(static_cast<Eigen::Index>(dim_)) = landmark.mean;
   add_local(landmark.gx, landmark.covariance);
-  dim_ += 2;
+  append_landmark_rows(2);
   return num_landmarks() - 1;
 }
 

@@ -128,7 +128,6 @@ void EkfEstimator::innovation(std::size_t index, Measurement& zhat, MeasurementC
       sd.row(row) += with_calibration.transpose();
       sd(row, row) += hp.dot(diagonal_block<2>(kOffsetRow) * hp);
     }
-    sd(0, 0) += added_innovation_variance(index);
     s = sd;
   });
 }
@@ -150,22 +149,31 @@ void EkfEstimator::use_threads(unsigned threads) {
 }
 
 void EkfEstimator::remove_stored_landmark(std::size_t index) {
-  const std::size_t n = dim_, l = landmark_offset(index);
-  std::copy(x_.data() + l + 2, x_.data() + n, x_.data() + l);
-  // Close the gap in the lower triangle column by column. Columns left of the landmark shift their
-  // rows below it up by two, in place; columns right of it come from two columns further right.
+  const std::size_t rows = landmark_rows(index);
+  remove_stored_rows(landmark_offset(index), rows);
+  landmark_offsets_.erase(landmark_offsets_.begin() + static_cast<std::ptrdiff_t>(index));
+}
+
+void EkfEstimator::remove_stored_rows(std::size_t first, std::size_t count) {
+  const std::size_t n = dim_, end = first + count;
+  std::copy(x_.data() + end, x_.data() + n, x_.data() + first);
+  // Close the gap in the lower triangle column by column. Columns left of the rows shift their
+  // rows below the gap up by `count`, in place; columns right of it come from `count` columns
+  // further right.
   const auto stride = static_cast<std::size_t>(p_.rows());
   double* base = p_.data();
-  for (std::size_t c = 0; c + 2 < n; ++c) {
+  for (std::size_t c = 0; c + count < n; ++c) {
     double* dst = base + c * stride;
-    if (c < l) {
-      std::copy(dst + l + 2, dst + n, dst + l);
+    if (c < first) {
+      std::copy(dst + end, dst + n, dst + first);
     } else {
-      const double* src = base + (c + 2) * stride;
-      std::copy(src + c + 2, src + n, dst + c);
+      const double* src = base + (c + count) * stride;
+      std::copy(src + c + count, src + n, dst + c);
     }
   }
-  dim_ -= 2;
+  dim_ -= count;
+  for (std::size_t& offset : landmark_offsets_)
+    if (offset >= end) offset -= count;
 }
 
 }  // namespace slamkit

@@ -146,6 +146,7 @@ std::map<std::string, double> EkfSlam::statistics() const {
   estimator_->add_statistics(s);
   if (association_.method == AssociationMethod::kKnown && gate_known_) gate_tally_.add_statistics(s);
   if (recover_known_) s["known_id_recoveries"] = static_cast<double>(known_recoveries_);
+  if (inverse_distance_) s["inverse_distance_restarts"] = static_cast<double>(inverse_distance_restarts_);
   if (estimator_->calibrates_ranges()) {
     const RangeCorrection c = estimator_->range_correction();
     const Matrix2 covariance = estimator_->range_correction_covariance();
@@ -275,15 +276,22 @@ LandmarkObservation EkfSlam::weighed(std::size_t index, const Measurement& z, st
 void EkfSlam::update_known(const ScanEvent& scan) {
   new_observations_.clear();
   rejected_.clear();
+  restarts_.clear();
   std::size_t judged = 0, rejected = 0;
   auto apply = [&](std::size_t k, std::size_t index) {
+    if (estimator_->beyond_linear_reach(index)) {
+      restarts_.push_back(k);
+      return;
+    }
     std::optional<double> distance;
     if (gate_known_) {
       ++judged;
       distance = innovation_distance(index, scan.observations[k].z);
       if (!(*distance <= gates_.new_landmark)) {
         ++rejected;
-        if (recover_known_)
+        if (estimator_->at_inverse_distance(index))
+          restarts_.push_back(k);
+        else if (recover_known_)
           rejected_.push_back(k);  // discarded; recover_known keeps a copy
         else
           ++discarded_;
@@ -319,6 +327,20 @@ void EkfSlam::update_known(const ScanEvent& scan) {
       new_observations_.push_back(k);
   }
   apply_joint_batch();
+  // A landmark at inverse distance starts again from this bearing where the bearing is beyond its
+  // linear reach (seen again from far off its origin before its distance is known: one update
+  // would place it by a linearisation that stands for none of the distances it allows), or where
+  // the gate rejects the bearing (it went astray while its distance was still a guess: an update
+  // linearised at a rho far from the truth can pin rho down at a wrong value, and the gate then
+  // rejects every later bearing). It is not yet a point of the map.
+  for (const std::size_t k : restarts_) {
+    const long index = find_landmark(scan.observations[k].id);
+    if (index >= 0) {  // not when seen twice in the scan
+      remove_landmark(static_cast<std::size_t>(index));
+      ++inverse_distance_restarts_;
+    }
+    new_observations_.push_back(k);
+  }
   // New landmarks are added after the scan's updates, so they start from the best pose estimate.
   for (const std::size_t k : new_observations_) {
     const Observation& obs = scan.observations[k];

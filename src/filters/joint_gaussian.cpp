@@ -65,35 +65,47 @@ JointGaussian::JointGaussian(std::shared_ptr<const MotionModel> motion,
 
 Vector2 JointGaussian::landmark_position(std::size_t index) const {
   const Vector2 stored = x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
-  return inverse_distance_[index] ? inverse_distance_[index]->position(stored) : stored;
+  return inverse_distance_[index] ? inverse_distance_point(index, x_).position(stored) : stored;
 }
 
-Matrix2 JointGaussian::position_jacobian(std::size_t index) const {
-  return inverse_distance_[index]->position_jacobian(x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index))));
+Eigen::Matrix<double, 2, 4> JointGaussian::point_jacobian(std::size_t index) const {
+  Eigen::Matrix<double, 2, 4> j = Eigen::Matrix<double, 2, 4>::Zero();
+  if (!inverse_distance_[index]) {
+    j.leftCols<2>().setIdentity();
+    return j;
+  }
+  j.leftCols<2>() =
+      inverse_distance_point(index, x_).position_jacobian(x_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index))));
+  j.rightCols<2>().setIdentity();
+  return j;
 }
 
 Matrix2 JointGaussian::landmark_covariance(std::size_t index) const {
-  const Matrix2 stored = diagonal_block<2>(landmark_offset(index));
-  if (!inverse_distance_[index]) return stored;
-  const Matrix2 g = position_jacobian(index);
-  return g * stored * g.transpose();
+  const std::size_t l = landmark_offset(index);
+  if (!inverse_distance_[index]) return diagonal_block<2>(l);
+  const Eigen::Matrix<double, 2, 4> j = point_jacobian(index);
+  const Matrix2 point = j * diagonal_block<4>(l) * j.transpose();
+  return 0.5 * (point + point.transpose());
 }
 
 Matrix2 JointGaussian::landmark_cross_covariance(std::size_t i, std::size_t j) const {
   if (i == j) return landmark_covariance(i);
   const auto a = static_cast<Eigen::Index>(landmark_offset(i));
   const auto b = static_cast<Eigen::Index>(landmark_offset(j));
+  const auto rows_i = static_cast<Eigen::Index>(landmark_rows(i)), rows_j = static_cast<Eigen::Index>(landmark_rows(j));
   // Only the lower triangle is stored: the block with the larger row offset holds the pair.
-  Matrix2 stored = a > b ? Matrix2(p_.block<2, 2>(a, b)) : Matrix2(p_.block<2, 2>(b, a).transpose());
-  if (inverse_distance_[i]) stored = position_jacobian(i) * stored;
-  if (inverse_distance_[j]) stored = stored * position_jacobian(j).transpose();
-  return stored;
+  Eigen::Matrix4d stored = Eigen::Matrix4d::Zero();
+  if (a > b)
+    stored.topLeftCorner(rows_i, rows_j) = p_.block(a, b, rows_i, rows_j);
+  else
+    stored.topLeftCorner(rows_i, rows_j) = p_.block(b, a, rows_j, rows_i).transpose();
+  return point_jacobian(i) * stored * point_jacobian(j).transpose();
 }
 
 Matrix23 JointGaussian::landmark_pose_covariance(std::size_t index) const {
-  const Matrix23 stored =
-      p_.block<2, 3>(static_cast<Eigen::Index>(landmark_offset(index)), 0) * pending_motion_.transpose();
-  return inverse_distance_[index] ? Matrix23(position_jacobian(index) * stored) : stored;
+  const auto l = static_cast<Eigen::Index>(landmark_offset(index));
+  if (!inverse_distance_[index]) return p_.block<2, 3>(l, 0) * pending_motion_.transpose();
+  return point_jacobian(index) * p_.block<4, 3>(l, 0) * pending_motion_.transpose();
 }
 
 Eigen::VectorXd JointGaussian::state() const { return x_.head(static_cast<Eigen::Index>(dim_)); }
@@ -140,18 +152,27 @@ void JointGaussian::inflate_pose(const Matrix3& q) {
 }
 
 template <int D>
+void JointGaussian::add_column_block(std::size_t offset, const LandmarkRows<D>& h,
+                                     Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, D>> out) const {
+  const auto n = static_cast<Eigen::Index>(dim_);
+  const auto l = static_cast<Eigen::Index>(offset);
+  // Rows above the block come from the transposed row block.
+  out.topRows(l).noalias() += p_.block(l, 0, 2, l).transpose() * h.transpose();
+  out.template middleRows<2>(l).noalias() += diagonal_block<2>(offset) * h.transpose();
+  out.bottomRows(n - l - 2).noalias() += p_.block(l + 2, l, n - l - 2, 2) * h.transpose();
+}
+
+template <int D>
 void JointGaussian::covariance_times_jacobian(std::size_t lm_offset, const PoseRows<D>& hx, const LandmarkRows<D>& hm,
-                                              int calibrated, double distance,
+                                              const LandmarkRows<D>* horigin, int calibrated, double distance,
                                               Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, D>> out) const {
   const auto n = static_cast<Eigen::Index>(dim_);
-  const auto l = static_cast<Eigen::Index>(lm_offset);
-  // H = [hx 0 .. 0 hm 0 .. 0], so P H^T = P(:, vehicle) hx^T + P(:, landmark) hm^T, each column block
-  // read from the lower triangle: rows above a block come from the transposed row block.
+  // H = [hx 0 .. 0 hm (horigin) 0 .. 0], so P H^T = P(:, vehicle) hx^T + P(:, landmark) hm^T
+  // (+ P(:, origin) horigin^T), each column block read from the lower triangle.
   out.template topRows<3>().noalias() = diagonal_block<3>(0) * hx.transpose();
   out.bottomRows(n - 3).noalias() = p_.block(3, 0, n - 3, 3) * hx.transpose();
-  out.topRows(l).noalias() += p_.block(l, 0, 2, l).transpose() * hm.transpose();
-  out.template middleRows<2>(l).noalias() += diagonal_block<2>(lm_offset) * hm.transpose();
-  out.bottomRows(n - l - 2).noalias() += p_.block(l + 2, l, n - l - 2, 2) * hm.transpose();
+  add_column_block<D>(lm_offset, hm, out);
+  if (horigin) add_column_block<D>(lm_offset + 2, *horigin, out);
   if (calibrated >= 0) {
     // P(:, offset) + distance P(:, scale), each column read from the lower triangle.
     const Vector2 hp(1.0, distance);
@@ -180,18 +201,19 @@ bool JointGaussian::update_one(const LandmarkObservation& observation) {
   const auto li = static_cast<Eigen::Index>(l);
   const auto n = static_cast<Eigen::Index>(dim_);
   PoseRows<D> hx;
-  LandmarkRows<D> hm;
-  Measurement zhat = predict_linearised<D>(index, x_, linearisation_, hx, hm);
+  LandmarkRows<D> hm, horigin;
+  Measurement zhat = predict_linearised<D>(index, x_, linearisation_, hx, hm, horigin);
+  const bool with_origin = inverse_distance_[index];
   const int calibrated = calibrated_row();
   const double distance = calibrated >= 0 ? calibrate<D>(x_, zhat, hx, hm) : 0.0;
   const MeasurementVector<D> nu = observation_->residual(z, zhat);
 
   auto pht = pht_.leftCols<D>().topRows(n);  // columns known at compile time: the DxD products stay fixed-size
-  covariance_times_jacobian<D>(l, hx, hm, calibrated, distance, pht);
+  covariance_times_jacobian<D>(l, hx, hm, with_origin ? &horigin : nullptr, calibrated, distance, pht);
   MeasurementSquare<D> s = hx * pht.template topRows<3>() + hm * pht.template middleRows<2>(li);
+  if (with_origin) s += horigin * pht.template middleRows<2>(li + 2);
   if (calibrated >= 0) s.row(calibrated) += pht.row(kOffsetRow) + distance * pht.row(kScaleRow);
   s += observation.noise_scale * MeasurementSquare<D>(observation_->noise());
-  if (inverse_distance_held_ > 0) s(0, 0) += added_innovation_variance(index);
   s = (0.5 * (s + s.transpose())).eval();
   const Eigen::LLT<MeasurementSquare<D>> llt(s);
   if (llt.info() != Eigen::Success) return false;
@@ -252,6 +274,7 @@ bool JointGaussian::update_batch(std::span<const LandmarkObservation> batch) {
   BatchJacobians<D>& jacobians = batch_jacobians_.get<D>();
   jacobians.hx.resize(batch.size());
   jacobians.hm.resize(batch.size());
+  jacobians.horigin.resize(batch.size());
   if (update_iterations_ == 1) {
     linearise_batch<D>(batch, x_, linearisation_);
     return apply_joint_update(k);
@@ -328,8 +351,8 @@ bool JointGaussian::update_batch(std::span<const LandmarkObservation> batch) {
       for (auto row = Eigen::Index{0}; row < static_cast<Eigen::Index>(map_offset()); ++row)
         moved_by(row, x_[row] + pht_.row(row).head(k).dot(step));
       for (const LandmarkObservation& o : batch)
-        for (Eigen::Index row = 0; row < 2; ++row) {
-          const Eigen::Index r = static_cast<Eigen::Index>(landmark_offset(o.index)) + row;
+        for (std::size_t row = 0; row < landmark_rows(o.index); ++row) {
+          const auto r = static_cast<Eigen::Index>(landmark_offset(o.index) + row);
           moved_by(r, x_[r] + pht_.row(r).head(k).dot(step));
         }
     }
@@ -346,6 +369,7 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
   const auto k = static_cast<Eigen::Index>(D * batch.size());
   std::vector<PoseRows<D>>& batch_hx = batch_jacobians_.get<D>().hx;
   std::vector<LandmarkRows<D>>& batch_hm = batch_jacobians_.get<D>().hm;
+  std::vector<LandmarkRows<D>>& batch_horigin = batch_jacobians_.get<D>().horigin;
   const Pose2 xv = at.head<3>();
   Pose2 vehicle_offset = x_.head<3>() - xv;
   vehicle_offset[2] = wrap_angle(vehicle_offset[2]);
@@ -362,7 +386,8 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
     const auto l = static_cast<Eigen::Index>(landmark_offset(batch[i].index));
     const auto r = D * static_cast<Eigen::Index>(i);
     const Vector2 m = at.segment<2>(l);
-    Measurement zhat = predict_linearised<D>(batch[i].index, at, how, batch_hx[i], batch_hm[i]);
+    Measurement zhat = predict_linearised<D>(batch[i].index, at, how, batch_hx[i], batch_hm[i], batch_horigin[i]);
+    const bool with_origin = inverse_distance_[batch[i].index];
     const double distance = calibrated >= 0 ? calibrate<D>(at, zhat, batch_hx[i], batch_hm[i]) : 0.0;
     if (calibrated >= 0) batch_distances_[i] = distance;
     // Zero at the estimate; at an iterate, h(x) ~ h(at) + H (x - at) carries it back to the estimate.
@@ -381,11 +406,13 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
         to_estimate[calibrated] -= iterate_correction_[kOffsetRow] + distance * iterate_correction_[kScaleRow];
     } else {
       to_estimate = batch_hx[i] * vehicle_offset + batch_hm[i] * (x_.segment<2>(l) - m);
+      if (with_origin) to_estimate += batch_horigin[i] * (x_.segment<2>(l + 2) - at.segment<2>(l + 2));
       if (calibrated >= 0)
         to_estimate[calibrated] += x_[kOffsetRow] - at[kOffsetRow] + distance * (x_[kScaleRow] - at[kScaleRow]);
     }
     nu.template segment<D>(r) = MeasurementVector<D>(observation_->residual(batch[i].z, zhat)) - to_estimate;
-    covariance_times_jacobian<D>(static_cast<std::size_t>(l), batch_hx[i], batch_hm[i], calibrated, distance,
+    covariance_times_jacobian<D>(static_cast<std::size_t>(l), batch_hx[i], batch_hm[i],
+                                 with_origin ? &batch_horigin[i] : nullptr, calibrated, distance,
                                  pht.template middleCols<D>(r));
   }
   // S = H P H^T + R, block (i, j) = H_i (P H_j^T).
@@ -396,10 +423,11 @@ void JointGaussian::linearise_batch(std::span<const LandmarkObservation> batch, 
     const auto r = D * static_cast<Eigen::Index>(i);
     s.template middleRows<D>(r).noalias() =
         batch_hx[i] * pht.template topRows<3>() + batch_hm[i] * pht.template middleRows<2>(l);
+    if (inverse_distance_[batch[i].index])
+      s.template middleRows<D>(r).noalias() += batch_horigin[i] * pht.template middleRows<2>(l + 2);
     if (calibrated >= 0)
       s.row(r + calibrated) += pht.row(kOffsetRow) + batch_distances_[i] * pht.row(kScaleRow);
     s.template block<D, D>(r, r) += batch[i].noise_scale * noise;
-    if (inverse_distance_held_ > 0) s(r, r) += added_innovation_variance(batch[i].index);
   }
 }
 
@@ -487,15 +515,24 @@ void JointGaussian::correct(const Eigen::Ref<const Eigen::VectorXd>& delta) {
 
 template <int D>
 Measurement JointGaussian::predict_linearised(std::size_t index, const Eigen::VectorXd& at, Linearisation how,
-                                              PoseRows<D>& hx, LandmarkRows<D>& hm) const {
+                                              PoseRows<D>& hx, LandmarkRows<D>& hm, LandmarkRows<D>& horigin) const {
   const Pose2 xv = at.head<3>();
   const Vector2 m = at.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
-  if (const std::optional<InverseDistancePoint>& point = inverse_distance_[index]) {
+  if (inverse_distance_[index]) {
     PoseJacobian pose_rows;
-    LandmarkJacobian landmark_rows;
-    const Measurement zhat = point->predict(*observation_, xv, m, &pose_rows, &landmark_rows);
+    LandmarkJacobian parameter_rows, origin_rows;
+    const Measurement zhat =
+        inverse_distance_point(index, at).predict(*observation_, xv, m, &pose_rows, &parameter_rows, &origin_rows);
+    if (how == Linearisation::kFirstEstimates)
+      // At the predicted pose and the origin's first estimate: the unobservable turn of the scene
+      // then has the same components at every step (theta's and rho's do not depend on where they
+      // are taken), so the bearings add no information about it. (theta and rho at their current
+      // estimates: rho's first is the prior's guess.)
+      InverseDistancePoint{first_estimates_[index]}.predict(*observation_, predicted_pose_, m, &pose_rows,
+                                                            &parameter_rows, &origin_rows);
     hx = pose_rows;
-    hm = landmark_rows;
+    hm = parameter_rows;
+    horigin = origin_rows;
     return zhat;
   }
   observation_jacobians<D>(index, at, how, hx, hm);
@@ -508,28 +545,52 @@ std::size_t JointGaussian::add_inverse_distance_landmark(const Measurement& z, c
                            "standard and first-estimates linearisations");
   require_bearing_only(*observation_, "an inverse-distance landmark");
   validate(options);
-  InverseDistancePoint point;
-  const InitialLandmark start = inverse_distance_start(*observation_, pose(), pose_covariance(), z, options, point.origin);
-  const std::size_t index = add_landmark(start);
-  inverse_distance_[index] = point;
+  reserve(dim_ + 4);
+  apply_pending_motion();
+  const InverseDistanceStart start = inverse_distance_start(*observation_, pose(), z, options);
+  const Matrix3 vehicle = diagonal_block<3>(0);
+  const InitialLandmark& p = start.parameters;
+  write_rows(dim_, p.mean, p.gx, p.gx * vehicle * p.gx.transpose() + p.covariance);
+  write_rows(dim_ + 2, start.origin, start.origin_gx, start.origin_gx * vehicle * start.origin_gx.transpose());
+  append_landmark_rows(4);
+  first_estimates_.push_back(start.origin);
+  inverse_distance_.push_back(true);
   ++inverse_distance_held_;
-  return index;
+  return num_landmarks() - 1;
 }
 
-double JointGaussian::added_innovation_variance(std::size_t index) const {
-  if (!inverse_distance_[index]) return 0.0;
+void JointGaussian::innovation(std::size_t index, Measurement& zhat, MeasurementCovariance& s) const {
+  if (!inverse_distance_[index]) {
+    EkfEstimator::innovation(index, zhat, s);
+    return;
+  }
+  PoseRows<1> hx;
+  LandmarkRows<1> hp, horigin;
+  zhat = predict_linearised<1>(index, x_, linearisation_, hx, hp, horigin);
+  Eigen::Matrix<double, 1, 7> h;
+  h << hx, hp, horigin;
+  // P over (vehicle, parameters, origin), the pending motion applied to the cross-covariances.
+  const std::size_t l = landmark_offset(index);
+  Eigen::Matrix<double, 7, 7> p;
+  p.topLeftCorner<3, 3>() = diagonal_block<3>(0);
+  p.bottomRightCorner<4, 4>() = diagonal_block<4>(l);
+  p.bottomLeftCorner<4, 3>() = p_.block<4, 3>(static_cast<Eigen::Index>(l), 0) * pending_motion_.transpose();
+  p.topRightCorner<3, 4>() = p.bottomLeftCorner<4, 3>().transpose();
+  s = MeasurementSquare<1>(h * p * h.transpose() + observation_->noise());
+}
+
+bool JointGaussian::beyond_linear_reach(std::size_t index) const {
+  if (!inverse_distance_[index]) return false;
   const auto l = static_cast<Eigen::Index>(landmark_offset(index));
-  return inverse_distance_[index]->coupling_variance(*observation_, pose(), x_.segment<2>(l), diagonal_block<3>(0),
-                                                     p_.block<1, 3>(l + 1, 0) * pending_motion_.transpose(),
-                                                     p_(l + 1, l + 1));
+  return inverse_distance_point(index, x_).bearing_spread(*observation_, pose(), x_.segment<2>(l), p_(l + 1, l + 1)) >
+         kInverseDistanceMaxBearingSpread;
 }
 
 void JointGaussian::convert_where_linear(std::span<const LandmarkObservation> batch) {
   for (const LandmarkObservation& o : batch) {
-    const std::optional<InverseDistancePoint>& point = inverse_distance_[o.index];
-    if (!point) continue;
+    if (!inverse_distance_[o.index]) continue;
     const auto l = static_cast<Eigen::Index>(landmark_offset(o.index));
-    if (point->linearity(*observation_, pose(), x_.segment<2>(l), p_(l + 1, l + 1)) <
+    if (inverse_distance_point(o.index, x_).linearity(*observation_, pose(), x_.segment<2>(l), p_(l + 1, l + 1)) <
         kInverseDistanceLinearityThreshold)
       convert_to_point(o.index);
   }
@@ -538,18 +599,25 @@ void JointGaussian::convert_where_linear(std::span<const LandmarkObservation> ba
 void JointGaussian::convert_to_point(std::size_t index) {
   if (!inverse_distance_[index]) return;
   apply_pending_motion();
-  const auto l = static_cast<Eigen::Index>(landmark_offset(index));
+  const std::size_t offset = landmark_offset(index);
+  const auto l = static_cast<Eigen::Index>(offset);
   const auto n = static_cast<Eigen::Index>(dim_);
-  const Matrix2 g = position_jacobian(index);
-  x_.segment<2>(l) = inverse_distance_[index]->position(x_.segment<2>(l));
-  // P(l, :) -> G P(l, :) to first order, on the stored lower triangle: the landmark's row block left
-  // of its diagonal, its column block below it, and the diagonal block itself.
-  for (Eigen::Index c = 0; c < l; ++c) p_.block<2, 1>(l, c) = g * p_.block<2, 1>(l, c);
-  for (Eigen::Index r = l + 2; r < n; ++r) p_.block<1, 2>(r, l) = p_.block<1, 2>(r, l) * g.transpose();
-  const Matrix2 block = g * diagonal_block<2>(static_cast<std::size_t>(l)) * g.transpose();
+  const Eigen::Matrix<double, 2, 4> j = point_jacobian(index);
+  const Matrix2 g = j.leftCols<2>();
+  const Matrix2 block = j * diagonal_block<4>(offset) * j.transpose();
+  const Vector2 origin = x_.segment<2>(l + 2);
+  x_.segment<2>(l) = inverse_distance_point(index, x_).position(x_.segment<2>(l));
+  // The point's first estimate is where its first-estimates Jacobians had the landmark: the ray's
+  // end taken from the origin's first estimate, so that the unobservable turn keeps its components.
+  first_estimates_[index] += x_.segment<2>(l) - origin;
+  // P(m, :) = G P(p, :) + P(origin, :) to first order, on the stored lower triangle: the four rows'
+  // blocks left of them and their column blocks below them; the origin's rows then leave.
+  for (Eigen::Index c = 0; c < l; ++c) p_.block<2, 1>(l, c) = g * p_.block<2, 1>(l, c) + p_.block<2, 1>(l + 2, c);
+  for (Eigen::Index r = l + 4; r < n; ++r)
+    p_.block<1, 2>(r, l) = p_.block<1, 2>(r, l) * g.transpose() + p_.block<1, 2>(r, l + 2);
   p_.block<2, 2>(l, l) = 0.5 * (block + block.transpose());
-  first_estimates_[index] = x_.segment<2>(l);
-  inverse_distance_[index].reset();
+  remove_stored_rows(offset + 2, 2);
+  inverse_distance_[index] = false;
   --inverse_distance_held_;
   ++inverse_distance_converted_;
 }
@@ -618,16 +686,20 @@ std::size_t JointGaussian::add_landmark(const InitialLandmark& landmark) {
 }
 
 void JointGaussian::append_landmark(const Vector2& mean, const Matrix23& gx, const Matrix2& covariance) {
-  const auto l = static_cast<Eigen::Index>(dim_);
+  write_rows(dim_, mean, gx, covariance);
+  append_landmark_rows(2);
+  first_estimates_.push_back(mean);
+  inverse_distance_.push_back(false);
+}
+
+void JointGaussian::write_rows(std::size_t at, const Vector2& mean, const Matrix23& gx, const Matrix2& covariance) {
+  const auto l = static_cast<Eigen::Index>(at);
   x_.segment<2>(l) = mean;
-  // The new landmark inherits the vehicle's uncertainty, so it is correlated with everything the
+  // The new rows inherit the vehicle's uncertainty, so they are correlated with everything the
   // vehicle is correlated with: P(m_new, :) = Gx P(v, :).
   p_.block<2, 3>(l, 0).noalias() = gx * diagonal_block<3>(0);
   if (l > 3) p_.block(l, 3, 2, l - 3).noalias() = gx * p_.block(3, 0, l - 3, 3).transpose();
   p_.block<2, 2>(l, l) = covariance;
-  dim_ += 2;
-  first_estimates_.push_back(mean);
-  inverse_distance_.emplace_back();
 }
 
 bool JointGaussian::fuse_landmarks(std::span<const LandmarkPair> pairs) {
@@ -648,8 +720,8 @@ bool JointGaussian::fuse_landmarks(std::span<const LandmarkPair> pairs) {
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     const auto r = 2 * static_cast<Eigen::Index>(i);
     const std::size_t dup = landmark_offset(pairs[i].duplicate), orig = landmark_offset(pairs[i].original);
-    covariance_times_jacobian<2>(dup, no_vehicle, Matrix2::Identity(), -1, 0.0, pht.middleCols<2>(r));
-    covariance_times_jacobian<2>(orig, no_vehicle, Matrix2::Identity(), -1, 0.0, original_columns);
+    covariance_times_jacobian<2>(dup, no_vehicle, Matrix2::Identity(), nullptr, -1, 0.0, pht.middleCols<2>(r));
+    covariance_times_jacobian<2>(orig, no_vehicle, Matrix2::Identity(), nullptr, -1, 0.0, original_columns);
     pht.middleCols<2>(r) -= original_columns;
     batch_nu_.segment<2>(r) = x_.segment<2>(static_cast<Eigen::Index>(orig)) - x_.segment<2>(static_cast<Eigen::Index>(dup));
   }

@@ -45,40 +45,27 @@ Matrix2 InverseDistancePoint::position_jacobian(const Vector2& p) const {
 }
 
 Measurement InverseDistancePoint::predict(const ObservationModel& model, const Pose2& x, const Vector2& p,
-                                          PoseJacobian* hx, LandmarkJacobian* hp) const {
+                                          PoseJacobian* hx, LandmarkJacobian* hp, LandmarkJacobian* horigin) const {
   const Vector2 sensor = model.sensor_position(x);
   const Vector2 u = direction(p[0]);
   // rho (m - s): the landmark's direction from the sensor, finite at rho = 0. The model sees the
   // point sensor + d, which lies in that direction, so it predicts the landmark's bearing.
   const Vector2 d = p[1] * (origin - sensor) + u;
   const Vector2 seen = sensor + d;
-  if (hx || hp) {
+  if (hx || hp || horigin) {
     PoseJacobian hx_point;
     LandmarkJacobian hm;
     model.jacobians(x, seen, hx_point, hm);
-    // The point seen moves with the vehicle by (1 - rho) ds/dx.
+    // The point seen moves with the vehicle by (1 - rho) ds/dx, and with the origin by rho.
     if (hx) *hx = hx_point + (1.0 - p[1]) * hm * model.sensor_jacobian(x);
     if (hp) {
       Matrix2 dd;
       dd << perp(u), origin - sensor;
       *hp = hm * dd;
     }
+    if (horigin) *horigin = p[1] * hm;
   }
   return model.predict(x, seen);
-}
-
-double InverseDistancePoint::coupling_variance(const ObservationModel& model, const Pose2& x, const Vector2& p,
-                                                const Matrix3& pose_covariance,
-                                                const Eigen::RowVector3d& rho_pose_covariance,
-                                                double rho_variance) const {
-  const Vector2 sensor = model.sensor_position(x);
-  PoseJacobian hx;
-  LandmarkJacobian direction_rows;
-  model.jacobians(x, sensor + direction(p[0]), hx, direction_rows);
-  // h depends on the sensor through rho (origin - s): d2h / drho ds = -dh/dd at rho = 0.
-  const Eigen::RowVector3d c = -direction_rows.row(model.rows().bearing) * model.sensor_jacobian(x);
-  const double through_rho = c.dot(rho_pose_covariance);
-  return rho_variance * c.dot(pose_covariance * c.transpose()) + through_rho * through_rho;
 }
 
 double InverseDistancePoint::linearity(const ObservationModel& model, const Pose2& x, const Vector2& p,
@@ -91,31 +78,23 @@ double InverseDistancePoint::linearity(const ObservationModel& model, const Pose
   return 4.0 * distance_std / distance * std::abs(cos_parallax);
 }
 
-InitialLandmark inverse_distance_start(const ObservationModel& model, const Pose2& x, const Matrix3& pose_covariance,
-                                       const Measurement& z, const InverseDistanceOptions& options, Vector2& origin) {
+double InverseDistancePoint::bearing_spread(const ObservationModel& model, const Pose2& x, const Vector2& p,
+                                            double rho_variance) const {
+  const double across = perp(direction(p[0])).dot(origin - model.sensor_position(x));
+  return 2.0 * std::sqrt(std::max(rho_variance, 0.0)) * std::abs(across);
+}
+
+InverseDistanceStart inverse_distance_start(const ObservationModel& model, const Pose2& x, const Measurement& z,
+                                            const InverseDistanceOptions& options) {
   const int bearing = model.rows().bearing;
-  const double rho = options.prior_rho();
+  InverseDistanceStart start;
+  start.parameters.mean = Vector2(wrap_angle(x[2] + z[bearing]), options.prior_rho());
+  start.parameters.gx.setZero();
+  start.parameters.gx(0, 2) = 1.0;
   const double rho_std = options.prior_rho_std();
-  const double theta = wrap_angle(x[2] + z[bearing]);
-  const Vector2 u = direction(theta);
-  origin = model.sensor_position(x);
-  // The landmark m = s(x) + u(heading + z) / rho expressed about the fixed origin: at the estimate
-  // m - origin = u / rho, so dtheta/dm = rho perp(u)^T and drho/dm = -rho^2 u^T, and m moves with
-  // the sensor and, by perp(u) / rho, with the heading.
-  const Matrix23 sensor = model.sensor_jacobian(x);
-  InitialLandmark start;
-  start.mean = Vector2(theta, rho);
-  start.gx.row(0) = rho * perp(u).transpose() * sensor;
-  start.gx(0, 2) += 1.0;
-  start.gx.row(1) = -rho * rho * u.transpose() * sensor;
-  // The sensor's error e = s - origin moves theta by rho perp(u)^T e and rho by -rho^2 u^T e with the
-  // landmark's true rho, not the prior's: gx carries the part at rho0, and the rest, a product of
-  // rho's and the sensor's independent errors, is added as variance (the second-order term).
-  const Matrix2 sensor_covariance = sensor * pose_covariance * sensor.transpose();
-  const double across = perp(u).dot(sensor_covariance * perp(u)), along = u.dot(sensor_covariance * u);
-  const double rho_variance = rho_std * rho_std;
-  start.covariance << model.noise()(bearing, bearing) + rho_variance * across, 0.0, 0.0,
-      rho_variance + 4.0 * rho * rho * rho_variance * along;
+  start.parameters.covariance << model.noise()(bearing, bearing), 0.0, 0.0, rho_std * rho_std;
+  start.origin = model.sensor_position(x);
+  start.origin_gx = model.sensor_jacobian(x);
   return start;
 }
 

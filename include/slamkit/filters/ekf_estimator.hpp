@@ -7,7 +7,8 @@
 //
 // Storage, shared by both: the state is [x y theta | b s | m1x m1y | m2x m2y | ...], the range
 // sensor's offset b and scale error s present only where they are estimated
-// (estimate_range_calibration); the covariance is
+// (estimate_range_calibration), each landmark's rows in map order (two for a point; JointGaussian's
+// inverse-distance landmarks hold four until they become points); the covariance is
 // kept in one dense column-major buffer of which only the LOWER triangle is meaningful. Symmetry
 // therefore holds by construction (no symmetrisation pass), and every update touches half the
 // matrix. Buffers grow by a quarter of their size, so adding a landmark does not reallocate each
@@ -44,7 +45,7 @@ class EkfEstimator : public GaussianMapView {
  public:
   Pose2 pose() const final { return x_.head<3>(); }  // the vehicle's estimate is always current
   std::size_t state_dim() const { return dim_; }
-  std::size_t num_landmarks() const { return (dim_ - map_offset()) / 2; }
+  std::size_t num_landmarks() const { return landmark_offsets_.size(); }
   virtual Matrix2 landmark_covariance(std::size_t index) const = 0;
   /// landmark_position and landmark_covariance of every landmark, in map order, into `means` and
   /// `covariances` (resized): the whole map at once, as the runner reads it every second.
@@ -53,8 +54,9 @@ class EkfEstimator : public GaussianMapView {
   virtual Eigen::VectorXd state() const = 0;
   /// The full symmetric covariance (a copy: O(n^2); for tests and exports, not for the hot path).
   virtual Eigen::MatrixXd covariance() const = 0;
-  /// Predicted measurement and innovation covariance S of landmark `index` (for gating).
-  void innovation(std::size_t index, Measurement& zhat, MeasurementCovariance& s) const;
+  /// Predicted measurement and innovation covariance S of landmark `index` (for gating): the
+  /// update's, so that the gate judges what the update will do.
+  virtual void innovation(std::size_t index, Measurement& zhat, MeasurementCovariance& s) const;
   /// The observation model's prediction, its range read through the estimated calibration.
   Measurement predicted_measurement(const Pose2& x, const Vector2& m) const;
 
@@ -95,8 +97,14 @@ class EkfEstimator : public GaussianMapView {
   /// not keep them.
   virtual std::size_t add_inverse_distance_landmark(const Measurement& z, const InverseDistanceOptions& options);
   /// Whether landmark `index` is still held as an inverse-distance point. Its landmark_position and
-  /// covariances answer for the point it stands for; state() and covariance() hold (theta, rho).
+  /// covariances answer for the point it stands for; state() and covariance() hold its four rows
+  /// (theta, rho, origin).
   virtual bool at_inverse_distance(std::size_t /*index*/) const { return false; }
+  /// Whether landmark `index`, at inverse distance, is seen from so far off its origin, its distance
+  /// still so uncertain, that a bearing is no longer near linear in rho
+  /// (kInverseDistanceMaxBearingSpread): an update would then place it by a linearisation that
+  /// stands for none of the distances it allows.
+  virtual bool beyond_linear_reach(std::size_t /*index*/) const { return false; }
   /// Takes landmark `index` out of the state: its rows and columns leave the covariance, and the
   /// landmarks after it move down one index. O(n^2).
   virtual void remove_landmark(std::size_t index) = 0;
@@ -131,7 +139,17 @@ class EkfEstimator : public GaussianMapView {
   virtual bool supports_range_calibration() const { return false; }
   /// The first landmark's row: after the vehicle and the calibration, if estimated.
   std::size_t map_offset() const { return 3 + parameters_; }
-  std::size_t landmark_offset(std::size_t index) const { return map_offset() + 2 * index; }
+  std::size_t landmark_offset(std::size_t index) const { return landmark_offsets_[index]; }
+  /// The number of state rows landmark `index` holds.
+  std::size_t landmark_rows(std::size_t index) const {
+    return (index + 1 < landmark_offsets_.size() ? landmark_offsets_[index + 1] : dim_) - landmark_offsets_[index];
+  }
+  /// Registers a landmark whose `rows` rows the caller has written at the end of the state (room
+  /// reserved), and grows the state by them.
+  void append_landmark_rows(std::size_t rows) {
+    landmark_offsets_.push_back(dim_);
+    dim_ += rows;
+  }
   /// The measurement row the calibration applies to, or -1 where it is not estimated.
   int calibrated_row() const { return calibrates_ranges() ? observation_->rows().range : -1; }
   /// The calibration at the state `at` applied to a prediction and its Jacobians at a distance:
@@ -146,10 +164,6 @@ class EkfEstimator : public GaussianMapView {
     hm.row(row) *= scale;
     return distance;
   }
-  /// Variance the estimator adds to the first row of landmark `index`'s innovation beyond H P H^T + R
-  /// (JointGaussian: an inverse-distance landmark's coupling_variance), so that the gate sees the
-  /// update's S.
-  virtual double added_innovation_variance(std::size_t /*index*/) const { return 0.0; }
   /// P(calibration, vehicle) (as current as pose_covariance).
   virtual Matrix23 calibration_pose_covariance() const { return p_.block<2, 3>(kOffsetRow, 0); }
   /// Makes room for a state of dimension `dim`, growing the buffers by a quarter at least.
@@ -165,8 +179,11 @@ class EkfEstimator : public GaussianMapView {
     return i > j ? p_(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j))
                  : p_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i));
   }
-  /// Squeezes landmark `index` out of the stored state and lower triangle, in place.
+  /// Squeezes landmark `index`'s rows out of the stored state and lower triangle, in place.
   void remove_stored_landmark(std::size_t index);
+  /// Squeezes `count` rows from `first` (inside the map) out of the stored state and lower triangle,
+  /// in place; the landmarks whose rows lie after them move up.
+  void remove_stored_rows(std::size_t first, std::size_t count);
   /// P -= C C^T on the stored lower triangle, C with dim_ rows (P -= A B^T with b).
   void downdate(const Eigen::Ref<const Eigen::MatrixXd>& c) { downdate(c, c); }
   void downdate(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::Ref<const Eigen::MatrixXd>& b) {
@@ -178,6 +195,7 @@ class EkfEstimator : public GaussianMapView {
   std::shared_ptr<const ObservationModel> observation_;
   std::size_t dim_ = 3;
   std::size_t parameters_ = 0;  // state rows between the vehicle and the map (the range calibration: 0 or 2)
+  std::vector<std::size_t> landmark_offsets_;  // by map index: the landmark's first state row
   Eigen::VectorXd x_;
   Eigen::MatrixXd p_;  // capacity x capacity; lower triangle of the leading dim_ x dim_ block is P
   Eigen::Matrix<double, Eigen::Dynamic, 3> scratch3_;  // capacity x 3, reused by the time updates

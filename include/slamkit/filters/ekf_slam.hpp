@@ -223,6 +223,8 @@ class EkfSlam final : public SlamFilter {
   std::map<int, KnownCopy> copies_;    // by landmark id; ordered, so the fit sums in one order
   std::vector<Vector2> copy_positions_, original_positions_;  // the fit's points, reused
   std::vector<std::size_t> rejected_;  // observations the gate rejected this scan
+  std::vector<std::size_t> restarts_;  // of those, the ones of landmarks at inverse distance
+  std::size_t inverse_distance_restarts_ = 0;
   struct GateVerdicts {
     double t = 0.0;
     std::size_t judged = 0, rejected = 0;

@@ -71,12 +71,11 @@
 // is implausible, it keeps FEJ's Jacobians wherever their premise holds.
 //
 // Inverse-distance landmarks (bearing only, standard and first-estimates linearisations): a landmark
-// may be held as (theta, rho) about a fixed origin (models/inverse_distance.hpp) in its two rows,
-// predicted through its direction from the sensor, with the variance of rho's product with the
-// sensor's position added to its innovation, and converted to its point in O(n) once its linearity
-// index is below the threshold. The accessors answer for the point; state() and covariance() hold
-// the stored parameters.
-#include <optional>
+// may be held as (theta, rho) about its origin (models/inverse_distance.hpp) in four rows, (theta,
+// rho, origin x, origin y), predicted through its direction from the sensor, so that its rows of H
+// touch three column blocks (vehicle, parameters, origin); it is converted to its point once its
+// linearity index is below the threshold, which squeezes the origin's rows out (O(n^2), once per
+// landmark). The accessors answer for the point; state() and covariance() hold the stored rows.
 #include <vector>
 
 #include "slamkit/filters/ekf_estimator.hpp"
@@ -121,17 +120,23 @@ class JointGaussian : public EkfEstimator {
   /// anchors it at the point it converts to.
   bool keeps_inverse_distance() const override { return linearisation_ != Linearisation::kInvariant; }
   std::size_t add_inverse_distance_landmark(const Measurement& z, const InverseDistanceOptions& options) override;
-  bool at_inverse_distance(std::size_t index) const override { return inverse_distance_[index].has_value(); }
+  bool at_inverse_distance(std::size_t index) const override { return inverse_distance_[index]; }
+  bool beyond_linear_reach(std::size_t index) const override;
+  /// At inverse distance: predicted through the parameters and the origin as the update predicts,
+  /// S over the vehicle's, the parameters' and the origin's rows (the point's marginals misjudge it
+  /// where rho is near zero or below, and a gate that passed such a bearing let it wreck the map).
+  void innovation(std::size_t index, Measurement& zhat, MeasurementCovariance& s) const override;
   /// Converts landmark `index` from inverse distance to the point it stands for now, its rows of the
-  /// covariance by P(l, :) -> G P(l, :), G = d position / d (theta, rho): what the filter does itself
-  /// once the landmark's linearity index is below the threshold. Nothing for a point.
+  /// covariance by P(m, :) = G P(p, :) + P(origin, :), G = d position / dp: what the filter does
+  /// itself once the landmark's linearity index is below the threshold. Nothing for a point.
   void convert_to_point(std::size_t index);
   void remove_landmark(std::size_t index) override;
   /// Throws std::logic_error for a pair with a landmark at inverse distance.
   bool fuse_landmarks(std::span<const LandmarkPair> pairs) override;
   /// First-estimates variant: the anchors moved so far (see "Moving a first estimate").
   void add_statistics(std::map<std::string, double>& statistics) const override;
-  /// The position the first-estimates variant linearises landmark `index`'s observations at.
+  /// The position the first-estimates variant linearises landmark `index`'s observations at (at
+  /// inverse distance: the origin's).
   Vector2 linearisation_anchor(std::size_t index) const { return first_estimates_.at(index); }
 
  protected:
@@ -147,10 +152,11 @@ class JointGaussian : public EkfEstimator {
   /// Appends a landmark with mean `mean`, covariance `covariance` and P(m, :) = gx P(v, :), its
   /// correlations all through the vehicle's (pending motion applied, room reserved).
   void append_landmark(const Vector2& mean, const Matrix23& gx, const Matrix2& covariance);
+  /// Writes two rows at state row `at` (>= dim_) as append_landmark describes, correlated with the
+  /// rows before them (those after dim_ included) through the vehicle only.
+  void write_rows(std::size_t at, const Vector2& mean, const Matrix23& gx, const Matrix2& covariance);
 
   bool supports_range_calibration() const override { return true; }
-  /// InverseDistancePoint::coupling_variance of a landmark at inverse distance, 0 for a point.
-  double added_innovation_variance(std::size_t index) const override;
   Matrix23 calibration_pose_covariance() const override {
     return p_.block<2, 3>(kOffsetRow, 0) * pending_motion_.transpose();
   }
@@ -168,27 +174,38 @@ class JointGaussian : public EkfEstimator {
   /// update_landmarks for measurements of dimension D.
   template <int D>
   bool update_batch(std::span<const LandmarkObservation> batch);
-  /// Fills `out` (dim_ x D) with P H^T for an observation Jacobian with blocks hx (vehicle) and hm
-  /// (landmark), and in row `calibrated` (none if negative) (1, distance) for the range calibration.
+  /// Fills `out` (dim_ x D) with P H^T for an observation Jacobian with blocks hx (vehicle), hm
+  /// (landmark at lm_offset) and, for a landmark at inverse distance, horigin (its origin, the two
+  /// rows after), and in row `calibrated` (none if negative) (1, distance) for the range calibration.
   template <int D>
   void covariance_times_jacobian(std::size_t lm_offset, const PoseRows<D>& hx, const LandmarkRows<D>& hm,
-                                 int calibrated, double distance,
+                                 const LandmarkRows<D>* horigin, int calibrated, double distance,
                                  Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, D>> out) const;
+  /// out += P(:, two columns from `offset`) h^T, read from the lower triangle.
+  template <int D>
+  void add_column_block(std::size_t offset, const LandmarkRows<D>& h,
+                        Eigen::Ref<Eigen::Matrix<double, Eigen::Dynamic, D>> out) const;
   /// The observation Jacobians of landmark `index` where linearisation `how` evaluates them, the
   /// state-dependent ones at the point `at` (the estimate, or an iterate of the iterated update).
   template <int D>
   void observation_jacobians(std::size_t index, const Eigen::VectorXd& at, Linearisation how, PoseRows<D>& hx,
                              LandmarkRows<D>& hm) const;
   /// h of landmark `index` at the point `at` and its Jacobians as observation_jacobians gives them;
-  /// a landmark at inverse distance is predicted through its parameters.
+  /// a landmark at inverse distance is predicted through its parameters, and `horigin` set to its
+  /// origin's rows (untouched for a point).
   template <int D>
   Measurement predict_linearised(std::size_t index, const Eigen::VectorXd& at, Linearisation how, PoseRows<D>& hx,
-                                 LandmarkRows<D>& hm) const;
+                                 LandmarkRows<D>& hm, LandmarkRows<D>& horigin) const;
+  /// Landmark `index` at inverse distance as the state `at` holds it.
+  InverseDistancePoint inverse_distance_point(std::size_t index, const Eigen::VectorXd& at) const {
+    return {at.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)) + 2)};
+  }
+  /// d position / d (stored rows) of landmark `index`: [I 0] for a point, [G I] at inverse distance
+  /// (G = d position / d (theta, rho)).
+  Eigen::Matrix<double, 2, 4> point_jacobian(std::size_t index) const;
   /// Converts each landmark of the batch that is at inverse distance to its point where its linearity
   /// index has fallen below kInverseDistanceLinearityThreshold.
   void convert_where_linear(std::span<const LandmarkObservation> batch);
-  /// d position / d stored rows of landmark `index`: identity for a point.
-  Matrix2 position_jacobian(std::size_t index) const;
   /// Fills W = P H^T, the innovation and S for the batch linearised about `at` (Jacobians as `how`
   /// evaluates them); the innovation is taken at the estimate: z - h(at) - H (x - at).
   template <int D>
@@ -212,12 +229,13 @@ class JointGaussian : public EkfEstimator {
   Eigen::VectorXd iterate_correction_;
   Eigen::MatrixXd iterate_s_;
   // First-estimates Jacobians: the pose predicted for the current step (before its update), and
-  // each landmark's first estimate, by map index.
+  // each landmark's first estimate, by map index (at inverse distance: its origin's).
   Pose2 predicted_pose_;
   std::vector<Vector2> first_estimates_;
   std::size_t anchors_moved_ = 0;
-  // By map index: the origin of a landmark held at inverse distance, none for a point.
-  std::vector<std::optional<InverseDistancePoint>> inverse_distance_;
+  // By map index: whether the landmark is held at inverse distance (its origin in the two rows after
+  // its parameters).
+  std::vector<bool> inverse_distance_;
   std::size_t inverse_distance_held_ = 0;  // how many are
   std::size_t inverse_distance_converted_ = 0;
   // The joint update's other terms, sized for the largest batch so far.
@@ -225,6 +243,7 @@ class JointGaussian : public EkfEstimator {
   struct BatchJacobians {
     std::vector<PoseRows<D>> hx;
     std::vector<LandmarkRows<D>> hm;
+    std::vector<LandmarkRows<D>> horigin;
   };
   PerMeasurementDim<BatchJacobians> batch_jacobians_;
   std::vector<double> batch_distances_;  // each observation's distance, where ranges are calibrated
