@@ -13,7 +13,10 @@
 # Columns: mean ATE after SE(2) alignment (median, worst); dead reckoning's mean ATE; runs whose ATE
 # is worse than their own dead reckoning's; mean pose NEES (median run); share of steps whose pose
 # NEES lies in its 95% chi-square band, mean (worst run); landmarks in the map; landmarks more than
-# 3 m from the truth after the trajectory's alignment, per run; median map RMSE.
+# 3 m from the truth after the trajectory's alignment, per run; median map RMSE; the median over
+# every run's landmarks of the time from a landmark's first observation (associations.txt) to its
+# first appearance in the map (landmark_std.txt, written once a second): for a delayed start its
+# start, for an inverse-distance one its conversion to a point.
 set -euo pipefail
 
 slamkit=${SLAMKIT:-build/slamkit}
@@ -30,8 +33,9 @@ shift 3
 out=${OUT:-out/start-$sensor-$variant-$start}
 mkdir -p "$out"
 
-rows=$out/rows.txt
+rows=$out/rows.txt delays=$out/delays.txt
 : >"$rows"
+: >"$delays"
 for seed in $(seq "$first_seed" $((first_seed + runs - 1))); do
   log=$out/log-$seed run=$out/run-$seed
   [[ -d $log ]] || "$slamkit" simulate --scenario default --sensor "$sensor" --seed "$seed" --out "$log" >/dev/null
@@ -49,17 +53,23 @@ for seed in $(seq "$first_seed" $((first_seed + runs - 1))); do
     END { print n + 0 }' "$log/truth_landmarks.txt" "$run/map.txt")
   jq -r --arg off "$off" '[.ate_rmse_m, .dead_reckoning_ate_rmse_m, .nees_pose_mean, .nees_pose_in_95_fraction,
     .landmarks, ($off | tonumber), .map_rmse_m] | @tsv' "$m" >>"$rows"
+  awk 'FNR == 1 { file++ } /^#/ { next }
+    file == 1 && NF == 5 && $4 != "discard" && !($5 in seen) { seen[$5] = $2 }
+    file == 2 && !($2 in mapped) { mapped[$2] = $1 }
+    END { for (id in mapped) if (id in seen) print mapped[id] - seen[id] }' \
+    "$run/associations.txt" "$run/landmark_std.txt" >>"$delays"
 done
 
 median() { sort -g | awk '{v[NR] = $1} END { print (NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2) }'; }
 col() { cut -f"$1" "$rows"; }
 awk -v sensor="$sensor" -v variant="$variant" -v start="$start" -v n="$runs" \
-  -v ate_median="$(col 1 | median)" -v nees_median="$(col 3 | median)" -v map_median="$(col 7 | median)" '
+  -v ate_median="$(col 1 | median)" -v nees_median="$(col 3 | median)" -v map_median="$(col 7 | median)" \
+  -v delay_median="$(median <"$delays")" '
   { ate += $1; dr += $2; worse += ($1 > $2); nees += $3; band += $4; landmarks += $5; off += $6
     if ($1 > worst) worst = $1
     if (NR == 1 || $4 < worst_band) worst_band = $4 }
   END {
-    printf "| %s | %s | %s | %d | %.2f (%.2f, %.2f) | %.2f | %d | %.1f (%.1f) | %.0f%% (%.0f%%) | %.1f | %.2f | %.2f |\n",
+    printf "| %s | %s | %s | %d | %.2f (%.2f, %.2f) | %.2f | %d | %.1f (%.1f) | %.0f%% (%.0f%%) | %.1f | %.2f | %.2f | %.1f |\n",
       sensor, variant, start, n, ate / n, ate_median, worst, dr / n, worse, nees / n, nees_median,
-      100 * band / n, 100 * worst_band, landmarks / n, off / n, map_median
+      100 * band / n, 100 * worst_band, landmarks / n, off / n, map_median, delay_median
   }' "$rows"
