@@ -410,8 +410,17 @@ int run_command(int argc, char** argv) {
   world_cmd->add_option("--seed", gen.seed, "Random seed")->capture_default_str()->check(integer_at_least(0));
   world_cmd->add_option("--out", world_out, "World file to write")->required();
   auto* world_family_opt = add_family_options(world_cmd, family_name, world_seed);
-  for (const char* name : {"--landmarks", "--width", "--height", "--band", "--seed"})
+  std::string world_scenario;
+  auto* world_scenario_opt =
+      world_cmd
+          ->add_option("--scenario", world_scenario,
+                       fmt::format("Write a built-in scenario's world instead: {}", fmt::join(scenario_names(), ", ")))
+          ->check(one_of("scenario", scenario_names()))
+          ->excludes(world_family_opt);
+  for (const char* name : {"--landmarks", "--width", "--height", "--band", "--seed"}) {
     world_family_opt->excludes(world_cmd->get_option(name));
+    world_scenario_opt->excludes(world_cmd->get_option(name));
+  }
 
   // ---- run ----
   // Every filter setting is parsed and checked here, before any data is read: a misspelt name or a
@@ -799,12 +808,17 @@ int run_command(int argc, char** argv) {
       World world;
       WorldGenReport report;
       try {  // every input is an option, so an error is a usage error
-        world = family_name.empty() ? generate_world(gen, &report) : world_family(family_name).member(world_seed).world;
+        if (!world_scenario.empty())
+          world = scenario(world_scenario).world;
+        else if (!family_name.empty())
+          world = world_family(family_name).member(world_seed).world;
+        else
+          world = generate_world(gen, &report);
       } catch (const InputError& e) {
         return usage_error(e.what());
       }
       write_world(world_out, world);
-      const bool closer = family_name.empty() && report.spacing < gen.min_spacing;
+      const bool closer = family_name.empty() && world_scenario.empty() && report.spacing < gen.min_spacing;
       fmt::print("wrote {} ({} landmarks{})\n", world_out, world.landmarks.size(),
                  closer ? fmt::format(", {:.3g} m apart at least: the band cannot hold them {} m apart", report.spacing,
                                       gen.min_spacing)

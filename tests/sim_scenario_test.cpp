@@ -96,7 +96,7 @@ TEST(WorldFile, BadRouteLinesAreNamed) {
 TEST(Scenario, NamesGiveTheirWorldsAndSettings) {
   EXPECT_EQ(scenario_names(),
             (std::vector<std::string>{"default", "loop-closure", "cluttered", "loop-closure-cluttered", "sparse",
-                                      "sparse-cluttered", "room"}));
+                                      "sparse-cluttered", "room", "city"}));
   for (const std::string& name : scenario_names()) EXPECT_EQ(scenario(name).name, name);
 
   const Scenario plain = scenario("default");

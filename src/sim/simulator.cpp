@@ -473,16 +473,19 @@ struct ScenarioEntry {
   bool cluttered;  // the detection of the data-association experiments
   bool forward_sensor;  // the 180 degree field of view of the reference simulator's example
   bool indoor;          // the MRCLAM-like robot of room_world
+  double max_range;     // m, the sensor's reach; 0: the config's default
 };
 
 const ScenarioEntry kScenarios[] = {
-    {"default", &default_world, false, false, false, false},
-    {"loop-closure", &loop_closure_world, true, false, false, false},
-    {"cluttered", &default_world, false, true, false, false},
-    {"loop-closure-cluttered", &loop_closure_world, true, true, false, false},
-    {"sparse", &sparse_world, false, false, true, false},
-    {"sparse-cluttered", &sparse_world, false, true, true, false},
-    {"room", &room_world, true, false, false, true},
+    {"default", &default_world, false, false, false, false, 0.0},
+    {"loop-closure", &loop_closure_world, true, false, false, false, 0.0},
+    {"cluttered", &default_world, false, true, false, false, 0.0},
+    {"loop-closure-cluttered", &loop_closure_world, true, true, false, false, 0.0},
+    {"sparse", &sparse_world, false, false, true, false, 0.0},
+    {"sparse-cluttered", &sparse_world, false, true, true, false, 0.0},
+    {"room", &room_world, true, false, false, true, 0.0},
+    // A street's landmarks ahead, about ten at a time.
+    {"city", &city_world, true, false, true, false, 22.0},
 };
 
 // The reference simulator's example looks ahead of the vehicle only.
@@ -544,6 +547,7 @@ Scenario scenario(const std::string& name) {
     s.config.control_period = 0.1;
   }
   if (entry->cluttered) use_cluttered_detection(s.config);
+  if (entry->max_range > 0.0) s.config.max_range = entry->max_range;
   return s;
 }
 

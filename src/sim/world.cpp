@@ -396,6 +396,65 @@ World room_world() {
   return world;
 }
 
+World city_world() { return street_grid_world(StreetGridOptions{}); }
+
+World street_grid_world(const StreetGridOptions& o) {
+  // An even number, so that the north-south streets, driven in turn from the east, end at the start.
+  require(o.blocks >= 2 && o.blocks <= 1000 && o.blocks % 2 == 0, "blocks", "an even number from 2 to 1000",
+          o.blocks);
+  require(o.block_m > 0.0 && o.blocks * o.block_m <= kMaxExtent, "block_m",
+          "a positive number of metres, the city up to 1e6 m across", o.block_m);
+  require(o.landmarks >= 0 && o.landmarks <= kMaxLandmarks, "landmarks", "from 0 to 1e7", o.landmarks);
+  require(o.band_inner >= 0.0 && 2.0 * o.band_inner < o.block_m, "band_inner",
+          "a distance from 0 to under half a block", o.band_inner);
+  require(o.band_outer > o.band_inner && o.band_outer <= kMaxExtent, "band_outer",
+          "a distance greater than band_inner, up to 1e6", o.band_outer);
+  require(o.min_spacing >= 0.01 && o.min_spacing <= kMaxExtent, "min_spacing", "a distance from 0.01 to 1e6 m",
+          o.min_spacing);
+  const int n = o.blocks;
+  const double block = o.block_m, side = n * block;
+  World world;
+  // East-west streets in turn, joined by one block of the north-south street at their end, to the
+  // north-east corner; then the north-south streets in turn from the east, back to the start.
+  for (int j = 0; j <= n; ++j)
+    for (int k = 0; k <= n; ++k) world.waypoints.emplace_back((j % 2 == 0 ? k : n - k) * block, j * block);
+  for (int i = 0; i <= n; ++i)
+    for (int k = 0; k <= n; ++k) {
+      const Vector2 p((n - i) * block, (i % 2 == 0 ? n - k : k) * block);
+      if (p != world.waypoints.back()) world.waypoints.push_back(p);
+    }
+  // The route ends where it began: the closing leg returns to the first waypoint.
+  while (world.waypoints.back() == world.waypoints.front()) world.waypoints.pop_back();
+
+  std::mt19937_64 rng(o.seed);
+  const auto off_street = [&](double v) { return std::abs(v - block * std::round(v / block)) >= o.band_inner; };
+  SpacingGrid spacing(o.min_spacing);
+  std::uint64_t comparisons = 0;
+  // Far beyond what bands with room left reject in a row.
+  constexpr int kMaxRejectedInARow = 10'000;
+  int rejected_in_a_row = 0;
+  while (static_cast<int>(world.landmarks.size()) < o.landmarks) {
+    if (rejected_in_a_row == kMaxRejectedInARow)
+      throw InputError(fmt::format("world generation: the streets' bands from {} to {} m hold only {} of {} "
+                                   "landmarks {} m apart; lower the number or the spacing",
+                                   o.band_inner, o.band_outer, world.landmarks.size(), o.landmarks, o.min_spacing));
+    const auto street = static_cast<int>(uniform01(rng) * 2 * (n + 1));
+    const double along = uniform01(rng) * side;
+    const double across = block * (street % (n + 1)) + (uniform01(rng) < 0.5 ? 1.0 : -1.0) *
+                                                           (o.band_inner + (o.band_outer - o.band_inner) * uniform01(rng));
+    const Vector2 p = street <= n ? Vector2(along, across) : Vector2(across, along);
+    if (!off_street(p.x()) || !off_street(p.y()) || spacing.has_neighbour_within(p, o.min_spacing, world.landmarks, comparisons)) {
+      ++rejected_in_a_row;
+      continue;
+    }
+    rejected_in_a_row = 0;
+    const int id = static_cast<int>(world.landmarks.size());
+    spacing.add(p, id);
+    world.landmarks.push_back(Landmark{id, p, Matrix2::Zero()});
+  }
+  return world;
+}
+
 World random_world(const RandomWorldOptions& o, std::uint64_t seed) {
   validate(o);
   // Two streams, so that the landmark options leave a seed's route unchanged.

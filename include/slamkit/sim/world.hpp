@@ -97,6 +97,32 @@ World room_world();
 /// Throws InputError when an option is out of range (non-positive size, empty band, ...).
 World generate_world(const WorldGenOptions& options, WorldGenReport* report = nullptr);
 
+/// A city: a square grid of `blocks` x `blocks` blocks of block_m (an even number of blocks), whose
+/// streets (blocks + 1 each way) are lined on both sides with landmarks band_inner to band_outer
+/// metres from their centre line (none nearer than band_inner to any street, none nearer than
+/// min_spacing to another). The
+/// closed route drives every street once end to end: the east-west ones in turn (east, one block
+/// north, west, ...), then the north-south ones in turn back to the start, turning at the
+/// intersections; it crosses itself at every one of them, so loops of every size from a block to
+/// the whole city close along it. The vehicle starts at the south-west corner, (0, 0), facing east.
+struct StreetGridOptions {
+  int blocks = 10;
+  double block_m = 300.0;
+  int landmarks = 30'000;
+  double band_inner = 4.0;   // m
+  double band_outer = 12.0;  // m
+  double min_spacing = 3.0;  // m
+  std::uint64_t seed = 20261128;
+};
+
+/// The large-scale test bed: street_grid_world with the default options, a 3 km x 3 km city of 100
+/// blocks, 30,000 landmarks and a 72 km route.
+World city_world();
+
+/// Throws InputError when an option is out of range or the bands cannot hold the landmarks at
+/// their spacing.
+World street_grid_world(const StreetGridOptions& options);
+
 /// A random world after the sparse world's pattern, for families of worlds (simulator.hpp). The
 /// route is a closed polygon of min_corners to max_corners straight legs round a centre, driven
 /// counter-clockwise or clockwise, min_lap_m to max_lap_m long; concave corners make shapes other
