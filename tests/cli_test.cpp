@@ -767,6 +767,7 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"make-world", 2, "missing --out: World file to write"},
       {"make-world --family denes --out " + out, 2, "--family: unknown world family 'denes' (did you mean 'dense'?)"},
       {"make-world --world-seed -1 --family dense --out " + out, 2, "--world-seed: expected an integer >= 0, found -1"},
+      {"make-world --scenario cty --out " + out, 2, "--scenario: unknown scenario 'cty' (did you mean 'city'?)"},
 
       {"run --filter ekff" + data, 2, "--filter: unknown filter 'ekff' (did you mean 'ekf'?)"},
       {"run --assoc jcb" + data, 2, "--assoc: unknown association 'jcb' (did you mean 'jcbb'?)"},
@@ -1000,6 +1001,21 @@ TEST_F(Cli, FamilyWorldsRepeatBitForBitAndAreRecorded) {
 
   const Result help = slamkit_cli("simulate --help", *work_);
   EXPECT_NE(help.out.find("sparse, sparse-cluttered, dense, dense-cluttered"), std::string::npos) << help.out;
+}
+
+// make-world --scenario writes the world simulate --scenario drives; with generator options it is a
+// usage error.
+TEST_F(Cli, MakeWorldWritesAScenariosWorld) {
+  const fs::path log = *work_ / "sparse_log", world = *work_ / "sparse.world";
+  ASSERT_EQ(slamkit_cli("simulate --scenario sparse --loops 1 --out " + log.string(), *work_).exit_code, 0);
+  const Result w = slamkit_cli("make-world --scenario sparse --out " + world.string(), *work_);
+  ASSERT_EQ(w.exit_code, 0) << w.err;
+  EXPECT_NE(w.out.find("(35 landmarks)"), std::string::npos) << w.out;
+  EXPECT_EQ(read_text(world), read_text(log / "world.txt"));
+  const Result both = slamkit_cli("make-world --scenario sparse --landmarks 5 --out " + world.string(), *work_);
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_NE(both.err.find("--landmarks and --scenario cannot be given together"), std::string::npos) << both.err;
+  EXPECT_EQ(slamkit_cli("make-world --scenario city --family dense --out " + world.string(), *work_).exit_code, 2);
 }
 
 TEST_F(Cli, FamilyMistakesAreUsageErrors) {
