@@ -141,6 +141,10 @@ struct Band {
   double inner, outer, spacing;
 };
 
+// Random placement gives up after this many candidates in a row found no room: far beyond what a
+// band with room left rejects in a row (at most 20 over 5,000 dense worlds).
+constexpr int kMaxRejectedInARow = 10'000;
+
 // Landmarks at uniformly random places along the closed route through `corners`, on a random side,
 // a uniformly random distance off their leg, kept if no other leg is nearer than band.inner and no
 // landmark nearer than band.spacing: stretches of 50 m and more without a landmark occur, as in the
@@ -150,8 +154,6 @@ std::vector<Landmark> scatter_beside_route(const std::vector<Vector2>& corners, 
   std::vector<double> cumulative{0.0};
   const std::size_t n = corners.size();
   for (std::size_t i = 0; i < n; ++i) cumulative.push_back(cumulative.back() + (corners[(i + 1) % n] - corners[i]).norm());
-  // Far beyond what a band with room left rejects in a row: at most 20 over 5,000 dense worlds.
-  constexpr int kMaxRejectedInARow = 10'000;
   int rejected_in_a_row = 0;
   std::vector<Landmark> landmarks;
   while (static_cast<int>(landmarks.size()) < count) {
@@ -430,8 +432,6 @@ World street_grid_world(const StreetGridOptions& o) {
   const auto off_street = [&](double v) { return std::abs(v - block * std::round(v / block)) >= o.band_inner; };
   SpacingGrid spacing(o.min_spacing);
   std::uint64_t comparisons = 0;
-  // Far beyond what bands with room left reject in a row.
-  constexpr int kMaxRejectedInARow = 10'000;
   int rejected_in_a_row = 0;
   while (static_cast<int>(world.landmarks.size()) < o.landmarks) {
     if (rejected_in_a_row == kMaxRejectedInARow)

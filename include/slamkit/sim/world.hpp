@@ -100,11 +100,11 @@ World generate_world(const WorldGenOptions& options, WorldGenReport* report = nu
 /// A city: a square grid of `blocks` x `blocks` blocks of block_m (an even number of blocks), whose
 /// streets (blocks + 1 each way) are lined on both sides with landmarks band_inner to band_outer
 /// metres from their centre line (none nearer than band_inner to any street, none nearer than
-/// min_spacing to another). The
-/// closed route drives every street once end to end: the east-west ones in turn (east, one block
-/// north, west, ...), then the north-south ones in turn back to the start, turning at the
-/// intersections; it crosses itself at every one of them, so loops of every size from a block to
-/// the whole city close along it. The vehicle starts at the south-west corner, (0, 0), facing east.
+/// min_spacing to another). The closed route drives every street once end to end: the east-west
+/// ones in turn (east, one block north, west, ...), then the north-south ones in turn back to the
+/// start, turning at the intersections; it crosses itself at every one of them, so loops of every
+/// size from a block to the whole city close along it. The vehicle starts at the south-west corner,
+/// (0, 0), facing east.
 struct StreetGridOptions {
   int blocks = 10;
   double block_m = 300.0;
