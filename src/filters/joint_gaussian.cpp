@@ -80,8 +80,10 @@ Matrix2 JointGaussian::landmark_cross_covariance(std::size_t i, std::size_t j) c
   if (i == j) return landmark_covariance(i);
   const auto a = static_cast<Eigen::Index>(landmark_offset(i));
   const auto b = static_cast<Eigen::Index>(landmark_offset(j));
-  const auto rows_i = static_cast<Eigen::Index>(landmark_rows(i)), rows_j = static_cast<Eigen::Index>(landmark_rows(j));
   // Only the lower triangle is stored: the block with the larger row offset holds the pair.
+  if (!inverse_distance_[i] && !inverse_distance_[j])  // two points, as JCBB asks for every pair
+    return a > b ? Matrix2(p_.block<2, 2>(a, b)) : Matrix2(p_.block<2, 2>(b, a).transpose());
+  const auto rows_i = static_cast<Eigen::Index>(landmark_rows(i)), rows_j = static_cast<Eigen::Index>(landmark_rows(j));
   Eigen::Matrix4d stored = Eigen::Matrix4d::Zero();
   if (a > b)
     stored.topLeftCorner(rows_i, rows_j) = p_.block(a, b, rows_i, rows_j);
