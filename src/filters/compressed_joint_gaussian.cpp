@@ -31,7 +31,7 @@ CompressedJointGaussian::CompressedJointGaussian(std::shared_ptr<const MotionMod
                                                  std::shared_ptr<const ObservationModel> observation,
                                                  double sensor_range, double area_side, const Pose2& initial_pose,
                                                  const Matrix3& initial_covariance)
-    : EkfEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance),
+    : DenseCovarianceEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance),
       sensor_range_(sensor_range),
       area_half_side_(0.5 * (area_side > 0.0 ? area_side : 2.0 * sensor_range)) {}
 

@@ -6,7 +6,6 @@
 #include <thread>
 
 #include "slamkit/core/angles.hpp"
-#include "slamkit/filters/huge_pages.hpp"
 
 namespace slamkit {
 
@@ -15,18 +14,16 @@ constexpr std::size_t kInitialLandmarkCapacity = 64;
 }  // namespace
 
 EkfEstimator::EkfEstimator(std::shared_ptr<const MotionModel> motion,
-                           std::shared_ptr<const ObservationModel> observation, const Pose2& initial_pose,
-                           const Matrix3& initial_covariance)
+                           std::shared_ptr<const ObservationModel> observation, const Pose2& initial_pose)
     : motion_(std::move(motion)), observation_(std::move(observation)) {
   if (!motion_ || !observation_) throw std::invalid_argument("EKF-SLAM needs a motion and an observation model");
   // The gates measure innovations against R: without measurement noise a new landmark's innovation
   // covariance is singular and unknown association starts a landmark for every observation.
   if (observation_->noise().llt().info() != Eigen::Success)
     throw std::invalid_argument("EKF-SLAM needs a positive definite measurement noise R");
-  reserve(3 + 2 * kInitialLandmarkCapacity);
+  EkfEstimator::reserve(3 + 2 * kInitialLandmarkCapacity);
   x_.head<3>() = initial_pose;
   x_[2] = wrap_angle(x_[2]);
-  p_.topLeftCorner<3, 3>() = initial_covariance;
 }
 
 void EkfEstimator::reserve(std::size_t dim) {
@@ -37,19 +34,8 @@ void EkfEstimator::reserve(std::size_t dim) {
   // 1.56x while the copies, O(capacity^2) each, still amortise to O(1) per landmark added.
   const auto grown = static_cast<Eigen::Index>(std::max(dim, capacity + capacity / 4));
   Eigen::VectorXd x = Eigen::VectorXd::Zero(grown);
-  // Not cleared: every entry outside the lower triangle of the leading dim_ x dim_ block is written
-  // before it is read.
-  Eigen::MatrixXd p(grown, grown);
-  advise_huge_pages(p.data(), sizeof(double) * static_cast<std::size_t>(p.size()));
-  const auto n = static_cast<Eigen::Index>(dim_);
-  if (capacity > 0) {
-    x.head(n) = x_.head(n);
-    p.topLeftCorner(n, n).triangularView<Eigen::Lower>() = p_.topLeftCorner(n, n);
-  }
+  if (capacity > 0) x.head(static_cast<Eigen::Index>(dim_)) = x_.head(static_cast<Eigen::Index>(dim_));
   x_.swap(x);
-  p_.swap(p);
-  scratch3_.resize(grown, 3);
-  pht_.resize(grown, std::max<Eigen::Index>(2, pht_.cols()));
 }
 
 void EkfEstimator::landmark_marginals(std::vector<Vector2>& means, std::vector<Matrix2>& covariances) const {
@@ -83,10 +69,9 @@ void EkfEstimator::estimate_range_calibration(const RangeCalibrationPrior& prior
   // Static, as a landmark is: its covariance with the vehicle changes with the motion as theirs do.
   x_[kOffsetRow] = prior.offset_m;
   x_[kScaleRow] = prior.scale_error;
-  p_.block<2, 3>(kOffsetRow, 0).setZero();
-  p_.block<2, 2>(kOffsetRow, kOffsetRow) =
+  store_calibration_prior(
       Eigen::Vector2d(prior.offset_std_m * prior.offset_std_m, prior.scale_error_std * prior.scale_error_std)
-          .asDiagonal();
+          .asDiagonal());
   dim_ += 2;
   parameters_ = 2;
 }
@@ -96,7 +81,7 @@ RangeCorrection EkfEstimator::range_correction() const {
 }
 
 Matrix2 EkfEstimator::range_correction_covariance() const {
-  return calibrates_ranges() ? diagonal_block<2>(kOffsetRow) : Matrix2::Zero();
+  return calibrates_ranges() ? calibration_covariance() : Matrix2::Zero();
 }
 
 void EkfEstimator::innovation(std::size_t index, Measurement& zhat, MeasurementCovariance& s) const {
@@ -120,13 +105,12 @@ void EkfEstimator::innovation(std::size_t index, Measurement& zhat, MeasurementC
       // H gains the calibration's columns, (1, d) in the range row: S their share in that row and
       // column, with their covariances with the vehicle and the landmark.
       const int row = calibrated_row();
-      const auto l = static_cast<Eigen::Index>(landmark_offset(index));
       const Vector2 hp(1.0, distance);
       const MeasurementVector<D> with_calibration =
-          hx * calibration_pose_covariance().transpose() * hp + hm * p_.block<2, 2>(l, kOffsetRow) * hp;
+          hx * calibration_pose_covariance().transpose() * hp + hm * landmark_calibration_covariance(index) * hp;
       sd.col(row) += with_calibration;
       sd.row(row) += with_calibration.transpose();
-      sd(row, row) += hp.dot(diagonal_block<2>(kOffsetRow) * hp);
+      sd(row, row) += hp.dot(calibration_covariance() * hp);
     }
     s = sd;
   });
@@ -155,22 +139,9 @@ void EkfEstimator::remove_stored_landmark(std::size_t index) {
 }
 
 void EkfEstimator::remove_stored_rows(std::size_t first, std::size_t count) {
-  const std::size_t n = dim_, end = first + count;
-  std::copy(x_.data() + end, x_.data() + n, x_.data() + first);
-  // Close the gap in the lower triangle column by column. Columns left of the rows shift their
-  // rows below the gap up by `count`, in place; columns right of it come from `count` columns
-  // further right.
-  const auto stride = static_cast<std::size_t>(p_.rows());
-  double* base = p_.data();
-  for (std::size_t c = 0; c + count < n; ++c) {
-    double* dst = base + c * stride;
-    if (c < first) {
-      std::copy(dst + end, dst + n, dst + first);
-    } else {
-      const double* src = base + (c + count) * stride;
-      std::copy(src + c + count, src + n, dst + c);
-    }
-  }
+  squeeze_stored_rows(first, count);
+  const std::size_t end = first + count;
+  std::copy(x_.data() + end, x_.data() + dim_, x_.data() + first);
   dim_ -= count;
   for (std::size_t& offset : landmark_offsets_)
     if (offset >= end) offset -= count;

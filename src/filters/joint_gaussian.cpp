@@ -54,7 +54,7 @@ struct GroupExponential {
 JointGaussian::JointGaussian(std::shared_ptr<const MotionModel> motion,
                              std::shared_ptr<const ObservationModel> observation, const Pose2& initial_pose,
                              const Matrix3& initial_covariance, Linearisation linearisation, int update_iterations)
-    : EkfEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance),
+    : DenseCovarianceEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance),
       linearisation_(linearisation),
       update_iterations_(update_iterations),
       predicted_pose_(x_.head<3>()) {

@@ -10,11 +10,11 @@
 // (lower_downdate.hpp) per area left.
 #include <vector>
 
-#include "slamkit/filters/ekf_estimator.hpp"
+#include "slamkit/filters/dense_covariance.hpp"
 
 namespace slamkit {
 
-class CompressedJointGaussian final : public EkfEstimator {
+class CompressedJointGaussian final : public DenseCovarianceEstimator {
  public:
   /// The local area is a square of side `area_side` [m] (0: 2 x sensor_range) that opens ahead of
   /// the vehicle (centred half a side ahead along its heading, so that driving on, it crosses the

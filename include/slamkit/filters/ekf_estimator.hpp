@@ -1,20 +1,15 @@
 #pragma once
 // The joint Gaussian over the vehicle pose and every landmark that EKF-SLAM keeps (eqs. 6-11 of the
-// tutorial), as an interface with two implementations that give the same estimate: JointGaussian
-// updates the whole covariance at every step, CompressedJointGaussian confines the updates to a
-// local area and applies them to the rest of the map when the vehicle leaves it. EkfSlam runs its
-// association and map management over either; tests and benchmarks drive them directly.
+// tutorial), as an interface whose implementations give the same estimate in different forms:
+// moment form over a dense covariance (DenseCovarianceEstimator: JointGaussian updates the whole
+// covariance at every step, CompressedJointGaussian confines the updates to a local area) or
+// information form (ExtendedInformationFilter). EkfSlam runs its association and map management over
+// any of them; tests and benchmarks drive them directly.
 //
-// Storage, shared by both: the state is [x y theta | b s | m1x m1y | m2x m2y | ...], the range
-// sensor's offset b and scale error s present only where they are estimated
-// (estimate_range_calibration), each landmark's rows in map order (two for a point; JointGaussian's
-// inverse-distance landmarks hold four until they become points); the covariance is
-// kept in one dense column-major buffer of which only the LOWER triangle is meaningful. Symmetry
-// therefore holds by construction (no symmetrisation pass), and every update touches half the
-// matrix. Buffers grow by a quarter of their size, so adding a landmark does not reallocate each
-// time (and the square buffer is at most 1.56x the covariance). Every temporary of a step lives in
-// a member workspace that only grows, so once the map stops growing a step allocates nothing
-// (tests/ekf_allocation_test.cpp).
+// What every form shares, kept here: the mean, the state's layout and the models. The state is
+// [x y theta | b s | m1x m1y | m2x m2y | ...], the range sensor's offset b and scale error s present
+// only where they are estimated (estimate_range_calibration), each landmark's rows in map order (two
+// for a point; JointGaussian's inverse-distance landmarks hold four until they become points).
 #include <Eigen/Core>
 #include <map>
 #include <memory>
@@ -24,7 +19,6 @@
 
 #include "slamkit/assoc/association.hpp"
 #include "slamkit/assoc/map_matching.hpp"
-#include "slamkit/filters/lower_downdate.hpp"
 #include "slamkit/filters/worker_pool.hpp"
 #include "slamkit/models/inverse_distance.hpp"
 #include "slamkit/models/motion_model.hpp"
@@ -131,7 +125,7 @@ class EkfEstimator : public GaussianMapView {
  protected:
   /// Throws std::invalid_argument for a missing model.
   EkfEstimator(std::shared_ptr<const MotionModel> motion, std::shared_ptr<const ObservationModel> observation,
-               const Pose2& initial_pose, const Matrix3& initial_covariance);
+               const Pose2& initial_pose);
 
   /// Where the range calibration is kept, between the vehicle and the map (static, as a landmark is).
   static constexpr Eigen::Index kOffsetRow = 3, kScaleRow = 4;
@@ -164,32 +158,25 @@ class EkfEstimator : public GaussianMapView {
     hm.row(row) *= scale;
     return distance;
   }
-  /// P(calibration, vehicle) (as current as pose_covariance).
-  virtual Matrix23 calibration_pose_covariance() const { return p_.block<2, 3>(kOffsetRow, 0); }
+  /// The calibration's covariances, read only where it is estimated (so by the estimators that
+  /// support it): P(calibration), P(calibration, vehicle) as current as pose_covariance, and
+  /// P(landmark `index`, calibration).
+  virtual Matrix2 calibration_covariance() const { return Matrix2::Zero(); }
+  virtual Matrix23 calibration_pose_covariance() const { return Matrix23::Zero(); }
+  virtual Matrix2 landmark_calibration_covariance(std::size_t /*index*/) const { return Matrix2::Zero(); }
+  /// Writes the calibration prior's covariance (uncorrelated with the vehicle) where the estimator
+  /// keeps its uncertainty; called with the calibration's rows appended, before dim_ counts them.
+  virtual void store_calibration_prior(const Matrix2& /*covariance*/) {}
   /// Makes room for a state of dimension `dim`, growing the buffers by a quarter at least.
-  void reserve(std::size_t dim);
-  /// Symmetric 2x2 or 3x3 diagonal block from the lower triangle.
-  template <int N>
-  Eigen::Matrix<double, N, N> diagonal_block(std::size_t offset) const {
-    const auto o = static_cast<Eigen::Index>(offset);
-    return p_.block<N, N>(o, o).template selfadjointView<Eigen::Lower>();
-  }
-  /// Stored covariance entry (i, j), read from the lower triangle.
-  double stored_entry(std::size_t i, std::size_t j) const {
-    return i > j ? p_(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j))
-                 : p_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i));
-  }
-  /// Squeezes landmark `index`'s rows out of the stored state and lower triangle, in place.
+  virtual void reserve(std::size_t dim);
+  /// Squeezes landmark `index`'s rows out of the stored state, in place.
   void remove_stored_landmark(std::size_t index);
-  /// Squeezes `count` rows from `first` (inside the map) out of the stored state and lower triangle,
-  /// in place; the landmarks whose rows lie after them move up.
+  /// Squeezes `count` rows from `first` (inside the map) out of the stored state, in place; the
+  /// landmarks whose rows lie after them move up.
   void remove_stored_rows(std::size_t first, std::size_t count);
-  /// P -= C C^T on the stored lower triangle, C with dim_ rows (P -= A B^T with b).
-  void downdate(const Eigen::Ref<const Eigen::MatrixXd>& c) { downdate(c, c); }
-  void downdate(const Eigen::Ref<const Eigen::MatrixXd>& a, const Eigen::Ref<const Eigen::MatrixXd>& b) {
-    const auto n = static_cast<Eigen::Index>(dim_);
-    downdate_.apply(p_.topLeftCorner(n, n), a, b, pool_.pool.get());
-  }
+  /// The part of remove_stored_rows that the implementation's own storage needs (dim_ still counts
+  /// the rows).
+  virtual void squeeze_stored_rows(std::size_t /*first*/, std::size_t /*count*/) {}
 
   std::shared_ptr<const MotionModel> motion_;
   std::shared_ptr<const ObservationModel> observation_;
@@ -197,12 +184,6 @@ class EkfEstimator : public GaussianMapView {
   std::size_t parameters_ = 0;  // state rows between the vehicle and the map (the range calibration: 0 or 2)
   std::vector<std::size_t> landmark_offsets_;  // by map index: the landmark's first state row
   Eigen::VectorXd x_;
-  Eigen::MatrixXd p_;  // capacity x capacity; lower triangle of the leading dim_ x dim_ block is P
-  Eigen::Matrix<double, Eigen::Dynamic, 3> scratch3_;  // capacity x 3, reused by the time updates
-  // capacity x one column per measurement row of the largest joint update so far: P H^T of the
-  // current update.
-  Eigen::MatrixXd pht_;
-  LowerDowndate downdate_;
   /// The threads of use_threads (null: one); a copy of the estimator gets a pool of its own.
   struct OwnPool {
     std::unique_ptr<WorkerPool> pool;

@@ -78,7 +78,7 @@
 // landmark). The accessors answer for the point; state() and covariance() hold the stored rows.
 #include <vector>
 
-#include "slamkit/filters/ekf_estimator.hpp"
+#include "slamkit/filters/dense_covariance.hpp"
 
 namespace slamkit {
 
@@ -88,7 +88,7 @@ enum class Linearisation {
   kInvariant,       ///< right-invariant error (invariant EKF)
 };
 
-class JointGaussian : public EkfEstimator {
+class JointGaussian : public DenseCovarianceEstimator {
  public:
   static constexpr int kMaxUpdateIterations = 100;
   /// The vehicle at `initial_pose` with `initial_covariance` (the map frame is defined by the start
