@@ -436,7 +436,7 @@ int run_command(int argc, char** argv) {
   nlohmann::json flag_settings = nlohmann::json::object();
   std::string data_spec, run_out, data_config;
   add_named_setting(run_cmd, "--filter", flag_settings, "/filter", parse_filter_kind,
-                    "Filter: ekf, ukf, fastslam1, fastslam2", defaults.filter);
+                    "Filter: ekf, ukf, eif (the EKF in information form), fastslam1, fastslam2", defaults.filter);
   add_named_setting(run_cmd, "--assoc", flag_settings, "/association/method", parse_association_method,
                     "Data association: known (ids from the log), nn, jcbb", defaults.association.method);
   auto* data_opt =
@@ -830,7 +830,8 @@ int run_command(int argc, char** argv) {
         if (!particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by the EKF and the UKF", name));
       if (filter.filter != FilterKind::kFastSlam2 && run_cmd->count("--pose-sample-fraction") > 0)
         warn(fmt::format("--pose-sample-fraction applies to fastslam2 only; {} ignores it", to_string(filter.filter)));
-      if (filter.filter == FilterKind::kUkf && run_cmd->count("--threads") > 0) warn("--threads is ignored by the UKF");
+      if ((filter.filter == FilterKind::kUkf || filter.filter == FilterKind::kEif) && run_cmd->count("--threads") > 0)
+        warn(fmt::format("--threads is ignored by the {}", filter.filter == FilterKind::kUkf ? "UKF" : "EIF"));
       if (filter.filter != FilterKind::kUkf && run_cmd->count("--ukf-noise") > 0)
         warn(fmt::format("--ukf-noise applies to ukf only; {} ignores it", to_string(filter.filter)));
       for (const char* name : {"--ekf-update", "--ekf-variant"})

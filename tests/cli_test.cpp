@@ -405,7 +405,7 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
     const char* message;
   } cases[] = {
       {"--filter ekff",
-       "--filter: unknown filter 'ekff' (did you mean 'ekf'?); expected one of: ekf, ukf, fastslam1, fastslam2"},
+       "--filter: unknown filter 'ekff' (did you mean 'ekf'?); expected one of: ekf, ukf, eif, fastslam1, fastslam2"},
       {"--filter ukf --ekf-variant fej", "EKF variant 'fej' applies to the filter 'ekf', not 'ukf'"},
       {"--assoc nearest", "--assoc: unknown association 'nearest'; expected one of: known, nn, jcbb"},
       {"--ekf-variant sparse", "--ekf-variant: unknown EKF variant 'sparse'; expected one of: full, compressed, fej, invariant"},

@@ -10,6 +10,7 @@
 #include "slamkit/eval/metrics.hpp"
 #include "slamkit/filters/compressed_joint_gaussian.hpp"
 #include "slamkit/filters/joint_gaussian.hpp"
+#include "slamkit/filters/extended_information_filter.hpp"
 #include "slamkit/filters/unscented_joint_gaussian.hpp"
 
 namespace slamkit {
@@ -28,6 +29,9 @@ std::unique_ptr<EkfEstimator> make_estimator(std::shared_ptr<const MotionModel> 
       return std::make_unique<UnscentedJointGaussian>(std::move(motion), std::move(observation),
                                                       options.initial_pose, options.initial_covariance,
                                                       options.ukf_noise);
+    case EkfVariant::kInformation:
+      return std::make_unique<ExtendedInformationFilter>(std::move(motion), std::move(observation),
+                                                         options.initial_pose, options.initial_covariance);
     case EkfVariant::kFirstEstimates:
     case EkfVariant::kInvariant:
     case EkfVariant::kFull:
@@ -73,7 +77,9 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
       recover_known_(options.association.method == AssociationMethod::kKnown && gate_known_ &&
                      options.association.relocalise_min_pairs >= 2 && estimator_->observation_model().invertible()),
       joint_scan_update_(options.joint_scan_update),
-      unscented_(options.variant == EkfVariant::kUnscented) {
+      name_(options.variant == EkfVariant::kUnscented     ? "ukf"
+            : options.variant == EkfVariant::kInformation ? "eif"
+                                                          : "ekf") {
   require_searchable(association_, estimator_->observation_model());
   if (estimator_->calibrates_ranges() && association_.method != AssociationMethod::kKnown)
     throw std::invalid_argument("a range calibration is estimated with association 'known': nn and jcbb predict "

@@ -20,6 +20,7 @@ namespace {
 constexpr std::pair<FilterKind, const char*> kFilterNames[] = {
     {FilterKind::kEkf, "ekf"},
     {FilterKind::kUkf, "ukf"},
+    {FilterKind::kEif, "eif"},
     {FilterKind::kFastSlam1, "fastslam1"},
     {FilterKind::kFastSlam2, "fastslam2"}};
 constexpr std::pair<EkfUpdate, const char*> kEkfUpdateNames[] = {
@@ -27,7 +28,8 @@ constexpr std::pair<EkfUpdate, const char*> kEkfUpdateNames[] = {
 // The iterated update converges in two or three linearisations except at a loop closure after a
 // long drift, where it may take several; beyond ten it would only creep.
 constexpr int kIteratedUpdateLinearisations = 10;
-// The unscented estimator is chosen as its own filter ("ukf"), not as an EKF variant.
+// The unscented and information estimators are chosen as filters of their own ("ukf", "eif"), not as
+// EKF variants.
 constexpr std::pair<EkfVariant, const char*> kEkfVariantNames[] = {{EkfVariant::kFull, "full"},
                                                                    {EkfVariant::kCompressed, "compressed"},
                                                                    {EkfVariant::kFirstEstimates, "fej"},
@@ -135,11 +137,13 @@ void validate(const FilterConfig& config) {
   if (config.threads > FastSlamConfig::kMaxThreads)
     throw std::invalid_argument(fmt::format("threads must be from 0 (all cores) to {}, found {}",
                                             FastSlamConfig::kMaxThreads, config.threads));
-  if (config.ekf_variant == EkfVariant::kUnscented)
-    throw std::invalid_argument("the unscented estimator is the filter 'ukf', not an EKF variant");
-  if (config.filter == FilterKind::kUkf && config.ekf_variant != EkfVariant::kFull)
-    throw std::invalid_argument(
-        fmt::format("EKF variant '{}' applies to the filter 'ekf', not 'ukf'", to_string(config.ekf_variant)));
+  if (config.ekf_variant == EkfVariant::kUnscented || config.ekf_variant == EkfVariant::kInformation)
+    throw std::invalid_argument("the unscented and information estimators are the filters 'ukf' and 'eif', not EKF "
+                                "variants");
+  if ((config.filter == FilterKind::kUkf || config.filter == FilterKind::kEif) &&
+      config.ekf_variant != EkfVariant::kFull)
+    throw std::invalid_argument(fmt::format("EKF variant '{}' applies to the filter 'ekf', not '{}'",
+                                            to_string(config.ekf_variant), to_string(config.filter)));
   if (config.ekf_update == EkfUpdate::kIterated &&
       (config.filter != FilterKind::kEkf || config.ekf_variant == EkfVariant::kCompressed))
     throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full, fej or invariant");
@@ -188,12 +192,15 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
   validate(config);
   switch (config.filter) {
     case FilterKind::kEkf:
-    case FilterKind::kUkf: {
+    case FilterKind::kUkf:
+    case FilterKind::kEif: {
       EkfSlamOptions options;
       options.initial_pose = dataset.initial_pose;
       options.association = config.association;
       options.sensor = dataset.sensor;
-      options.variant = config.filter == FilterKind::kUkf ? EkfVariant::kUnscented : config.ekf_variant;
+      options.variant = config.filter == FilterKind::kUkf   ? EkfVariant::kUnscented
+                        : config.filter == FilterKind::kEif ? EkfVariant::kInformation
+                                                            : config.ekf_variant;
       options.joint_scan_update = config.ekf_update != EkfUpdate::kSequential;
       if (config.ekf_update == EkfUpdate::kIterated) options.update_iterations = kIteratedUpdateLinearisations;
       options.threads = config.threads;

@@ -39,6 +39,7 @@ enum class EkfVariant {
   kFirstEstimates,  ///< JointGaussian with first-estimates Jacobians (consistent)
   kInvariant,       ///< JointGaussian with the right-invariant error (consistent)
   kUnscented,       ///< UnscentedJointGaussian: UKF-SLAM, the filter named "ukf"
+  kInformation,     ///< ExtendedInformationFilter: the EKF in information form, the filter named "eif"
 };
 
 struct EkfSlamOptions {
@@ -94,7 +95,7 @@ class EkfSlam final : public SlamFilter {
   /// `options`, the association, sensor, joint_scan_update and likelihood settings apply.
   EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> ids, const EkfSlamOptions& options = {});
 
-  std::string name() const override { return unscented_ ? "ukf" : "ekf"; }
+  std::string name() const override { return name_; }
   void predict(const ControlEvent& control) override;
   /// Pairs the scan's observations with landmarks (known ids, NN or JCBB, as configured), applies
   /// the updates, then adds the new landmarks. With known association an observation without an id
@@ -237,7 +238,7 @@ class EkfSlam final : public SlamFilter {
   bool recent_confirmed_ = false;  // a landmark started in the window was confirmed this scan
   std::vector<std::size_t> recent_, old_;
   bool joint_scan_update_;
-  bool unscented_;
+  std::string name_;  // "ekf", or the filter its estimator makes it: "ukf", "eif"
   std::vector<LandmarkObservation> batch_;  // a scan's updates, when applied jointly
   // Reused per scan.
   std::vector<std::size_t> new_observations_;

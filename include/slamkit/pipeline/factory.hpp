@@ -19,7 +19,7 @@
 
 namespace slamkit {
 
-enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2 };
+enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2, kEif };
 
 /// How the EKF applies a scan's paired observations.
 enum class EkfUpdate {
@@ -63,7 +63,7 @@ struct FilterConfig {
   unsigned threads = 0;          // 0: all cores
 };
 
-/// "ekf", "ukf", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
+/// "ekf", "ukf", "eif", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
 FilterKind parse_filter_kind(const std::string& name);
 std::string to_string(FilterKind kind);
 /// "joint", "sequential" or "iterated"; throws std::invalid_argument naming the accepted values.
