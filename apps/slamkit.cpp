@@ -436,7 +436,9 @@ int run_command(int argc, char** argv) {
   nlohmann::json flag_settings = nlohmann::json::object();
   std::string data_spec, run_out, data_config;
   add_named_setting(run_cmd, "--filter", flag_settings, "/filter", parse_filter_kind,
-                    "Filter: ekf, ukf, eif (the EKF in information form), fastslam1, fastslam2", defaults.filter);
+                    "Filter: ekf, ukf, eif (the EKF in information form), seif (the sparse extended information filter), "
+                    "fastslam1, fastslam2",
+                    defaults.filter);
   add_named_setting(run_cmd, "--assoc", flag_settings, "/association/method", parse_association_method,
                     "Data association: known (ids from the log), nn, jcbb", defaults.association.method);
   auto* data_opt =
@@ -488,6 +490,16 @@ int run_command(int argc, char** argv) {
                     "too) or additive (over the vehicle; the control noise's spread added as zero-mean process "
                     "noise, for noise that is an allowance for model error)",
                     defaults.ukf_noise);
+  add_setting<std::size_t>(run_cmd, "--seif-active", flag_settings, "/seif_active_landmarks",
+                           "SEIF: landmarks linked to the vehicle at most after each scan's sparsification (more: "
+                           "closer to the exact EIF; fewer: a sparser information matrix)",
+                           std::to_string(defaults.seif.active_landmarks))
+      ->check(integer_at_least(1));
+  add_setting<int>(run_cmd, "--seif-sweeps", flag_settings, "/seif_recovery_sweeps",
+                   "SEIF: Gauss-Seidel sweeps of the mean recovery per scan over the vehicle, the active landmarks "
+                   "and as many others in turn (0: exact, a sparse solve of the whole map)",
+                   std::to_string(defaults.seif.recovery_sweeps))
+      ->check(integer_at_least(0));
   add_named_setting(run_cmd, "--landmark-init", flag_settings, "/landmark_init", parse_landmark_init,
                     "How a landmark starts: immediate (from one measurement's inverse), delayed "
                     "(triangulated from several observations at well-spread poses; known ids only), ring (range "
@@ -830,8 +842,9 @@ int run_command(int argc, char** argv) {
         if (!particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by the EKF and the UKF", name));
       if (filter.filter != FilterKind::kFastSlam2 && run_cmd->count("--pose-sample-fraction") > 0)
         warn(fmt::format("--pose-sample-fraction applies to fastslam2 only; {} ignores it", to_string(filter.filter)));
-      if ((filter.filter == FilterKind::kUkf || filter.filter == FilterKind::kEif) && run_cmd->count("--threads") > 0)
-        warn(fmt::format("--threads is ignored by the {}", filter.filter == FilterKind::kUkf ? "UKF" : "EIF"));
+      if ((filter.filter == FilterKind::kUkf || filter.filter == FilterKind::kEif || filter.filter == FilterKind::kSeif) &&
+          run_cmd->count("--threads") > 0)
+        warn(fmt::format("--threads is ignored by the {}", to_string(filter.filter)));
       if (filter.filter != FilterKind::kUkf && run_cmd->count("--ukf-noise") > 0)
         warn(fmt::format("--ukf-noise applies to ukf only; {} ignores it", to_string(filter.filter)));
       for (const char* name : {"--ekf-update", "--ekf-variant"})

@@ -248,7 +248,7 @@ void filter_pipeline(std::string_view input) {
   Bytes in(input);
   FilterConfig config;
   const std::uint8_t choice = in.byte();
-  config.filter = static_cast<FilterKind>(choice % 5);
+  config.filter = static_cast<FilterKind>(choice % 6);
   config.association.method = static_cast<AssociationMethod>(choice / 4 % 3);
   if (config.association.method == AssociationMethod::kJcbb &&
       (config.filter == FilterKind::kFastSlam1 || config.filter == FilterKind::kFastSlam2))

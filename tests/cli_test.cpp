@@ -314,6 +314,35 @@ TEST_F(Cli, RunsTheShippedCourseExample) {
   EXPECT_LT(m["map_rmse_m"].get<double>(), 0.5);
 }
 
+// The information filters from the command line, on the shipped course (a short log: the exact EIF
+// costs a factorisation per scan). The SEIF with two active landmarks sparsifies at every scan.
+TEST_F(Cli, InformationFiltersRunTheCourseAndRecordTheirSettings) {
+  const std::string course = "course:" + (fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course").string();
+  const fs::path eif = *work_ / "course-eif", seif = *work_ / "course-seif";
+  const Result e = slamkit_cli("run --filter eif --data " + course + " --out " + eif.string(), *work_);
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+  const Result s = slamkit_cli(
+      "run --filter seif --seif-active 2 --seif-sweeps 3 --data " + course + " --out " + seif.string(), *work_);
+  ASSERT_EQ(s.exit_code, 0) << s.err;
+  const auto read = [](const fs::path& file) {
+    std::ifstream in(file);
+    return nlohmann::json::parse(in);
+  };
+  const auto me = read(eif / "metrics.json"), ms = read(seif / "metrics.json");
+  EXPECT_EQ(me["filter"], "eif");
+  EXPECT_EQ(ms["filter"], "seif");
+  EXPECT_EQ(me["landmarks"], 8);
+  EXPECT_EQ(ms["landmarks"], 8);
+  EXPECT_LT(me["map_rmse_m"].get<double>(), 0.5);
+  EXPECT_LT(ms["map_rmse_m"].get<double>(), 0.5);
+  EXPECT_GT(me["information_factorisations"].get<double>(), 0.0);
+  EXPECT_GT(ms["seif_sparsifications"].get<double>(), 0.0);
+  EXPECT_LE(ms["seif_active_landmarks"].get<double>(), 8.0);
+  const auto settings = read(seif / "run.json")["settings"];
+  EXPECT_EQ(settings["seif_active_landmarks"], 2);
+  EXPECT_EQ(settings["seif_recovery_sweeps"], 3);
+}
+
 TEST_F(Cli, DatasetSettingsFileIsUsedAndChecked) {
   const fs::path course = fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course";
   const fs::path shipped = fs::path(SLAMKIT_SOURCE_DIR) / "config" / "course.json";
@@ -405,7 +434,7 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
     const char* message;
   } cases[] = {
       {"--filter ekff",
-       "--filter: unknown filter 'ekff' (did you mean 'ekf'?); expected one of: ekf, ukf, eif, fastslam1, fastslam2"},
+       "--filter: unknown filter 'ekff' (did you mean 'ekf'?); expected one of: ekf, ukf, eif, seif, fastslam1, fastslam2"},
       {"--filter ukf --ekf-variant fej", "EKF variant 'fej' applies to the filter 'ekf', not 'ukf'"},
       {"--assoc nearest", "--assoc: unknown association 'nearest'; expected one of: known, nn, jcbb"},
       {"--ekf-variant sparse", "--ekf-variant: unknown EKF variant 'sparse'; expected one of: full, compressed, fej, invariant"},
@@ -416,6 +445,8 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
       {"--resample-when every:0", "K must be an integer >= 1"},
       {"--resample-when ess:2", "F must be a number in (0, 1]"},
       {"--particles 0", "--particles: expected an integer >= 1, found 0"},
+      {"--seif-active 0", "--seif-active: expected an integer >= 1, found 0"},
+      {"--seif-sweeps -1", "--seif-sweeps: expected an integer >= 0, found -1"},
       {"--particles 2.5", "--particles: expected an integer >= 1, found 2.5"},
       {"--pose-sample-fraction 0", "pose_sample_fraction must lie in (0, 1], found 0"},
       {"--threads -1", "--threads: expected an integer >= 0, found -1"},
@@ -789,6 +820,8 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"run --ekf-update iterate" + data, 2, "--ekf-update: unknown EKF update 'iterate' (did you mean 'iterated'?)"},
       {"run --ekf-variant invarient" + data, 2, "--ekf-variant: unknown EKF variant 'invarient' (did you mean 'invariant'?)"},
       {"run --ukf-noise additiv" + data, 2, "--ukf-noise: unknown UKF noise 'additiv' (did you mean 'additive'?)"},
+      {"run --filter seif --seif-active 0" + data, 2, "--seif-active: expected an integer >= 1, found 0"},
+      {"run --filter seif --seif-sweeps x" + data, 2, "--seif-sweeps: expected an integer >= 0, found x"},
       {"run --landmark-init delay" + data, 2,
        "--landmark-init: unknown landmark initialisation 'delay' (did you mean 'delayed'?)"},
       {"run --init-max-std 0" + data, 2, "delayed initialisation: max_std_m must be > 0 and <= 10000, found 0"},

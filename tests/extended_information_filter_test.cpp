@@ -7,117 +7,18 @@
 #include <algorithm>
 #include <memory>
 
-#include "slamkit/filters/ekf_slam.hpp"
-#include "slamkit/filters/extended_information_filter.hpp"
-#include "slamkit/filters/joint_gaussian.hpp"
+#include "information_filter_support.hpp"
 #include "slamkit/pipeline/factory.hpp"
-#include "slamkit/sim/simulator.hpp"
-#include "slamkit/sim/world.hpp"
 
 using namespace slamkit;
-
-namespace {
-
-constexpr double kTolerance = 1e-8;
-
-// The information form cannot start from a pose known exactly; the EKF is given the prior the EIF
-// starts from instead.
-const Matrix3 kPrior = ExtendedInformationFilter::kInitialPoseFloor * Matrix3::Identity();
-
-struct Differences {
-  double state = 0.0;
-  double covariance = 0.0;
-  double pose_between_scans = 0.0;  // pose and its covariance after controls, before the next scan
-  std::size_t checks = 0;
-  std::size_t decisions_differing = 0;
-  double landmarks_fused = 0.0;
-  double landmarks_removed = 0.0;
-  std::size_t landmarks = 0;
-};
-
-std::unique_ptr<EkfSlam> make(const Dataset& data, EkfVariant variant, AssociationMethod method,
-                              bool joint_scan_update, const Matrix3& prior = kPrior) {
-  EkfSlamOptions options;
-  options.initial_pose = data.initial_pose;
-  options.initial_covariance = prior;
-  options.association.method = method;
-  options.sensor = data.sensor;
-  options.variant = variant;
-  options.joint_scan_update = joint_scan_update;
-  return std::make_unique<EkfSlam>(data.motion, data.observation, options);
-}
-
-double max_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) { return (a - b).cwiseAbs().maxCoeff(); }
-
-/// The largest difference relative to the largest entry of `a` (or absolute below 1): roundoff
-/// grows with the entries, and a range-only map's covariance holds hundreds of square metres.
-double relative_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
-  return max_difference(a, b) / std::max(1.0, a.cwiseAbs().maxCoeff());
-}
-
-/// Runs the EKF and the EIF side by side over at most `max_scans` scans of `data`, comparing the
-/// whole state and covariance every `check_every` scans and at the end, every scan's association
-/// decisions, and the pose's belief after every control.
-Differences compare(const Dataset& data, AssociationMethod method, std::size_t check_every, std::size_t max_scans,
-                    bool joint_scan_update = true, const Matrix3& prior = kPrior) {
-  const auto ekf = make(data, EkfVariant::kFull, method, joint_scan_update, prior);
-  const auto eif = make(data, EkfVariant::kInformation, method, joint_scan_update, prior);
-  const EkfEstimator& a = ekf->estimator();
-  const EkfEstimator& b = eif->estimator();
-  Differences diff;
-  const auto compare_all = [&] {
-    EXPECT_EQ(a.state_dim(), b.state_dim());
-    if (a.state_dim() != b.state_dim()) return;
-    diff.state = std::max(diff.state, relative_difference(a.state(), b.state()));
-    diff.covariance = std::max(diff.covariance, relative_difference(a.covariance(), b.covariance()));
-    ++diff.checks;
-  };
-  std::size_t scans = 0;
-  for (const Event& e : data.events) {
-    if (const auto* c = std::get_if<ControlEvent>(&e)) {
-      ekf->predict(*c);
-      eif->predict(*c);
-      diff.pose_between_scans =
-          std::max({diff.pose_between_scans, relative_difference(a.pose(), b.pose()),
-                    relative_difference(a.pose_covariance(), b.pose_covariance())});
-      continue;
-    }
-    ekf->update(std::get<ScanEvent>(e));
-    eif->update(std::get<ScanEvent>(e));
-    const auto& da = ekf->last_associations();
-    const auto& db = eif->last_associations();
-    EXPECT_EQ(da.size(), db.size());
-    for (std::size_t k = 0; k < std::min(da.size(), db.size()); ++k)
-      if (da[k].decision != db[k].decision || da[k].landmark_id != db[k].landmark_id) ++diff.decisions_differing;
-    if (++scans % check_every == 0) compare_all();
-    if (scans == max_scans) break;
-  }
-  compare_all();
-  if (method != AssociationMethod::kKnown) {
-    diff.landmarks_fused = eif->statistics().at("landmarks_fused");
-    diff.landmarks_removed = eif->statistics().at("landmarks_removed");
-  }
-  diff.landmarks = eif->num_landmarks();
-  return diff;
-}
-
-void expect_equivalent(const Differences& diff) {
-  EXPECT_LT(diff.state, kTolerance);
-  EXPECT_LT(diff.covariance, kTolerance);
-  EXPECT_LT(diff.pose_between_scans, kTolerance);
-  EXPECT_EQ(diff.decisions_differing, 0u);
-  ::testing::Test::RecordProperty("max_state_difference", std::to_string(diff.state));
-  ::testing::Test::RecordProperty("max_covariance_difference", std::to_string(diff.covariance));
-}
-
-}  // namespace
+using namespace slamkit::testing_support;
 
 TEST(ExtendedInformationFilter, EqualsTheEkfOnTheDefaultWorld) {
   const Differences diff =
-      compare(simulate(default_world(), SimulatorConfig{}), AssociationMethod::kKnown, 200, SIZE_MAX);
+      compare(simulate(default_world(), SimulatorConfig{}), AssociationMethod::kKnown, 200, capped_under_sanitizer(SIZE_MAX));
   expect_equivalent(diff);
-  EXPECT_GT(diff.checks, 5u);
-  EXPECT_EQ(diff.landmarks, default_world().landmarks.size());
+  EXPECT_GE(diff.checks, 2u);
+  if (capped_under_sanitizer(SIZE_MAX) == SIZE_MAX) EXPECT_EQ(diff.landmarks, default_world().landmarks.size());
 }
 
 TEST(ExtendedInformationFilter, EqualsTheEkfWithSequentialUpdates) {
@@ -128,7 +29,8 @@ TEST(ExtendedInformationFilter, EqualsTheEkfWithSequentialUpdates) {
 
 // Without identities the map is managed: landmarks that fail the existence rule are marginalised
 // out, and the second lap's return is recognised by relocalisation, which fuses the landmarks mapped
-// again into the first lap's (conditioning on their equality, then removing the duplicates).
+// again into the first lap's (conditioning on their equality, then removing the duplicates). The
+// return comes in the second lap, so this one runs whole under the sanitizers too.
 TEST(ExtendedInformationFilter, SameDecisionsAndEstimateWithNearestNeighbourFusionAndRemoval) {
   SimulatorConfig sim;
   sim.provide_ids = false;
@@ -141,7 +43,7 @@ TEST(ExtendedInformationFilter, ClutterMakesItRemoveLandmarksAsTheEkfDoes) {
   SimulatorConfig sim;
   sim.provide_ids = false;
   sim.clutter_rate = 2.0;
-  const Differences diff = compare(simulate(default_world(), sim), AssociationMethod::kJcbb, 100, 500);
+  const Differences diff = compare(simulate(default_world(), sim), AssociationMethod::kJcbb, 100, capped_under_sanitizer(500));
   expect_equivalent(diff);
   EXPECT_GT(diff.landmarks_removed, 0.0);
 }
@@ -156,7 +58,7 @@ TEST(ExtendedInformationFilter, EqualsTheEkfWithRangeOnlyAndBearingOnlySensors) 
     SimulatorConfig sim;
     sim.sensor = sensor;
     SCOPED_TRACE(sensor == SensorKind::kRangeOnly ? "range-only" : "bearing-only");
-    const Differences diff = compare(simulate(default_world(), sim), AssociationMethod::kKnown, 100, 400, true,
+    const Differences diff = compare(simulate(default_world(), sim), AssociationMethod::kKnown, 100, capped_under_sanitizer(400), true,
                                       1e-2 * Matrix3::Identity());
     expect_equivalent(diff);
     EXPECT_GT(diff.landmarks, 10u);

@@ -54,7 +54,6 @@ IGNORED = {"wall_time_s", "dataset", "metric_definitions"}
 
 @pytest.mark.parametrize("name,args,settings", [
     ("ekf", ["--filter", "ekf"], {"filter": "ekf"}),
-    ("eif", ["--filter", "eif"], {"filter": "eif"}),
     ("fastslam2", ["--filter", "fastslam2", "--particles", "20", "--seed", "7", "--assoc", "nn"],
      {"filter": "fastslam2", "particles": 20, "seed": 7, "association": {"method": "nn"}}),
 ])

@@ -21,6 +21,7 @@ constexpr std::pair<FilterKind, const char*> kFilterNames[] = {
     {FilterKind::kEkf, "ekf"},
     {FilterKind::kUkf, "ukf"},
     {FilterKind::kEif, "eif"},
+    {FilterKind::kSeif, "seif"},
     {FilterKind::kFastSlam1, "fastslam1"},
     {FilterKind::kFastSlam2, "fastslam2"}};
 constexpr std::pair<EkfUpdate, const char*> kEkfUpdateNames[] = {
@@ -28,8 +29,8 @@ constexpr std::pair<EkfUpdate, const char*> kEkfUpdateNames[] = {
 // The iterated update converges in two or three linearisations except at a loop closure after a
 // long drift, where it may take several; beyond ten it would only creep.
 constexpr int kIteratedUpdateLinearisations = 10;
-// The unscented and information estimators are chosen as filters of their own ("ukf", "eif"), not as
-// EKF variants.
+// The unscented and information estimators are chosen as filters of their own ("ukf", "eif",
+// "seif"), not as EKF variants.
 constexpr std::pair<EkfVariant, const char*> kEkfVariantNames[] = {{EkfVariant::kFull, "full"},
                                                                    {EkfVariant::kCompressed, "compressed"},
                                                                    {EkfVariant::kFirstEstimates, "fej"},
@@ -137,10 +138,11 @@ void validate(const FilterConfig& config) {
   if (config.threads > FastSlamConfig::kMaxThreads)
     throw std::invalid_argument(fmt::format("threads must be from 0 (all cores) to {}, found {}",
                                             FastSlamConfig::kMaxThreads, config.threads));
-  if (config.ekf_variant == EkfVariant::kUnscented || config.ekf_variant == EkfVariant::kInformation)
-    throw std::invalid_argument("the unscented and information estimators are the filters 'ukf' and 'eif', not EKF "
-                                "variants");
-  if ((config.filter == FilterKind::kUkf || config.filter == FilterKind::kEif) &&
+  if (config.ekf_variant == EkfVariant::kUnscented || config.ekf_variant == EkfVariant::kInformation ||
+      config.ekf_variant == EkfVariant::kSparseInformation)
+    throw std::invalid_argument("the unscented and information estimators are the filters 'ukf', 'eif' and 'seif', "
+                                "not EKF variants");
+  if ((config.filter == FilterKind::kUkf || config.filter == FilterKind::kEif || config.filter == FilterKind::kSeif) &&
       config.ekf_variant != EkfVariant::kFull)
     throw std::invalid_argument(fmt::format("EKF variant '{}' applies to the filter 'ekf', not '{}'",
                                             to_string(config.ekf_variant), to_string(config.filter)));
@@ -148,6 +150,11 @@ void validate(const FilterConfig& config) {
       (config.filter != FilterKind::kEkf || config.ekf_variant == EkfVariant::kCompressed))
     throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full, fej or invariant");
   validate(config.association);
+  validate(config.seif);
+  if (config.filter != FilterKind::kSeif && (config.seif.active_landmarks != SeifOptions{}.active_landmarks ||
+                                             config.seif.recovery_sweeps != SeifOptions{}.recovery_sweeps))
+    throw std::invalid_argument(fmt::format(
+        "seif_active_landmarks and seif_recovery_sweeps apply to the filter 'seif', not '{}'", to_string(config.filter)));
   validate(config.delayed_init);
   validate(config.inverse_distance);
   if (config.landmark_init == LandmarkInit::kInverseDistance &&
@@ -193,14 +200,17 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
   switch (config.filter) {
     case FilterKind::kEkf:
     case FilterKind::kUkf:
-    case FilterKind::kEif: {
+    case FilterKind::kEif:
+    case FilterKind::kSeif: {
       EkfSlamOptions options;
       options.initial_pose = dataset.initial_pose;
       options.association = config.association;
       options.sensor = dataset.sensor;
-      options.variant = config.filter == FilterKind::kUkf   ? EkfVariant::kUnscented
-                        : config.filter == FilterKind::kEif ? EkfVariant::kInformation
-                                                            : config.ekf_variant;
+      options.variant = config.filter == FilterKind::kUkf    ? EkfVariant::kUnscented
+                        : config.filter == FilterKind::kEif  ? EkfVariant::kInformation
+                        : config.filter == FilterKind::kSeif ? EkfVariant::kSparseInformation
+                                                             : config.ekf_variant;
+      options.seif = config.seif;
       options.joint_scan_update = config.ekf_update != EkfUpdate::kSequential;
       if (config.ekf_update == EkfUpdate::kIterated) options.update_iterations = kIteratedUpdateLinearisations;
       options.threads = config.threads;
@@ -242,6 +252,8 @@ nlohmann::json to_json(const FilterConfig& config) {
           {"ekf_update", to_string(config.ekf_update)},
           {"ekf_variant", to_string(config.ekf_variant)},
           {"ukf_noise", to_string(config.ukf_noise)},
+          {"seif_active_landmarks", config.seif.active_landmarks},
+          {"seif_recovery_sweeps", config.seif.recovery_sweeps},
           {"landmark_init", to_string(config.landmark_init)},
           {"delayed_init", options_to_json<Delayed>(config.delayed_init, kDelayedInitKeys)},
           {"inverse_distance_min_m", config.inverse_distance.min_distance_m},
@@ -300,6 +312,10 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
         config.ekf_variant = parse_ekf_variant(name());
       else if (key == "ukf_noise")
         config.ukf_noise = parse_ukf_noise(name());
+      else if (key == "seif_active_landmarks")
+        integer(config.seif.active_landmarks);
+      else if (key == "seif_recovery_sweeps")
+        integer(config.seif.recovery_sweeps);
       else if (key == "landmark_init")
         config.landmark_init = parse_landmark_init(name());
       else if (key == "delayed_init")
@@ -334,7 +350,7 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
         integer(config.threads);
       else {
         const std::vector<std::string> keys = {"filter",        "seed",          "association",  "ekf_update",
-                                               "ekf_variant",   "ukf_noise",     "landmark_init", "delayed_init",
+                                               "ekf_variant",   "ukf_noise",     "seif_active_landmarks", "seif_recovery_sweeps", "landmark_init", "delayed_init",
                                                "inverse_distance_min_m", "inverse_distance_prior_m", "range_calibration", "likelihood", "likelihood_dof",
                                                "particles",     "pose_sample_fraction",
                                                "resample",      "resample_when", "threads"};

@@ -19,7 +19,7 @@
 
 namespace slamkit {
 
-enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2, kEif };
+enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2, kEif, kSeif };
 
 /// How the EKF applies a scan's paired observations.
 enum class EkfUpdate {
@@ -46,6 +46,8 @@ struct FilterConfig {
   EkfVariant ekf_variant = EkfVariant::kFull;
   // UKF only.
   UkfNoise ukf_noise = UkfNoise::kAugmented;
+  // SEIF only: run.json's seif_active_landmarks and seif_recovery_sweeps.
+  SeifOptions seif;
   // How a landmark starts (filters/landmark_initialiser.hpp), and the delayed start's settings.
   LandmarkInit landmark_init = LandmarkInit::kAuto;
   DelayedInitialisationOptions delayed_init;
@@ -63,7 +65,7 @@ struct FilterConfig {
   unsigned threads = 0;          // 0: all cores
 };
 
-/// "ekf", "ukf", "eif", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
+/// "ekf", "ukf", "eif", "seif", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
 FilterKind parse_filter_kind(const std::string& name);
 std::string to_string(FilterKind kind);
 /// "joint", "sequential" or "iterated"; throws std::invalid_argument naming the accepted values.
