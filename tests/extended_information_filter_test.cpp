@@ -30,13 +30,14 @@ TEST(ExtendedInformationFilter, EqualsTheEkfWithSequentialUpdates) {
 // Without identities the map is managed: landmarks that fail the existence rule are marginalised
 // out, and the second lap's return is recognised by relocalisation, which fuses the landmarks mapped
 // again into the first lap's (conditioning on their equality, then removing the duplicates). The
-// return comes in the second lap, so this one runs whole under the sanitizers too.
+// return comes in the second lap, after the sanitizers' 300 scans.
 TEST(ExtendedInformationFilter, SameDecisionsAndEstimateWithNearestNeighbourFusionAndRemoval) {
   SimulatorConfig sim;
   sim.provide_ids = false;
-  const Differences diff = compare(simulate(default_world(), sim), AssociationMethod::kNearestNeighbour, 200, SIZE_MAX);
+  const std::size_t scans = capped_under_sanitizer(SIZE_MAX);
+  const Differences diff = compare(simulate(default_world(), sim), AssociationMethod::kNearestNeighbour, 200, scans);
   expect_equivalent(diff);
-  EXPECT_GE(diff.landmarks_fused, 2.0);
+  if (scans == SIZE_MAX) EXPECT_GE(diff.landmarks_fused, 2.0);
 }
 
 TEST(ExtendedInformationFilter, ClutterMakesItRemoveLandmarksAsTheEkfDoes) {

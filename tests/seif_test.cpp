@@ -58,6 +58,21 @@ TEST(Seif, WithEveryLandmarkActiveAndExactRecoveryItIsTheEif) {
   EXPECT_EQ(diff.decisions_differing, 0u);
 }
 
+// Without identities: removals, and at the second lap's return the fusion of the landmarks mapped
+// again, which in canonical form drops the difference's rows. (The return comes after the
+// sanitizers' 300 scans.)
+TEST(Seif, WithoutIdentitiesItFusesAndRemovesAsTheEifDoes) {
+  SimulatorConfig sim;
+  sim.provide_ids = false;
+  const std::size_t scans = capped_under_sanitizer(SIZE_MAX);
+  const Differences diff = compare(simulate(default_world(), sim), AssociationMethod::kNearestNeighbour, 200, scans,
+                                   true, kPrior, EkfVariant::kInformation, EkfVariant::kSparseInformation, exact());
+  EXPECT_LT(diff.state, 1e-7);
+  EXPECT_LT(diff.covariance, 1e-7);
+  EXPECT_EQ(diff.decisions_differing, 0u);
+  if (scans == SIZE_MAX) EXPECT_GE(diff.landmarks_fused, 2.0);
+}
+
 TEST(Seif, SparsificationKeepsTheMapMarginalAndCutsTheVehicleLinks) {
   const Dataset data = simulate(default_world(), SimulatorConfig{});
   const auto filter = run_scans(data, exact(), 300);
