@@ -24,9 +24,10 @@ SeifOptions exact() {
   return options;
 }
 
-/// A SEIF over the first `scans` scans of `data` with known identities.
-std::unique_ptr<EkfSlam> run_scans(const Dataset& data, const SeifOptions& options, std::size_t scans) {
-  auto seif = make(data, EkfVariant::kSparseInformation, AssociationMethod::kKnown, true, kPrior, options);
+/// A SEIF (or the `variant` given) over the first `scans` scans of `data` with known identities.
+std::unique_ptr<EkfSlam> run_scans(const Dataset& data, const SeifOptions& options, std::size_t scans,
+                                   EkfVariant variant = EkfVariant::kSparseInformation) {
+  auto seif = make(data, variant, AssociationMethod::kKnown, true, kPrior, options);
   std::size_t done = 0;
   for (const Event& e : data.events) {
     if (const auto* c = std::get_if<ControlEvent>(&e)) {
@@ -116,16 +117,7 @@ TEST(Seif, ABoundedActiveSetKeepsOmegaSparseAndStillMaps) {
   SeifOptions bounded;
   bounded.active_landmarks = 10;
   const auto seif = run_scans(data, bounded, scans);
-  const auto eif = make(data, EkfVariant::kInformation, AssociationMethod::kKnown, true);
-  std::size_t done = 0;
-  for (const Event& e : data.events) {
-    if (const auto* c = std::get_if<ControlEvent>(&e)) {
-      eif->predict(*c);
-    } else {
-      eif->update(std::get<ScanEvent>(e));
-      if (++done == scans) break;
-    }
-  }
+  const auto eif = run_scans(data, {}, scans, EkfVariant::kInformation);
   const auto statistics = seif->statistics();
   EXPECT_LE(statistics.at("seif_active_landmarks"), 10.0 + 12.0);  // the bound, and what one scan adds
   EXPECT_GT(statistics.at("seif_sparsifications"), 10.0);

@@ -12,28 +12,9 @@ bool ExtendedInformationFilter::update_landmark(const LandmarkObservation& obser
 
 bool ExtendedInformationFilter::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
-  apply_pending_motion();
-  const auto n = static_cast<Eigen::Index>(dim_);
-  const Pose2 xv = pose();
   Triplets triplets;
-  Eigen::VectorXd information_gain = Eigen::VectorXd::Zero(n);  // H^T R^-1 nu
-  for (const LandmarkObservation& o : batch) {
-    const auto l = static_cast<Eigen::Index>(landmark_offset(o.index));
-    const Vector2 m = landmark_position(o.index);
-    PoseJacobian hx;
-    LandmarkJacobian hm;
-    observation_->jacobians(xv, m, hx, hm);
-    const Measurement nu = observation_->residual(o.z, observation_->predict(xv, m));
-    const Eigen::MatrixXd r_inverse =
-        spd_inverse(Eigen::MatrixXd(o.noise_scale * observation_->noise()), "a measurement noise");
-    const Eigen::MatrixXd hx_t = hx.transpose() * r_inverse, hm_t = hm.transpose() * r_inverse;
-    add_block(triplets, 0, 0, hx_t * hx);
-    add_block(triplets, 0, l, hx_t * hm);
-    add_block(triplets, l, 0, hm_t * hx);
-    add_block(triplets, l, l, hm_t * hm);
-    information_gain.head<3>() += hx_t * nu;
-    information_gain.segment<2>(l) += hm_t * nu;
-  }
+  const Eigen::VectorXd information_gain = linearised_information(batch, false, triplets);  // H^T R^-1 nu
+  const auto n = static_cast<Eigen::Index>(dim_);
   Sparse prior = omega_;
   set_information(omega_ + from_triplets(n, n, triplets));
   if (!factorise()) {
@@ -47,22 +28,7 @@ bool ExtendedInformationFilter::update_landmarks(std::span<const LandmarkObserva
 }
 
 std::size_t ExtendedInformationFilter::add_landmark(const InitialLandmark& landmark) {
-  apply_pending_motion();
-  const auto l = static_cast<Eigen::Index>(dim_);
-  const Matrix2 information = spd_inverse(landmark.covariance, "a new landmark's covariance given the pose");
-  reserve(dim_ + 2);
-  x_.segment<2>(l) = landmark.mean;
-  // The factor m - Gx x_v, its Jacobian [-Gx I] over (vehicle, landmark).
-  const Eigen::Matrix<double, 3, 2> coupling = -landmark.gx.transpose() * information;
-  Triplets triplets;
-  add_block(triplets, 0, 0, -coupling * landmark.gx);
-  add_block(triplets, 0, l, coupling);
-  add_block(triplets, l, 0, coupling.transpose());
-  add_block(triplets, l, l, information);
-  Sparse grown = omega_;
-  grown.conservativeResize(l + 2, l + 2);
-  set_information(grown + from_triplets(l + 2, l + 2, triplets));
-  append_landmark_rows(2);
+  append_landmark_factor(landmark);  // the mean carries what the factor's vector would
   return num_landmarks() - 1;
 }
 

@@ -207,6 +207,53 @@ void InformationFormEstimator::predict(const Control& u, double dt) {
 
 void InformationFormEstimator::inflate_pose(const Matrix3& q) { pending_q_ += q; }
 
+Eigen::VectorXd InformationFormEstimator::linearised_information(std::span<const LandmarkObservation> batch,
+                                                                 bool about_estimate, Triplets& triplets) {
+  apply_pending_motion();
+  const Pose2 xv = pose();
+  Eigen::VectorXd vector = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(dim_));
+  for (const LandmarkObservation& o : batch) {
+    const auto l = static_cast<Eigen::Index>(landmark_offset(o.index));
+    const Vector2 m = landmark_position(o.index);
+    PoseJacobian hx;
+    LandmarkJacobian hm;
+    observation_->jacobians(xv, m, hx, hm);
+    Eigen::VectorXd target = observation_->residual(o.z, observation_->predict(xv, m));
+    if (about_estimate) target += hx * xv + hm * m;
+    const Eigen::MatrixXd r_inverse =
+        spd_inverse(Eigen::MatrixXd(o.noise_scale * observation_->noise()), "a measurement noise");
+    const Eigen::MatrixXd hx_t = hx.transpose() * r_inverse, hm_t = hm.transpose() * r_inverse;
+    add_block(triplets, 0, 0, hx_t * hx);
+    add_block(triplets, 0, l, hx_t * hm);
+    add_block(triplets, l, 0, hm_t * hx);
+    add_block(triplets, l, l, hm_t * hm);
+    vector.head<3>() += hx_t * target;
+    vector.segment<2>(l) += hm_t * target;
+  }
+  return vector;
+}
+
+InformationFormEstimator::FactorVector InformationFormEstimator::append_landmark_factor(
+    const InitialLandmark& landmark) {
+  apply_pending_motion();
+  const auto l = static_cast<Eigen::Index>(dim_);
+  const Matrix2 information = spd_inverse(landmark.covariance, "a new landmark's covariance given the pose");
+  reserve(dim_ + 2);
+  x_.segment<2>(l) = landmark.mean;
+  const Vector2 offset = landmark.mean - landmark.gx * x_.head<3>();
+  const Eigen::Matrix<double, 3, 2> coupling = -landmark.gx.transpose() * information;
+  Triplets triplets;
+  add_block(triplets, 0, 0, -coupling * landmark.gx);
+  add_block(triplets, 0, l, coupling);
+  add_block(triplets, l, 0, coupling.transpose());
+  add_block(triplets, l, l, information);
+  Sparse grown = omega_;
+  grown.conservativeResize(l + 2, l + 2);
+  set_information(grown + from_triplets(l + 2, l + 2, triplets));
+  append_landmark_rows(2);
+  return {coupling * offset, information * offset};
+}
+
 InformationFormEstimator::Sparse InformationFormEstimator::marginalised(std::size_t index) const {
   const auto l = static_cast<Eigen::Index>(landmark_offset(index));
   // Omega - Omega(:, m) Omega(m, m)^-1 Omega(m, :).

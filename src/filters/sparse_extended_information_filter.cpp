@@ -143,58 +143,24 @@ bool SparseExtendedInformationFilter::update_landmark(const LandmarkObservation&
 
 bool SparseExtendedInformationFilter::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
-  apply_pending_motion();
-  const auto n = static_cast<Eigen::Index>(dim_);
-  const Pose2 xv = pose();
   Triplets triplets;
-  for (const LandmarkObservation& o : batch) {
-    const auto l = static_cast<Eigen::Index>(landmark_offset(o.index));
-    const Vector2 m = landmark_position(o.index);
-    PoseJacobian hx;
-    LandmarkJacobian hm;
-    observation_->jacobians(xv, m, hx, hm);
-    const Measurement nu = observation_->residual(o.z, observation_->predict(xv, m));
-    const Eigen::MatrixXd r_inverse =
-        spd_inverse(Eigen::MatrixXd(o.noise_scale * observation_->noise()), "a measurement noise");
-    const Eigen::MatrixXd hx_t = hx.transpose() * r_inverse, hm_t = hm.transpose() * r_inverse;
-    add_block(triplets, 0, 0, hx_t * hx);
-    add_block(triplets, 0, l, hx_t * hm);
-    add_block(triplets, l, 0, hm_t * hx);
-    add_block(triplets, l, l, hm_t * hm);
-    // xi += H^T R^-1 (nu + H mu): the linearised measurement about the estimate.
-    const Eigen::VectorXd innovation = Eigen::VectorXd(nu) + hx * xv + hm * m;
-    xi_.head<3>() += hx_t * innovation;
-    xi_.segment<2>(l) += hm_t * innovation;
-    activate(o.index);
-  }
+  const Eigen::VectorXd measured = linearised_information(batch, true, triplets);  // after the motion's fold
+  const auto n = static_cast<Eigen::Index>(dim_);
+  xi_.head(n) += measured;
   set_information(omega_ + from_triplets(n, n, triplets));
+  for (const LandmarkObservation& o : batch) activate(o.index);
   recover_mean();
   return true;
 }
 
 std::size_t SparseExtendedInformationFilter::add_landmark(const InitialLandmark& landmark) {
-  apply_pending_motion();
-  const auto l = static_cast<Eigen::Index>(dim_);
-  const Matrix2 information = spd_inverse(landmark.covariance, "a new landmark's covariance given the pose");
-  reserve(dim_ + 2);
-  x_.segment<2>(l) = landmark.mean;
-  // The factor m = Gx x_v + offset + w, its Jacobian [-Gx I] over (vehicle, landmark).
-  const Vector2 offset = landmark.mean - landmark.gx * x_.head<3>();
-  const Eigen::Matrix<double, 3, 2> coupling = -landmark.gx.transpose() * information;
-  Triplets triplets;
-  add_block(triplets, 0, 0, -coupling * landmark.gx);
-  add_block(triplets, 0, l, coupling);
-  add_block(triplets, l, 0, coupling.transpose());
-  add_block(triplets, l, l, information);
-  Sparse grown = omega_;
-  grown.conservativeResize(l + 2, l + 2);
-  set_information(grown + from_triplets(l + 2, l + 2, triplets));
-  xi_.head<3>() += coupling * offset;
-  xi_.segment<2>(l) = information * offset;
-  append_landmark_rows(2);
+  const FactorVector factor = append_landmark_factor(landmark);
+  const std::size_t index = num_landmarks() - 1;
+  xi_.head<3>() += factor.vehicle;
+  xi_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index))) = factor.landmark;
   last_seen_.push_back(scans_);
-  activate(num_landmarks() - 1);
-  return num_landmarks() - 1;
+  activate(index);
+  return index;
 }
 
 void SparseExtendedInformationFilter::remove_landmark(std::size_t index) {

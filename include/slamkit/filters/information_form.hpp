@@ -84,6 +84,20 @@ class InformationFormEstimator : public EkfEstimator {
   bool factorise() const;
   /// Omega^-1 b (the factorisation current).
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const { return llt_.solve(b); }
+  /// Applies the pending motion, then adds H^T R^-1 H of `batch` (each observation linearised at the
+  /// estimate) into `triplets`, and returns H^T R^-1 nu, or with `about_estimate` H^T R^-1 (nu + H mu):
+  /// the linearised measurement's share of the information vector.
+  Eigen::VectorXd linearised_information(std::span<const LandmarkObservation> batch, bool about_estimate,
+                                         Triplets& triplets);
+  /// The information vector of a landmark factor, by block.
+  struct FactorVector {
+    Eigen::Vector3d vehicle;
+    Vector2 landmark;
+  };
+  /// Applies the pending motion, then appends the landmark as the factor m = Gx x_v + c + w: Omega
+  /// grows by [-Gx I]^T L [-Gx I] over (vehicle, landmark), L the inverse of its covariance given the
+  /// pose, and the mean by its position. Returns the factor's information vector [-Gx I]^T L c.
+  FactorVector append_landmark_factor(const InitialLandmark& landmark);
   /// Omega with landmark `index`'s rows marginalised out (their rows still there, to be squeezed).
   Sparse marginalised(std::size_t index) const;
   /// The change of variables that fuses `pairs`: x = T y, with each duplicate's rows of y holding
