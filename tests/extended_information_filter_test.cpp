@@ -15,7 +15,8 @@ using namespace slamkit::testing_support;
 
 TEST(ExtendedInformationFilter, EqualsTheEkfOnTheDefaultWorld) {
   const Differences diff =
-      compare(simulate(default_world(), SimulatorConfig{}), AssociationMethod::kKnown, 200, capped_under_sanitizer(SIZE_MAX));
+      compare(simulate(default_world(), SimulatorConfig{}), AssociationMethod::kKnown, 200,
+              capped_under_sanitizer(SIZE_MAX));
   expect_equivalent(diff);
   EXPECT_GE(diff.checks, 2u);
   if (capped_under_sanitizer(SIZE_MAX) == SIZE_MAX) EXPECT_EQ(diff.landmarks, default_world().landmarks.size());
@@ -44,7 +45,8 @@ TEST(ExtendedInformationFilter, ClutterMakesItRemoveLandmarksAsTheEkfDoes) {
   SimulatorConfig sim;
   sim.provide_ids = false;
   sim.clutter_rate = 2.0;
-  const Differences diff = compare(simulate(default_world(), sim), AssociationMethod::kJcbb, 100, capped_under_sanitizer(500));
+  const Differences diff =
+      compare(simulate(default_world(), sim), AssociationMethod::kJcbb, 100, capped_under_sanitizer(500));
   expect_equivalent(diff);
   EXPECT_GT(diff.landmarks_removed, 0.0);
 }
@@ -59,8 +61,8 @@ TEST(ExtendedInformationFilter, EqualsTheEkfWithRangeOnlyAndBearingOnlySensors) 
     SimulatorConfig sim;
     sim.sensor = sensor;
     SCOPED_TRACE(sensor == SensorKind::kRangeOnly ? "range-only" : "bearing-only");
-    const Differences diff = compare(simulate(default_world(), sim), AssociationMethod::kKnown, 100, capped_under_sanitizer(400), true,
-                                      1e-2 * Matrix3::Identity());
+    const Differences diff = compare(simulate(default_world(), sim), AssociationMethod::kKnown, 100,
+                                     capped_under_sanitizer(400), true, 1e-2 * Matrix3::Identity());
     expect_equivalent(diff);
     EXPECT_GT(diff.landmarks, 10u);
   }

@@ -44,7 +44,8 @@ struct Differences {
 };
 
 inline std::unique_ptr<EkfSlam> make(const Dataset& data, EkfVariant variant, AssociationMethod method,
-                                     bool joint_scan_update, const Matrix3& prior = kPrior, const SeifOptions& seif = {}) {
+                                     bool joint_scan_update, const Matrix3& prior = kPrior,
+                                     const SeifOptions& seif = {}) {
   EkfSlamOptions options;
   options.seif = seif;
   options.initial_pose = data.initial_pose;
@@ -56,7 +57,9 @@ inline std::unique_ptr<EkfSlam> make(const Dataset& data, EkfVariant variant, As
   return std::make_unique<EkfSlam>(data.motion, data.observation, options);
 }
 
-inline double max_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) { return (a - b).cwiseAbs().maxCoeff(); }
+inline double max_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return (a - b).cwiseAbs().maxCoeff();
+}
 
 /// The largest difference relative to the largest entry of `a` (or absolute below 1): roundoff
 /// grows with the entries, and a range-only map's covariance holds hundreds of square metres.
@@ -65,8 +68,9 @@ inline double relative_difference(const Eigen::MatrixXd& a, const Eigen::MatrixX
 }
 
 /// Runs the `reference` estimator (by default the EKF) and the `tested` one (by default the EIF) side
-/// by side over at most `max_scans` scans of `data`, comparing the whole state and covariance every `check_every` scans and at the end, every scan's
-/// association decisions, and the pose's belief after every control.
+/// by side over at most `max_scans` scans of `data`, comparing the whole state and covariance every
+/// `check_every` scans and at the end, every scan's association decisions, and the pose's belief
+/// after every control.
 inline Differences compare(const Dataset& data, AssociationMethod method, std::size_t check_every,
                            std::size_t max_scans, bool joint_scan_update = true, const Matrix3& prior = kPrior,
                            EkfVariant reference = EkfVariant::kFull, EkfVariant tested = EkfVariant::kInformation,

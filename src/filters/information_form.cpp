@@ -74,7 +74,8 @@ bool InformationFormEstimator::factorise() const {
 Eigen::MatrixXd InformationFormEstimator::covariance_columns(std::size_t first, std::size_t count) const {
   if (!factorise()) throw std::logic_error("the information matrix is not positive definite");
   Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(omega_.rows(), static_cast<Eigen::Index>(count));
-  for (std::size_t i = 0; i < count; ++i) unit(static_cast<Eigen::Index>(first + i), static_cast<Eigen::Index>(i)) = 1.0;
+  for (std::size_t i = 0; i < count; ++i)
+    unit(static_cast<Eigen::Index>(first + i), static_cast<Eigen::Index>(i)) = 1.0;
   return llt_.solve(unit);
 }
 
@@ -289,8 +290,8 @@ InformationFormEstimator::Sparse InformationFormEstimator::fusion_transform(std:
   return from_triplets(n, n, triplets);
 }
 
-InformationFormEstimator::Sparse InformationFormEstimator::conditioned_on_fusion(Sparse omega,
-                                                                                 const std::vector<char>& duplicate_row) {
+InformationFormEstimator::Sparse InformationFormEstimator::conditioned_on_fusion(
+    Sparse omega, const std::vector<char>& duplicate_row) {
   omega.prune([&](Eigen::Index row, Eigen::Index col, double) {
     return !duplicate_row[static_cast<std::size_t>(row)] && !duplicate_row[static_cast<std::size_t>(col)];
   });

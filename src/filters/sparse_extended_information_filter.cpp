@@ -121,7 +121,8 @@ void SparseExtendedInformationFilter::sparsify(std::size_t active) {
   for (Eigen::Index j = 0; j < s; ++j) {
     xi_[rows[static_cast<std::size_t>(j)]] += xi_change[j];
     for (Eigen::Index i = 0; i < s; ++i)
-      if (change(i, j) != 0.0) triplets.emplace_back(rows[static_cast<std::size_t>(i)], rows[static_cast<std::size_t>(j)], change(i, j));
+      if (change(i, j) != 0.0)
+        triplets.emplace_back(rows[static_cast<std::size_t>(i)], rows[static_cast<std::size_t>(j)], change(i, j));
   }
   Sparse updated = omega_ + from_triplets(omega_.rows(), omega_.cols(), triplets);
   // The vehicle's links to m0 are now zero: out of the pattern, so that Omega stays sparse.
@@ -129,7 +130,8 @@ void SparseExtendedInformationFilter::sparsify(std::size_t active) {
   for (std::size_t k = kept; k < active_.size(); ++k)
     for (std::size_t r = 0; r < 2; ++r) passive_row[landmark_offset(active_[k]) + r] = 1;
   updated.prune([&](Eigen::Index row, Eigen::Index col, double) {
-    return !((row < 3 && passive_row[static_cast<std::size_t>(col)]) || (col < 3 && passive_row[static_cast<std::size_t>(row)]));
+    return !((row < 3 && passive_row[static_cast<std::size_t>(col)]) ||
+             (col < 3 && passive_row[static_cast<std::size_t>(row)]));
   });
   set_information_pattern(std::move(updated));
   deactivated_ += passive;

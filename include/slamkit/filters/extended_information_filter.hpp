@@ -30,7 +30,8 @@ namespace slamkit {
 class ExtendedInformationFilter final : public InformationFormEstimator {
  public:
   ExtendedInformationFilter(std::shared_ptr<const MotionModel> motion,
-                            std::shared_ptr<const ObservationModel> observation, const Pose2& initial_pose = Pose2::Zero(),
+                            std::shared_ptr<const ObservationModel> observation,
+                            const Pose2& initial_pose = Pose2::Zero(),
                             const Matrix3& initial_covariance = Matrix3::Zero())
       : InformationFormEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance) {}
 
