@@ -213,7 +213,8 @@ bool SparseExtendedInformationFilter::fuse_landmarks(std::span<const LandmarkPai
 void SparseExtendedInformationFilter::relax_block(Eigen::Index first, Eigen::Index size) {
   // mu_b = Omega_bb^-1 (xi_b - sum over the other rows j of Omega_bj mu_j); Omega is symmetric, so
   // the block's columns give its rows.
-  Eigen::Vector3d rest = xi_.segment(first, size);
+  Eigen::Vector3d rest = Eigen::Vector3d::Zero();
+  rest.head(size) = xi_.segment(first, size);
   Matrix3 own = Matrix3::Zero();
   for (Eigen::Index c = 0; c < size; ++c)
     for (Sparse::InnerIterator it(omega_, first + c); it; ++it) {
