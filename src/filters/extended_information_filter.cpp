@@ -6,10 +6,6 @@
 
 namespace slamkit {
 
-bool ExtendedInformationFilter::update_landmark(const LandmarkObservation& observation) {
-  return update_landmarks(std::span<const LandmarkObservation>(&observation, 1));
-}
-
 bool ExtendedInformationFilter::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
   Triplets triplets;

@@ -139,10 +139,6 @@ void SparseExtendedInformationFilter::sparsify(std::size_t active) {
   active_.resize(kept);
 }
 
-bool SparseExtendedInformationFilter::update_landmark(const LandmarkObservation& observation) {
-  return update_landmarks(std::span<const LandmarkObservation>(&observation, 1));
-}
-
 bool SparseExtendedInformationFilter::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
   Triplets triplets;

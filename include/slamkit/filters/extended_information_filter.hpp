@@ -35,8 +35,6 @@ class ExtendedInformationFilter final : public InformationFormEstimator {
                             const Matrix3& initial_covariance = Matrix3::Zero())
       : InformationFormEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance) {}
 
-  using EkfEstimator::update_landmark;
-  bool update_landmark(const LandmarkObservation& observation) override;
   /// Every observation linearised at the prior, as the EKF's joint update. Returns false (and changes
   /// nothing) if the updated information matrix does not factorise.
   bool update_landmarks(std::span<const LandmarkObservation> batch) override;

@@ -48,6 +48,12 @@ class InformationFormEstimator : public EkfEstimator {
 
   void predict(const Control& u, double dt) override;
   void inflate_pose(const Matrix3& q) override;
+  using EkfEstimator::update_landmark;
+  /// A batch of one: an information-form update costs what its linearisation and solve cost, however
+  /// many observations it holds.
+  bool update_landmark(const LandmarkObservation& observation) override {
+    return update_landmarks(std::span<const LandmarkObservation>(&observation, 1));
+  }
   /// information_nonzeros (of Omega, both triangles) and information_factorisations.
   void add_statistics(std::map<std::string, double>& statistics) const override;
 

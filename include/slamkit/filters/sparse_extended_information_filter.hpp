@@ -57,8 +57,6 @@ class SparseExtendedInformationFilter final : public InformationFormEstimator {
 
   /// Folds the controls in and sparsifies.
   void begin_scan() override;
-  using EkfEstimator::update_landmark;
-  bool update_landmark(const LandmarkObservation& observation) override;
   /// Every observation linearised at the current mean estimate; then the mean is recovered.
   bool update_landmarks(std::span<const LandmarkObservation> batch) override;
   using EkfEstimator::add_landmark;
