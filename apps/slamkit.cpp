@@ -500,6 +500,11 @@ int run_command(int argc, char** argv) {
                    "and as many others in turn (0: exact, a sparse solve of the whole map)",
                    std::to_string(defaults.seif.recovery_sweeps))
       ->check(integer_at_least(0));
+  add_named_setting(run_cmd, "--seif-covariance", flag_settings, "/seif_covariance", parse_covariance_recovery,
+                    "SEIF: how the covariances the gates and the outputs read are recovered: local (from the "
+                    "Markov blanket of what is asked about; the same cost however large the map, overconfident) "
+                    "or exact (a sparse factorisation of the whole map)",
+                    defaults.seif.covariance);
   add_named_setting(run_cmd, "--landmark-init", flag_settings, "/landmark_init", parse_landmark_init,
                     "How a landmark starts: immediate (from one measurement's inverse), delayed "
                     "(triangulated from several observations at well-spread poses; known ids only), ring (range "

@@ -16,11 +16,12 @@ using namespace slamkit::testing_support;
 
 namespace {
 
-/// Every landmark of the default world active, the mean recovered by the exact solve.
+/// Every landmark of the default world active, the mean and the covariances recovered exactly.
 SeifOptions exact() {
   SeifOptions options;
   options.active_landmarks = 1000;
   options.recovery_sweeps = 0;
+  options.covariance = CovarianceRecovery::kExact;
   return options;
 }
 

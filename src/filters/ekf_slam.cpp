@@ -325,6 +325,13 @@ void EkfSlam::update_known(const ScanEvent& scan) {
     }
   };
   batch_.clear();
+  if (gate_known_) {
+    candidates_.clear();
+    for (const Observation& obs : scan.observations)
+      if (const long index = obs.id == kUnknownId ? -1 : find_landmark(obs.id); index >= 0)
+        candidates_.push_back(static_cast<std::size_t>(index));
+    estimator_->prepare_covariances(candidates_);
+  }
   for (std::size_t k = 0; k < scan.observations.size(); ++k) {
     const Observation& obs = scan.observations[k];
     if (obs.id == kUnknownId) {
@@ -484,6 +491,7 @@ void EkfSlam::find_candidates(const SensorView& view) {
 
 const std::vector<Pairing>& EkfSlam::associate_scan(const ScanEvent& scan) {
   find_candidates(association_view_);
+  estimator_->prepare_covariances(candidates_);
   associate(scan.observations, candidates_, *estimator_, estimator_->observation_model(), association_,
             association_workspace_, pairings_, &association_stats_, clutter_density_);
   return pairings_;

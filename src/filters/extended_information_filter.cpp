@@ -8,13 +8,14 @@ namespace slamkit {
 
 bool ExtendedInformationFilter::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
-  Triplets triplets;
-  const Eigen::VectorXd information_gain = linearised_information(batch, false, triplets);  // H^T R^-1 nu
+  apply_pending_motion();  // before the copy kept for a refusal, so that a refusal keeps the fold
   const auto n = static_cast<Eigen::Index>(dim_);
-  Sparse prior = omega_;
-  set_information(omega_ + from_triplets(n, n, triplets));
+  const InformationGraph prior = graph_;
+  Eigen::VectorXd information_gain = Eigen::VectorXd::Zero(n);  // H^T R^-1 nu
+  add_linearised_information(batch, false, information_gain);
   if (!factorise()) {
-    set_information_pattern(std::move(prior));
+    graph_ = prior;
+    information_changed();
     return false;
   }
   // The EKF's x += P H^T S^-1 nu, in information form: (Omega + H^T R^-1 H)^-1 H^T R^-1 nu.
@@ -30,7 +31,7 @@ std::size_t ExtendedInformationFilter::add_landmark(const InitialLandmark& landm
 
 void ExtendedInformationFilter::remove_landmark(std::size_t index) {
   apply_pending_motion();
-  set_information(marginalised(index));
+  marginalise(index);
   remove_stored_landmark(index);
 }
 
@@ -41,7 +42,7 @@ bool ExtendedInformationFilter::fuse_landmarks(std::span<const LandmarkPair> pai
   // x = T y with y the state in which each duplicate's rows hold e = m_duplicate - m_original.
   std::vector<char> duplicate_row;
   const Sparse t = fusion_transform(pairs, duplicate_row);
-  const Sparse fused = Sparse(t.transpose()) * omega_ * t;
+  const Sparse fused = Sparse(t.transpose()) * graph_.to_sparse() * t;
   Eigen::VectorXd difference = Eigen::VectorXd::Zero(n);  // y's e rows, zero elsewhere
   for (const LandmarkPair& pair : pairs) {
     const auto d = static_cast<Eigen::Index>(landmark_offset(pair.duplicate));
@@ -52,10 +53,12 @@ bool ExtendedInformationFilter::fuse_landmarks(std::span<const LandmarkPair> pai
   Eigen::VectorXd shift = fused * difference;
   for (Eigen::Index i = 0; i < n; ++i)
     if (duplicate_row[static_cast<std::size_t>(i)]) shift[i] = 0.0;
-  Sparse prior = omega_;
-  set_information_pattern(conditioned_on_fusion(fused, duplicate_row));
+  InformationGraph prior = InformationGraph::from_sparse(conditioned_on_fusion(fused, duplicate_row));
+  std::swap(prior, graph_);
+  information_changed();
   if (!factorise()) {
-    set_information_pattern(std::move(prior));
+    graph_ = std::move(prior);
+    information_changed();
     return false;
   }
   x_.head(n) += solve(shift);

@@ -11,20 +11,14 @@ namespace slamkit {
 namespace {
 // Landmarks whose columns one solve finds when the whole map's marginals are read.
 constexpr std::size_t kMarginalsPerSolve = 32;
-}  // namespace
 
-void InformationFormEstimator::add_block(Triplets& triplets, Eigen::Index row, Eigen::Index col,
-                                         const Eigen::Ref<const Eigen::MatrixXd>& block) {
-  for (Eigen::Index j = 0; j < block.cols(); ++j)
-    for (Eigen::Index i = 0; i < block.rows(); ++i) triplets.emplace_back(row + i, col + j, block(i, j));
-}
-
-InformationFormEstimator::Sparse InformationFormEstimator::from_triplets(Eigen::Index rows, Eigen::Index cols,
-                                                                         const Triplets& triplets) {
-  Sparse m(rows, cols);
-  m.setFromTriplets(triplets.begin(), triplets.end());  // duplicates are summed
+Eigen::SparseMatrix<double> from_triplets(Eigen::Index rows, Eigen::Index cols,
+                                          const std::vector<Eigen::Triplet<double>>& triplets) {
+  Eigen::SparseMatrix<double> m(rows, cols);
+  m.setFromTriplets(triplets.begin(), triplets.end());
   return m;
 }
+}  // namespace
 
 Eigen::MatrixXd InformationFormEstimator::spd_inverse(const Eigen::MatrixXd& m, const char* what) {
   const Eigen::LLT<Eigen::MatrixXd> llt(m);
@@ -35,37 +29,55 @@ Eigen::MatrixXd InformationFormEstimator::spd_inverse(const Eigen::MatrixXd& m, 
 
 InformationFormEstimator::InformationFormEstimator(std::shared_ptr<const MotionModel> motion,
                                                    std::shared_ptr<const ObservationModel> observation,
-                                                   const Pose2& initial_pose, const Matrix3& initial_covariance)
-    : EkfEstimator(std::move(motion), std::move(observation), initial_pose) {
+                                                   const Pose2& initial_pose, const Matrix3& initial_covariance,
+                                                   CovarianceRecovery recovery)
+    : EkfEstimator(std::move(motion), std::move(observation), initial_pose), recovery_(recovery) {
   if (!initial_covariance.allFinite()) throw std::invalid_argument("the initial pose covariance must be finite");
   Matrix3 prior = 0.5 * (initial_covariance + initial_covariance.transpose());
   if (Eigen::SelfAdjointEigenSolver<Matrix3>(prior, Eigen::EigenvaluesOnly).eigenvalues().minCoeff() <
       kInitialPoseFloor)
     prior += kInitialPoseFloor * Matrix3::Identity();
-  Triplets triplets;
-  add_block(triplets, 0, 0, spd_inverse(prior, "an initial pose covariance"));
-  omega_ = from_triplets(3, 3, triplets);
+  graph_.vehicle() = spd_inverse(prior, "an initial pose covariance");
 }
 
-void InformationFormEstimator::set_information(Sparse omega) {
-  omega_ = std::move(omega);
+void InformationFormEstimator::information_changed() {
   factorised_ = false;
   vehicle_columns_.resize(0, 0);
   landmark_columns_.clear();
+  local_vehicle_.reset();
+  local_joints_.clear();
+  prepared_.resize(0, 0);
+  prepared_rows_.clear();
+}
+
+void InformationFormEstimator::prepare_covariances(std::span<const std::size_t> landmarks) const {
+  if (recovery_ != CovarianceRecovery::kLocal || landmarks.empty()) return;
+  InformationGraph::Variables asked{true, {landmarks.begin(), landmarks.end()}};
+  std::sort(asked.landmarks.begin(), asked.landmarks.end());
+  asked.landmarks.erase(std::unique(asked.landmarks.begin(), asked.landmarks.end()), asked.landmarks.end());
+  prepared_ = local_covariance(asked);
+  prepared_rows_.clear();
+  local_vehicle_ = prepared_.topLeftCorner<3, 3>();
+  for (std::size_t k = 0; k < asked.landmarks.size(); ++k) {
+    const Eigen::Index r = asked.row(k);
+    const std::size_t landmark = asked.landmarks[k];
+    prepared_rows_[landmark] = r;
+    Joint joint;
+    joint << prepared_.topLeftCorner<3, 3>(), prepared_.block<3, 2>(0, r), prepared_.block<2, 3>(r, 0),
+        prepared_.block<2, 2>(r, r);
+    local_joints_[landmark] = joint;
+  }
 }
 
 bool InformationFormEstimator::factorise() const {
   if (factorised_) return true;
-  // The fill-reducing ordering and the factor's pattern depend on Omega's pattern only, which the
-  // updates between two factorisations only grow: the same size and count of entries is the same
-  // pattern, unless an operation said otherwise (set_information_pattern).
-  if (pattern_changed_ || omega_.rows() != analysed_rows_ || omega_.nonZeros() != analysed_nonzeros_) {
-    llt_.analyzePattern(omega_);
-    analysed_rows_ = omega_.rows();
-    analysed_nonzeros_ = omega_.nonZeros();
-    pattern_changed_ = false;
+  exported_ = graph_.to_sparse();
+  // The fill-reducing ordering and the factor's pattern depend on Omega's pattern only.
+  if (graph_.pattern_version() != analysed_pattern_) {
+    llt_.analyzePattern(exported_);
+    analysed_pattern_ = graph_.pattern_version();
   }
-  llt_.factorize(omega_);
+  llt_.factorize(exported_);
   ++factorisations_;
   factorised_ = llt_.info() == Eigen::Success;
   return factorised_;
@@ -73,7 +85,7 @@ bool InformationFormEstimator::factorise() const {
 
 Eigen::MatrixXd InformationFormEstimator::covariance_columns(std::size_t first, std::size_t count) const {
   if (!factorise()) throw std::logic_error("the information matrix is not positive definite");
-  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(omega_.rows(), static_cast<Eigen::Index>(count));
+  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(exported_.rows(), static_cast<Eigen::Index>(count));
   for (std::size_t i = 0; i < count; ++i)
     unit(static_cast<Eigen::Index>(first + i), static_cast<Eigen::Index>(i)) = 1.0;
   return llt_.solve(unit);
@@ -85,37 +97,70 @@ const Eigen::MatrixXd& InformationFormEstimator::vehicle_columns() const {
 }
 
 const Eigen::MatrixXd& InformationFormEstimator::landmark_columns(std::size_t index) const {
-  const std::size_t l = landmark_offset(index);
-  auto found = landmark_columns_.find(l);
-  if (found == landmark_columns_.end()) found = landmark_columns_.emplace(l, covariance_columns(l, 2)).first;
+  auto found = landmark_columns_.find(index);
+  if (found == landmark_columns_.end())
+    found = landmark_columns_.emplace(index, covariance_columns(landmark_offset(index), 2)).first;
   return found->second;
 }
 
-InformationFormEstimator::FoldedMotion InformationFormEstimator::fold(const Sparse& omega, const Matrix3& f,
-                                                                      const Matrix3& q, Sparse& folded) {
-  const Eigen::Index n = omega.rows();
-  // Psi = A^-T Omega A^-1, A = diag(F, I): the information of the moved state before its noise.
-  Triplets triplets;
-  add_block(triplets, 0, 0, f.inverse());
-  for (Eigen::Index i = 3; i < n; ++i) triplets.emplace_back(i, i, 1.0);
-  const Sparse a_inverse = from_triplets(n, n, triplets);
-  const Sparse psi = Sparse(a_inverse.transpose()) * omega * a_inverse;
-  const Matrix3 psi_vv = psi.topLeftCorner(3, 3).toDense();
+Eigen::MatrixXd InformationFormEstimator::local_covariance(const InformationGraph::Variables& variables) const {
+  const InformationGraph::Variables blanket = graph_.neighbourhood(variables);
+  const Eigen::LLT<Eigen::MatrixXd> llt(graph_.gather(blanket));
+  if (llt.info() != Eigen::Success) throw std::logic_error("the information matrix is not positive definite");
+  ++local_recoveries_;
+  // The columns of the variables asked about, in their order.
+  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(blanket.rows(), variables.rows());
+  if (variables.vehicle) unit.topLeftCorner<3, 3>().setIdentity();
+  for (std::size_t k = 0; k < variables.landmarks.size(); ++k) {
+    const auto at = std::lower_bound(blanket.landmarks.begin(), blanket.landmarks.end(), variables.landmarks[k]);
+    unit.block<2, 2>(blanket.row(static_cast<std::size_t>(at - blanket.landmarks.begin())), variables.row(k))
+        .setIdentity();
+  }
+  const Eigen::MatrixXd columns = llt.solve(unit);
+  return unit.transpose() * columns;
+}
+
+const InformationFormEstimator::Joint& InformationFormEstimator::local_joint(std::size_t index) const {
+  auto found = local_joints_.find(index);
+  if (found == local_joints_.end()) found = local_joints_.emplace(index, local_covariance({true, {index}})).first;
+  return found->second;
+}
+
+Matrix3 InformationFormEstimator::vehicle_marginal() const {
+  if (recovery_ == CovarianceRecovery::kExact) return vehicle_columns().topRows<3>();
+  if (!local_vehicle_) local_vehicle_ = local_covariance({true, {}});
+  return *local_vehicle_;
+}
+
+InformationFormEstimator::FoldedMotion InformationFormEstimator::fold(InformationGraph& graph, const Matrix3& f,
+                                                                      const Matrix3& q) {
+  // Psi = A^-T Omega A^-1, A = diag(F, I): the information of the moved state before its noise. It
+  // differs from Omega in the vehicle's row and column only.
+  const Matrix3 f_inverse = f.inverse();
+  graph.vehicle() = (f_inverse.transpose() * graph.vehicle() * f_inverse).eval();
   FoldedMotion motion;
+  motion.linked.vehicle = true;
+  for (InformationGraph::VehicleLink& link : graph.vehicle_links()) {
+    link.block = (f_inverse.transpose() * link.block).eval();
+    motion.linked.landmarks.push_back(link.landmark);
+  }
+  motion.psi_columns.resize(motion.linked.rows(), 3);
+  motion.psi_columns.topRows<3>() = graph.vehicle();
+  for (std::size_t k = 0; k < motion.linked.landmarks.size(); ++k)
+    motion.psi_columns.middleRows<2>(motion.linked.row(k)) = graph.vehicle_links()[k].block.transpose();
+  const Matrix3 psi_vv = graph.vehicle();
   motion.gain = (Matrix3::Identity() + q * psi_vv).lu().solve(q);
   motion.gain = (0.5 * (motion.gain + motion.gain.transpose())).eval();
-  motion.psi_columns = psi.leftCols(3);
   motion.f = f;
-  folded = psi - Sparse(motion.psi_columns * Sparse(motion.gain.sparseView()) * motion.psi_columns.transpose());
+  graph.scatter_add(motion.linked, -motion.psi_columns * motion.gain * motion.psi_columns.transpose());
   return motion;
 }
 
 void InformationFormEstimator::apply_pending_motion() {
   if (pending_f_.isIdentity(0.0) && pending_q_.isZero(0.0) && pending_offset_.isZero(0.0)) return;
-  Sparse folded;
-  FoldedMotion motion = fold(omega_, pending_f_, pending_q_, folded);
+  FoldedMotion motion = fold(graph_, pending_f_, pending_q_);
   motion.offset = pending_offset_;
-  set_information(std::move(folded));
+  information_changed();
   pending_f_.setIdentity();
   pending_q_.setZero();
   pending_offset_.setZero();
@@ -123,13 +168,13 @@ void InformationFormEstimator::apply_pending_motion() {
 }
 
 Eigen::SparseMatrix<double> InformationFormEstimator::information() const {
-  Sparse folded;
-  fold(omega_, pending_f_, pending_q_, folded);
-  return folded;
+  InformationGraph folded = graph_;
+  fold(folded, pending_f_, pending_q_);
+  return folded.to_sparse();
 }
 
 Matrix3 InformationFormEstimator::pose_covariance() const {
-  const Matrix3 moved = pending_f_ * vehicle_columns().topRows<3>() * pending_f_.transpose() + pending_q_;
+  const Matrix3 moved = pending_f_ * vehicle_marginal() * pending_f_.transpose() + pending_q_;
   return 0.5 * (moved + moved.transpose());
 }
 
@@ -138,19 +183,29 @@ Vector2 InformationFormEstimator::landmark_position(std::size_t index) const {
 }
 
 Matrix2 InformationFormEstimator::landmark_covariance(std::size_t index) const {
-  const Matrix2 block = landmark_columns(index).middleRows<2>(static_cast<Eigen::Index>(landmark_offset(index)));
+  const Matrix2 block = recovery_ == CovarianceRecovery::kLocal
+                            ? Matrix2(local_joint(index).bottomRightCorner<2, 2>())
+                            : Matrix2(landmark_columns(index).middleRows<2>(
+                                  static_cast<Eigen::Index>(landmark_offset(index))));
   return 0.5 * (block + block.transpose());
 }
 
 Matrix2 InformationFormEstimator::landmark_cross_covariance(std::size_t i, std::size_t j) const {
   if (i == j) return landmark_covariance(i);
+  if (recovery_ == CovarianceRecovery::kLocal) {
+    const auto a = prepared_rows_.find(i), b = prepared_rows_.find(j);
+    if (a != prepared_rows_.end() && b != prepared_rows_.end()) return prepared_.block<2, 2>(a->second, b->second);
+    return local_covariance({false, {i, j}}).topRightCorner<2, 2>();
+  }
   // Whichever landmark's columns are already at hand (association asks about one against many).
-  if (landmark_columns_.count(landmark_offset(i)) > 0)
+  if (landmark_columns_.count(i) > 0)
     return landmark_columns(i).middleRows<2>(static_cast<Eigen::Index>(landmark_offset(j))).transpose();
   return landmark_columns(j).middleRows<2>(static_cast<Eigen::Index>(landmark_offset(i)));
 }
 
 Matrix23 InformationFormEstimator::landmark_pose_covariance(std::size_t index) const {
+  if (recovery_ == CovarianceRecovery::kLocal)
+    return local_joint(index).bottomLeftCorner<2, 3>() * pending_f_.transpose();
   return vehicle_columns().middleRows<2>(static_cast<Eigen::Index>(landmark_offset(index))) * pending_f_.transpose();
 }
 
@@ -160,8 +215,15 @@ void InformationFormEstimator::landmark_marginals(std::vector<Vector2>& means,
   means.resize(count);
   covariances.resize(count);
   if (count == 0) return;
+  if (recovery_ == CovarianceRecovery::kLocal) {
+    for (std::size_t i = 0; i < count; ++i) {
+      means[i] = landmark_position(i);
+      covariances[i] = landmark_covariance(i);
+    }
+    return;
+  }
   if (!factorise()) throw std::logic_error("the information matrix is not positive definite");
-  const Eigen::Index n = omega_.rows();
+  const Eigen::Index n = exported_.rows();
   for (std::size_t first = 0; first < count; first += kMarginalsPerSolve) {
     const std::size_t chunk = std::min(kMarginalsPerSolve, count - first);
     Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(2 * chunk));
@@ -208,11 +270,10 @@ void InformationFormEstimator::predict(const Control& u, double dt) {
 
 void InformationFormEstimator::inflate_pose(const Matrix3& q) { pending_q_ += q; }
 
-Eigen::VectorXd InformationFormEstimator::linearised_information(std::span<const LandmarkObservation> batch,
-                                                                 bool about_estimate, Triplets& triplets) {
+void InformationFormEstimator::add_linearised_information(std::span<const LandmarkObservation> batch,
+                                                          bool about_estimate, Eigen::VectorXd& vector) {
   apply_pending_motion();
   const Pose2 xv = pose();
-  Eigen::VectorXd vector = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(dim_));
   for (const LandmarkObservation& o : batch) {
     const auto l = static_cast<Eigen::Index>(landmark_offset(o.index));
     const Vector2 m = landmark_position(o.index);
@@ -224,14 +285,13 @@ Eigen::VectorXd InformationFormEstimator::linearised_information(std::span<const
     const Eigen::MatrixXd r_inverse =
         spd_inverse(Eigen::MatrixXd(o.noise_scale * observation_->noise()), "a measurement noise");
     const Eigen::MatrixXd hx_t = hx.transpose() * r_inverse, hm_t = hm.transpose() * r_inverse;
-    add_block(triplets, 0, 0, hx_t * hx);
-    add_block(triplets, 0, l, hx_t * hm);
-    add_block(triplets, l, 0, hm_t * hx);
-    add_block(triplets, l, l, hm_t * hm);
+    graph_.vehicle() += hx_t * hx;
+    graph_.add_vehicle_link(o.index, hx_t * hm);
+    graph_.own(o.index) += hm_t * hm;
     vector.head<3>() += hx_t * target;
     vector.segment<2>(l) += hm_t * target;
   }
-  return vector;
+  information_changed();
 }
 
 InformationFormEstimator::FactorVector InformationFormEstimator::append_landmark_factor(
@@ -243,34 +303,32 @@ InformationFormEstimator::FactorVector InformationFormEstimator::append_landmark
   x_.segment<2>(l) = landmark.mean;
   const Vector2 offset = landmark.mean - landmark.gx * x_.head<3>();
   const Eigen::Matrix<double, 3, 2> coupling = -landmark.gx.transpose() * information;
-  Triplets triplets;
-  add_block(triplets, 0, 0, -coupling * landmark.gx);
-  add_block(triplets, 0, l, coupling);
-  add_block(triplets, l, 0, coupling.transpose());
-  add_block(triplets, l, l, information);
-  Sparse grown = omega_;
-  grown.conservativeResize(l + 2, l + 2);
-  set_information(grown + from_triplets(l + 2, l + 2, triplets));
+  graph_.vehicle() -= coupling * landmark.gx;
+  graph_.add_vehicle_link(graph_.append_landmark(information), coupling);
+  information_changed();
   append_landmark_rows(2);
   return {coupling * offset, information * offset};
 }
 
-InformationFormEstimator::Sparse InformationFormEstimator::marginalised(std::size_t index) const {
-  const auto l = static_cast<Eigen::Index>(landmark_offset(index));
-  // Omega - Omega(:, m) Omega(m, m)^-1 Omega(m, :).
-  const Sparse columns = omega_.middleCols(l, 2);
-  const Eigen::MatrixXd own = spd_inverse(omega_.block(l, l, 2, 2).toDense(), "a landmark's information block");
-  return omega_ - Sparse(columns * Sparse(own.sparseView()) * columns.transpose());
+void InformationFormEstimator::marginalise(std::size_t index) {
+  // Omega_nn - Omega_nm Omega_mm^-1 Omega_mn over m's neighbours n.
+  const InformationGraph::Variables landmark{false, {index}};
+  InformationGraph::Variables blanket = graph_.neighbourhood(landmark);
+  std::erase(blanket.landmarks, index);
+  InformationGraph::Variables both = blanket;
+  both.landmarks.push_back(index);
+  const Eigen::MatrixXd joint = graph_.gather(both);
+  const Eigen::Index r = blanket.rows();
+  const Eigen::MatrixXd cross = joint.topRightCorner(r, 2);
+  const Eigen::MatrixXd own = spd_inverse(joint.bottomRightCorner(2, 2), "a landmark's information block");
+  graph_.isolate(index);
+  graph_.scatter_add(blanket, -cross * own * cross.transpose());
+  information_changed();
 }
 
-void InformationFormEstimator::squeeze_stored_rows(std::size_t first, std::size_t count) {
-  const auto n = static_cast<Eigen::Index>(dim_), f = static_cast<Eigen::Index>(first),
-             c = static_cast<Eigen::Index>(count);
-  Triplets triplets;
-  for (Eigen::Index r = 0; r < n; ++r)
-    if (r < f || r >= f + c) triplets.emplace_back(r < f ? r : r - c, r, 1.0);
-  const Sparse keep = from_triplets(n - c, n, triplets);
-  set_information(keep * omega_ * Sparse(keep.transpose()));
+void InformationFormEstimator::squeeze_stored_rows(std::size_t first, std::size_t /*count: a landmark's 2*/) {
+  graph_.remove_landmark((first - 3) / 2);
+  information_changed();
 }
 
 InformationFormEstimator::Sparse InformationFormEstimator::fusion_transform(std::span<const LandmarkPair> pairs,
@@ -302,8 +360,9 @@ InformationFormEstimator::Sparse InformationFormEstimator::conditioned_on_fusion
 }
 
 void InformationFormEstimator::add_statistics(std::map<std::string, double>& statistics) const {
-  statistics["information_nonzeros"] = static_cast<double>(omega_.nonZeros());
+  statistics["information_nonzeros"] = static_cast<double>(graph_.nonzeros());
   statistics["information_factorisations"] = static_cast<double>(factorisations_);
+  statistics["information_local_recoveries"] = static_cast<double>(local_recoveries_);
 }
 
 }  // namespace slamkit

@@ -26,10 +26,18 @@ SparseExtendedInformationFilter::SparseExtendedInformationFilter(std::shared_ptr
                                                                  const Pose2& initial_pose,
                                                                  const Matrix3& initial_covariance,
                                                                  const SeifOptions& options)
-    : InformationFormEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance),
-      options_((validate(options), options)) {
+    : InformationFormEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance,
+                               (validate(options), options.covariance)),
+      options_(options) {
   xi_ = Eigen::VectorXd::Zero(x_.size());
-  xi_.head<3>() = omega_.topLeftCorner(3, 3).toDense() * x_.head<3>();
+  xi_.head<3>() = graph_.vehicle() * x_.head<3>();
+}
+
+double SparseExtendedInformationFilter::memory_estimate(std::size_t landmarks, const SeifOptions& options) {
+  const double links = 4.0 * static_cast<double>(options.active_landmarks);
+  const double per_landmark = sizeof(Matrix2) + sizeof(std::vector<InformationGraph::Link>) +
+                              links * sizeof(InformationGraph::Link) + 4.0 * sizeof(double);  // mean and xi
+  return static_cast<double>(landmarks) * per_landmark;
 }
 
 void SparseExtendedInformationFilter::reserve(std::size_t dim) {
@@ -43,14 +51,20 @@ void SparseExtendedInformationFilter::squeeze_stored_rows(std::size_t first, std
 }
 
 void SparseExtendedInformationFilter::motion_folded(const FoldedMotion& motion) {
-  const auto n = static_cast<Eigen::Index>(dim_);
   // y = A^-T xi + Psi(:, v) c: the moved state's information vector before its noise; the noise then
-  // takes Psi(:, v) K y_v from it (the Woodbury form, applied to the vector).
-  Eigen::VectorXd y = xi_.head(n);
+  // takes Psi(:, v) K y_v from it (the Woodbury form, applied to the vector). Psi(:, v) is non-zero
+  // on the linked variables only, and A^-T changes the vehicle's rows only.
+  const InformationGraph::Variables& linked = motion.linked;
+  Eigen::VectorXd y(linked.rows());
   y.head<3>() = motion.f.transpose().partialPivLu().solve(xi_.head<3>());
+  for (std::size_t k = 0; k < linked.landmarks.size(); ++k)
+    y.segment<2>(linked.row(k)) = xi_.segment<2>(static_cast<Eigen::Index>(landmark_offset(linked.landmarks[k])));
   y += motion.psi_columns * motion.offset;
   const Eigen::Vector3d y_v = y.head<3>();
-  xi_.head(n) = y - motion.psi_columns * (motion.gain * y_v);
+  y -= motion.psi_columns * (motion.gain * y_v);
+  xi_.head<3>() = y.head<3>();
+  for (std::size_t k = 0; k < linked.landmarks.size(); ++k)
+    xi_.segment<2>(static_cast<Eigen::Index>(landmark_offset(linked.landmarks[k]))) = y.segment<2>(linked.row(k));
 }
 
 void SparseExtendedInformationFilter::activate(std::size_t index) {
@@ -72,17 +86,10 @@ void SparseExtendedInformationFilter::sparsify(std::size_t active) {
                    [&](std::size_t a, std::size_t b) { return last_seen_[a] > last_seen_[b]; });
   const std::size_t kept = active, passive = active_.size() - kept;
   // S: the vehicle, m+, m0, in that order.
-  std::vector<Eigen::Index> rows = {0, 1, 2};
-  for (const std::size_t index : active_)
-    for (Eigen::Index r = 0; r < 2; ++r) rows.push_back(static_cast<Eigen::Index>(landmark_offset(index)) + r);
-  const auto s = static_cast<Eigen::Index>(rows.size());
+  const InformationGraph::Variables variables{true, active_};
+  const Eigen::Index s = variables.rows();
   const Eigen::Index np = 2 * static_cast<Eigen::Index>(kept), n0 = 2 * static_cast<Eigen::Index>(passive);
-  std::vector<Eigen::Index> position(dim_, -1);
-  for (Eigen::Index i = 0; i < s; ++i) position[static_cast<std::size_t>(rows[static_cast<std::size_t>(i)])] = i;
-  Eigen::MatrixXd block = Eigen::MatrixXd::Zero(s, s);  // Omega(S, S): conditioned on m-
-  for (Eigen::Index j = 0; j < s; ++j)
-    for (Sparse::InnerIterator it(omega_, rows[static_cast<std::size_t>(j)]); it; ++it)
-      if (const Eigen::Index i = position[static_cast<std::size_t>(it.row())]; i >= 0) block(i, j) = it.value();
+  const Eigen::MatrixXd block = graph_.gather(variables);  // Omega(S, S): conditioned on m-
 
   const auto marginalise = [](const Eigen::MatrixXd& m, Eigen::Index keep_first, Eigen::Index keep) {
     // The marginal over rows [keep_first, keep_first + keep) of a canonical form over all of m's.
@@ -115,25 +122,17 @@ void SparseExtendedInformationFilter::sparsify(std::size_t active) {
   const Eigen::MatrixXd change = sparsified - block;
 
   Eigen::VectorXd mean(s);
-  for (Eigen::Index i = 0; i < s; ++i) mean[i] = x_[rows[static_cast<std::size_t>(i)]];
+  mean.head<3>() = x_.head<3>();
+  for (std::size_t k = 0; k < active_.size(); ++k)
+    mean.segment<2>(variables.row(k)) = landmark_position(active_[k]);
   const Eigen::VectorXd xi_change = change * mean;
-  Triplets triplets;
-  for (Eigen::Index j = 0; j < s; ++j) {
-    xi_[rows[static_cast<std::size_t>(j)]] += xi_change[j];
-    for (Eigen::Index i = 0; i < s; ++i)
-      if (change(i, j) != 0.0)
-        triplets.emplace_back(rows[static_cast<std::size_t>(i)], rows[static_cast<std::size_t>(j)], change(i, j));
-  }
-  Sparse updated = omega_ + from_triplets(omega_.rows(), omega_.cols(), triplets);
-  // The vehicle's links to m0 are now zero: out of the pattern, so that Omega stays sparse.
-  std::vector<char> passive_row(dim_, 0);
-  for (std::size_t k = kept; k < active_.size(); ++k)
-    for (std::size_t r = 0; r < 2; ++r) passive_row[landmark_offset(active_[k]) + r] = 1;
-  updated.prune([&](Eigen::Index row, Eigen::Index col, double) {
-    return !((row < 3 && passive_row[static_cast<std::size_t>(col)]) ||
-             (col < 3 && passive_row[static_cast<std::size_t>(row)]));
-  });
-  set_information_pattern(std::move(updated));
+  xi_.head<3>() += xi_change.head<3>();
+  for (std::size_t k = 0; k < active_.size(); ++k)
+    xi_.segment<2>(static_cast<Eigen::Index>(landmark_offset(active_[k]))) += xi_change.segment<2>(variables.row(k));
+  graph_.scatter_add(variables, change);
+  // The vehicle's links to m0 are now zero: out of the graph, so that Omega stays sparse.
+  for (std::size_t k = kept; k < active_.size(); ++k) graph_.remove_vehicle_link(active_[k]);
+  information_changed();
   deactivated_ += passive;
   ++sparsifications_;
   active_.resize(kept);
@@ -141,11 +140,7 @@ void SparseExtendedInformationFilter::sparsify(std::size_t active) {
 
 bool SparseExtendedInformationFilter::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
-  Triplets triplets;
-  const Eigen::VectorXd measured = linearised_information(batch, true, triplets);  // after the motion's fold
-  const auto n = static_cast<Eigen::Index>(dim_);
-  xi_.head(n) += measured;
-  set_information(omega_ + from_triplets(n, n, triplets));
+  add_linearised_information(batch, true, xi_);
   for (const LandmarkObservation& o : batch) activate(o.index);
   recover_mean();
   return true;
@@ -163,12 +158,13 @@ std::size_t SparseExtendedInformationFilter::add_landmark(const InitialLandmark&
 
 void SparseExtendedInformationFilter::remove_landmark(std::size_t index) {
   apply_pending_motion();
-  const auto l = static_cast<Eigen::Index>(landmark_offset(index));
-  // Marginalised: xi_r - Omega_rm Omega_mm^-1 xi_m, with Omega's Schur complement.
-  const Eigen::MatrixXd own = spd_inverse(omega_.block(l, l, 2, 2).toDense(), "a landmark's information block");
-  const Eigen::VectorXd weights = own * xi_.segment<2>(l);
-  xi_.head(static_cast<Eigen::Index>(dim_)) -= omega_.middleCols(l, 2) * weights;
-  set_information(marginalised(index));
+  // Marginalised: xi_r - Omega_rm Omega_mm^-1 xi_m over m's neighbours r, with Omega's Schur complement.
+  const Vector2 weights = spd_inverse(graph_.own(index), "a landmark's information block") *
+                          xi_.segment<2>(static_cast<Eigen::Index>(landmark_offset(index)));
+  if (const InformationGraph::VehicleBlock* link = graph_.vehicle_link(index)) xi_.head<3>() -= *link * weights;
+  for (const InformationGraph::Link& link : graph_.links(index))
+    xi_.segment<2>(static_cast<Eigen::Index>(landmark_offset(link.landmark))) -= link.block.transpose() * weights;
+  marginalise(index);
   remove_stored_landmark(index);
   last_seen_.erase(last_seen_.begin() + static_cast<std::ptrdiff_t>(index));
   std::erase(active_, index);
@@ -186,13 +182,16 @@ bool SparseExtendedInformationFilter::fuse_landmarks(std::span<const LandmarkPai
   // In the fused variables (x = T y) the canonical form is (T^T Omega T, T^T xi); conditioning on
   // e = 0 keeps the rest's rows of both. Each e is then an independent unit block at the original's
   // position until the duplicate is removed.
-  const Sparse prior = omega_;
   Eigen::VectorXd xi = Sparse(t.transpose()) * xi_.head(n);
   for (const LandmarkPair& pair : pairs)
     xi.segment<2>(static_cast<Eigen::Index>(landmark_offset(pair.duplicate))) = landmark_position(pair.original);
-  set_information_pattern(conditioned_on_fusion(Sparse(t.transpose()) * omega_ * t, duplicate_row));
+  InformationGraph prior = InformationGraph::from_sparse(
+      conditioned_on_fusion(Sparse(t.transpose()) * graph_.to_sparse() * t, duplicate_row));
+  std::swap(prior, graph_);
+  information_changed();
   if (!factorise()) {
-    set_information_pattern(prior);
+    graph_ = std::move(prior);
+    information_changed();
     return false;
   }
   xi_.head(n) = xi;
@@ -206,24 +205,22 @@ bool SparseExtendedInformationFilter::fuse_landmarks(std::span<const LandmarkPai
   return true;
 }
 
-void SparseExtendedInformationFilter::relax_block(Eigen::Index first, Eigen::Index size) {
-  // mu_b = Omega_bb^-1 (xi_b - sum over the other rows j of Omega_bj mu_j); Omega is symmetric, so
-  // the block's columns give its rows.
-  Eigen::Vector3d rest = Eigen::Vector3d::Zero();
-  rest.head(size) = xi_.segment(first, size);
-  Matrix3 own = Matrix3::Zero();
-  for (Eigen::Index c = 0; c < size; ++c)
-    for (Sparse::InnerIterator it(omega_, first + c); it; ++it) {
-      const Eigen::Index r = it.row();
-      if (r >= first && r < first + size)
-        own(r - first, c) = it.value();
-      else
-        rest[c] -= it.value() * x_[r];
-    }
-  if (size == 3)
-    x_.head<3>() = own.llt().solve(rest);
-  else
-    x_.segment<2>(first) = own.topLeftCorner<2, 2>().llt().solve(rest.head<2>());
+void SparseExtendedInformationFilter::relax_vehicle() {
+  // mu_b = Omega_bb^-1 (xi_b - sum over the other variables j of Omega_bj mu_j).
+  Eigen::Vector3d rest = xi_.head<3>();
+  for (const InformationGraph::VehicleLink& link : graph_.vehicle_links())
+    rest -= link.block * landmark_position(link.landmark);
+  x_.head<3>() = graph_.vehicle().llt().solve(rest);
+}
+
+void SparseExtendedInformationFilter::relax_landmark(std::size_t index) {
+  const auto l = static_cast<Eigen::Index>(landmark_offset(index));
+  Vector2 rest = xi_.segment<2>(l);
+  if (const InformationGraph::VehicleBlock* link = graph_.vehicle_link(index))
+    rest -= link->transpose() * x_.head<3>();
+  for (const InformationGraph::Link& link : graph_.links(index))
+    rest -= link.block * landmark_position(link.landmark);
+  x_.segment<2>(l) = graph_.own(index).llt().solve(rest);
 }
 
 void SparseExtendedInformationFilter::recover_mean() {
@@ -241,14 +238,19 @@ void SparseExtendedInformationFilter::recover_mean() {
       next_relaxed_ = (next_relaxed_ + 1) % count;
     }
     for (int sweep = 0; sweep < options_.recovery_sweeps; ++sweep) {
-      relax_block(0, 3);
-      for (const std::size_t index : blocks) relax_block(static_cast<Eigen::Index>(landmark_offset(index)), 2);
+      relax_vehicle();
+      for (const std::size_t index : blocks) relax_landmark(index);
     }
   }
   // The heading wrapped, the belief moved with it: xi = Omega mu for the shifted mean.
   const double wrapped = wrap_angle(x_[2]);
   if (wrapped != x_[2]) {
-    xi_.head(n) += omega_.col(2) * (wrapped - x_[2]);
+    // Omega's heading column: the vehicle block's, and each link's heading row.
+    const double shift = wrapped - x_[2];
+    xi_.head<3>() += graph_.vehicle().col(2) * shift;
+    for (const InformationGraph::VehicleLink& link : graph_.vehicle_links())
+      xi_.segment<2>(static_cast<Eigen::Index>(landmark_offset(link.landmark))) +=
+          link.block.row(2).transpose() * shift;
     x_[2] = wrapped;
   }
 }

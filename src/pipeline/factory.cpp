@@ -37,6 +37,8 @@ constexpr std::pair<EkfVariant, const char*> kEkfVariantNames[] = {{EkfVariant::
                                                                    {EkfVariant::kInvariant, "invariant"}};
 constexpr std::pair<UkfNoise, const char*> kUkfNoiseNames[] = {{UkfNoise::kAugmented, "augmented"},
                                                                 {UkfNoise::kAdditive, "additive"}};
+constexpr std::pair<CovarianceRecovery, const char*> kCovarianceRecoveryNames[] = {
+    {CovarianceRecovery::kLocal, "local"}, {CovarianceRecovery::kExact, "exact"}};
 constexpr std::pair<LandmarkInit, const char*> kLandmarkInitNames[] = {
     {LandmarkInit::kAuto, "auto"},
     {LandmarkInit::kImmediate, "immediate"},
@@ -117,6 +119,10 @@ EkfVariant parse_ekf_variant(const std::string& name) { return parse_name(kEkfVa
 std::string to_string(EkfVariant variant) { return name_of(kEkfVariantNames, variant); }
 UkfNoise parse_ukf_noise(const std::string& name) { return parse_name(kUkfNoiseNames, name, "UKF noise"); }
 std::string to_string(UkfNoise noise) { return name_of(kUkfNoiseNames, noise); }
+CovarianceRecovery parse_covariance_recovery(const std::string& name) {
+  return parse_name(kCovarianceRecoveryNames, name, "covariance recovery");
+}
+std::string to_string(CovarianceRecovery recovery) { return name_of(kCovarianceRecoveryNames, recovery); }
 LandmarkInit parse_landmark_init(const std::string& name) {
   return parse_name(kLandmarkInitNames, name, "landmark initialisation");
 }
@@ -152,9 +158,10 @@ void validate(const FilterConfig& config) {
   validate(config.association);
   validate(config.seif);
   if (config.filter != FilterKind::kSeif && (config.seif.active_landmarks != SeifOptions{}.active_landmarks ||
-                                             config.seif.recovery_sweeps != SeifOptions{}.recovery_sweeps))
+                                             config.seif.recovery_sweeps != SeifOptions{}.recovery_sweeps ||
+                                             config.seif.covariance != SeifOptions{}.covariance))
     throw std::invalid_argument(fmt::format(
-        "seif_active_landmarks and seif_recovery_sweeps apply to the filter 'seif', not '{}'", to_string(config.filter)));
+        "seif_active_landmarks, seif_recovery_sweeps and seif_covariance apply to the filter 'seif', not '{}'", to_string(config.filter)));
   validate(config.delayed_init);
   validate(config.inverse_distance);
   if (config.landmark_init == LandmarkInit::kInverseDistance &&
@@ -254,6 +261,7 @@ nlohmann::json to_json(const FilterConfig& config) {
           {"ukf_noise", to_string(config.ukf_noise)},
           {"seif_active_landmarks", config.seif.active_landmarks},
           {"seif_recovery_sweeps", config.seif.recovery_sweeps},
+          {"seif_covariance", to_string(config.seif.covariance)},
           {"landmark_init", to_string(config.landmark_init)},
           {"delayed_init", options_to_json<Delayed>(config.delayed_init, kDelayedInitKeys)},
           {"inverse_distance_min_m", config.inverse_distance.min_distance_m},
@@ -316,6 +324,8 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
         integer(config.seif.active_landmarks);
       else if (key == "seif_recovery_sweeps")
         integer(config.seif.recovery_sweeps);
+      else if (key == "seif_covariance")
+        config.seif.covariance = parse_covariance_recovery(name());
       else if (key == "landmark_init")
         config.landmark_init = parse_landmark_init(name());
       else if (key == "delayed_init")
@@ -350,7 +360,7 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
         integer(config.threads);
       else {
         const std::vector<std::string> keys = {"filter",        "seed",          "association",  "ekf_update",
-                                               "ekf_variant",   "ukf_noise",     "seif_active_landmarks", "seif_recovery_sweeps", "landmark_init", "delayed_init",
+                                               "ekf_variant",   "ukf_noise",     "seif_active_landmarks", "seif_recovery_sweeps", "seif_covariance", "landmark_init", "delayed_init",
                                                "inverse_distance_min_m", "inverse_distance_prior_m", "range_calibration", "likelihood", "likelihood_dof",
                                                "particles",     "pose_sample_fraction",
                                                "resample",      "resample_when", "threads"};

@@ -11,6 +11,7 @@
 #include "slamkit/core/run_result.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
 #include "slamkit/filters/fastslam.hpp"
+#include "slamkit/filters/sparse_extended_information_filter.hpp"
 
 namespace slamkit {
 namespace {
@@ -28,15 +29,25 @@ std::size_t expected_landmarks(const Dataset& dataset) {
 
 constexpr double kGiB = 0x1p30;
 
+double filter_bytes(const FilterConfig& config, std::size_t landmarks) {
+  switch (config.filter) {
+    case FilterKind::kFastSlam1:
+    case FilterKind::kFastSlam2: return FastSlam::memory_estimate(static_cast<std::size_t>(config.particles), landmarks);
+    // The exact information matrix fills in (every landmark linked with every other), and its
+    // Cholesky factor is as large again.
+    case FilterKind::kEif: return 2.0 * EkfSlam::memory_estimate(landmarks);
+    case FilterKind::kSeif: return SparseExtendedInformationFilter::memory_estimate(landmarks, config.seif);
+    default: return EkfSlam::memory_estimate(landmarks);
+  }
+}
+
 }  // namespace
 
 RunMemoryEstimate estimate_run_memory(const FilterConfig& config, const Dataset& dataset, const RunOptions& options) {
   RunMemoryEstimate estimate;
   estimate.landmarks = expected_landmarks(dataset);
   const bool particles = particle_filter(config.filter);
-  estimate.filter_bytes = particles
-                              ? FastSlam::memory_estimate(static_cast<std::size_t>(config.particles), estimate.landmarks)
-                              : EkfSlam::memory_estimate(estimate.landmarks);
+  estimate.filter_bytes = filter_bytes(config, estimate.landmarks);
   if (options.history == History::kNone) return estimate;
 
   double scans = 0.0, observations = 0.0;
@@ -70,8 +81,10 @@ void require_run_memory(const FilterConfig& config, const Dataset& dataset, cons
       particle_filter(config.filter)
           ? fmt::format("{} with {} particles (--particles) and maps of about {} landmarks ({:.3g} GiB)",
                         to_string(config.filter), config.particles, estimate.landmarks, estimate.filter_bytes / kGiB)
-          : fmt::format("{} with a map of about {} landmarks ({:.3g} GiB for its covariance)", to_string(config.filter),
-                        estimate.landmarks, estimate.filter_bytes / kGiB);
+          : fmt::format("{} with a map of about {} landmarks ({:.3g} GiB for its {})", to_string(config.filter),
+                        estimate.landmarks, estimate.filter_bytes / kGiB,
+                        config.filter == FilterKind::kEif || config.filter == FilterKind::kSeif ? "information matrix"
+                                                                                                : "covariance");
   require_memory(estimate.total_bytes(), fmt::format("{} and the history --history {} keeps ({:.3g} GiB)", filter,
                                                      to_string(options.history), estimate.history_bytes / kGiB));
 }

@@ -109,6 +109,10 @@ class EkfEstimator : public GaussianMapView {
   /// Called before each scan's updates (CompressedJointGaussian: a new local area when the vehicle
   /// has left the last one).
   virtual void begin_scan() {}
+  /// Called with the landmarks association is about to ask about (their covariances, with the
+  /// vehicle's and with each other), so that an estimator that recovers covariances can recover them
+  /// together (InformationFormEstimator's local recovery: one Markov blanket for all of them).
+  virtual void prepare_covariances(std::span<const std::size_t> /*landmarks*/) const {}
   /// Adds the implementation's own figures to a filter's statistics.
   virtual void add_statistics(std::map<std::string, double>& /*statistics*/) const {}
 

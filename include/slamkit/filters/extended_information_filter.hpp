@@ -33,7 +33,8 @@ class ExtendedInformationFilter final : public InformationFormEstimator {
                             std::shared_ptr<const ObservationModel> observation,
                             const Pose2& initial_pose = Pose2::Zero(),
                             const Matrix3& initial_covariance = Matrix3::Zero())
-      : InformationFormEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance) {}
+      : InformationFormEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance,
+                                 CovarianceRecovery::kExact) {}
 
   /// Every observation linearised at the prior, as the EKF's joint update. Returns false (and changes
   /// nothing) if the updated information matrix does not factorise.

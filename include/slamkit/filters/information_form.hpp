@@ -1,31 +1,42 @@
 #pragma once
 // What the information-form estimators share (ExtendedInformationFilter, exact;
 // SparseExtendedInformationFilter, sparse by approximation): the information matrix Omega = P^-1
-// over the state's rows in Eigen's sparse storage (both triangles), the vehicle's motion since Omega
-// was last brought up to date, and the covariances the gates and the runner read, recovered from a
-// sparse Cholesky factorisation of Omega.
+// over the state's rows, stored by blocks (InformationGraph), the vehicle's motion since Omega was
+// last brought up to date, and the covariances the gates and the runner read.
 //
 // Time update: the controls between two scans are composed into one motion of the vehicle,
 // x_v -> F x_v + c with noise Q (F = F_k ... F_1, c the linearisation's offset), as the dense EKF
 // defers P_mv F^T. It is folded into Omega only when an update needs it: with Psi = A^-T Omega A^-1,
 // A = diag(F, I), the Woodbury identity gives Omega' = Psi - Psi(:, v) (I + Q Psi_vv)^-1 Q Psi(v, :),
-// which Q may be singular in (a two-input vehicle's Q has rank 2). Until then the covariances read
-// are the last factorisation's carried through the pending motion, as the EKF carries them.
+// which Q may be singular in (a two-input vehicle's Q has rank 2). Psi(:, v) is non-zero on the
+// vehicle and the landmarks linked to it only, so the fold touches those blocks only. Until then the
+// covariances read are the last ones recovered, carried through the pending motion as the EKF
+// carries them.
 //
-// Covariances: columns of Omega^-1, solved for on request (Eigen's SimplicialLLT, AMD ordering, the
-// ordering reused while Omega's pattern is unchanged) and kept until Omega changes.
+// Covariances, recovered one of two ways (CovarianceRecovery) and kept until Omega changes:
+//  * exact: columns of Omega^-1 solved for on request (Eigen's SimplicialLLT, AMD ordering, the
+//    ordering reused while Omega's pattern is unchanged); a solve costs what the whole map's factor
+//    costs;
+//  * local: Omega restricted to the variables asked about and their neighbours in the graph (their
+//    Markov blanket), inverted as a dense block: the rest of the map conditioned at its mean, as
+//    Thrun et al. recover SEIF's covariances. It costs the same however large the map, and is
+//    overconfident by what the conditioning leaves out.
 //
 // The information form cannot hold a pose that is known exactly, as the map frame's start pose is by
 // default: a singular initial covariance gets kInitialPoseFloor added on its diagonal (1 mm, 1 mrad),
 // so give the EKF the same prior to compare with it.
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
 #include "slamkit/filters/ekf_estimator.hpp"
+#include "slamkit/filters/information_graph.hpp"
 
 namespace slamkit {
+
+enum class CovarianceRecovery { kExact, kLocal };
 
 class InformationFormEstimator : public EkfEstimator {
  public:
@@ -38,10 +49,14 @@ class InformationFormEstimator : public EkfEstimator {
   Matrix2 landmark_covariance(std::size_t index) const override;
   Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override;
   Matrix23 landmark_pose_covariance(std::size_t index) const override;
-  /// One factorisation, and a solve for each landmark's two columns.
+  /// Local: the covariances of the vehicle and `landmarks` from one Markov blanket, kept for the
+  /// reads that follow until Omega changes.
+  void prepare_covariances(std::span<const std::size_t> landmarks) const override;
+  /// Exact: one factorisation, and a solve for each landmark's two columns.
   void landmark_marginals(std::vector<Vector2>& means, std::vector<Matrix2>& covariances) const override;
   Eigen::VectorXd state() const override;
-  /// Omega^-1 with the pending motion applied (a dense inverse: for tests and exports).
+  /// Omega^-1 with the pending motion applied (a dense inverse, exact whatever the recovery: for tests
+  /// and exports).
   Eigen::MatrixXd covariance() const override;
   /// The information matrix over state(), the pending motion applied (both triangles stored).
   Eigen::SparseMatrix<double> information() const;
@@ -54,7 +69,8 @@ class InformationFormEstimator : public EkfEstimator {
   bool update_landmark(const LandmarkObservation& observation) override {
     return update_landmarks(std::span<const LandmarkObservation>(&observation, 1));
   }
-  /// information_nonzeros (of Omega, both triangles) and information_factorisations.
+  /// information_nonzeros (of Omega, both triangles), information_factorisations and
+  /// information_local_recoveries.
   void add_statistics(std::map<std::string, double>& statistics) const override;
 
  protected:
@@ -64,37 +80,34 @@ class InformationFormEstimator : public EkfEstimator {
   /// Throws std::invalid_argument for a missing model or an initial covariance that is not finite.
   InformationFormEstimator(std::shared_ptr<const MotionModel> motion,
                            std::shared_ptr<const ObservationModel> observation, const Pose2& initial_pose,
-                           const Matrix3& initial_covariance);
+                           const Matrix3& initial_covariance, CovarianceRecovery recovery);
 
-  /// The vehicle's motion folded into Omega: Psi(:, v) of the file's comment (n x 3), the gain
-  /// K = (I + Q Psi_vv)^-1 Q, and the motion (F, c) itself.
+  /// The vehicle's motion folded into Omega: Psi(:, v) of the file's comment over the variables it
+  /// is non-zero on (the vehicle and the landmarks linked to it), the gain K = (I + Q Psi_vv)^-1 Q,
+  /// and the motion (F, c) itself.
   struct FoldedMotion {
-    Sparse psi_columns;
+    InformationGraph::Variables linked;
+    Eigen::MatrixXd psi_columns;
     Matrix3 gain;
     Matrix3 f;
     Eigen::Vector3d offset;
   };
-  /// Folds the pending motion into omega_ (nothing if there is none); calls motion_folded.
+  /// Folds the pending motion into Omega (nothing if there is none); calls motion_folded.
   void apply_pending_motion();
   /// What an estimator that keeps more than Omega does when a motion is folded in (Omega already
   /// updated).
   virtual void motion_folded(const FoldedMotion& /*motion*/) {}
-  /// Replaces Omega, dropping what was derived from the old one.
-  void set_information(Sparse omega);
-  /// Replaces Omega with one whose pattern may differ from the old one's by more than growth.
-  void set_information_pattern(Sparse omega) {
-    set_information(std::move(omega));
-    pattern_changed_ = true;
-  }
-  /// The Cholesky factor of omega_, computed on first use after a change; false if it failed.
+  /// Drops what was derived from Omega: call after changing graph_.
+  void information_changed();
+  /// The Cholesky factor of Omega, computed on first use after a change; false if it failed.
   bool factorise() const;
   /// Omega^-1 b (the factorisation current).
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const { return llt_.solve(b); }
   /// Applies the pending motion, then adds H^T R^-1 H of `batch` (each observation linearised at the
-  /// estimate) into `triplets`, and returns H^T R^-1 nu, or with `about_estimate` H^T R^-1 (nu + H mu):
-  /// the linearised measurement's share of the information vector.
-  Eigen::VectorXd linearised_information(std::span<const LandmarkObservation> batch, bool about_estimate,
-                                         Triplets& triplets);
+  /// estimate) into Omega, and H^T R^-1 nu, or with `about_estimate` H^T R^-1 (nu + H mu), into
+  /// `vector` (over the state's rows): the linearised measurement's share of the information vector.
+  void add_linearised_information(std::span<const LandmarkObservation> batch, bool about_estimate,
+                                  Eigen::VectorXd& vector);
   /// The information vector of a landmark factor, by block.
   struct FactorVector {
     Eigen::Vector3d vehicle;
@@ -104,8 +117,9 @@ class InformationFormEstimator : public EkfEstimator {
   /// grows by [-Gx I]^T L [-Gx I] over (vehicle, landmark), L the inverse of its covariance given the
   /// pose, and the mean by its position. Returns the factor's information vector [-Gx I]^T L c.
   FactorVector append_landmark_factor(const InitialLandmark& landmark);
-  /// Omega with landmark `index`'s rows marginalised out (their rows still there, to be squeezed).
-  Sparse marginalised(std::size_t index) const;
+  /// Marginalises landmark `index` out of Omega (the Schur complement over its neighbours), leaving
+  /// it without edges until remove_stored_landmark takes its rows.
+  void marginalise(std::size_t index);
   /// The change of variables that fuses `pairs`: x = T y, with each duplicate's rows of y holding
   /// e = m_duplicate - m_original; `duplicate_row` marks those rows.
   Sparse fusion_transform(std::span<const LandmarkPair> pairs, std::vector<char>& duplicate_row) const;
@@ -114,38 +128,49 @@ class InformationFormEstimator : public EkfEstimator {
   static Sparse conditioned_on_fusion(Sparse omega, const std::vector<char>& duplicate_row);
   void squeeze_stored_rows(std::size_t first, std::size_t count) override;
 
-  static void add_block(Triplets& triplets, Eigen::Index row, Eigen::Index col,
-                        const Eigen::Ref<const Eigen::MatrixXd>& block);
-  static Sparse from_triplets(Eigen::Index rows, Eigen::Index cols, const Triplets& triplets);
   /// The inverse of a symmetric positive definite block; throws std::logic_error naming `what` if it
   /// is not.
   static Eigen::MatrixXd spd_inverse(const Eigen::MatrixXd& m, const char* what);
 
-  Sparse omega_;
-  // The controls since omega_ was last brought up to date: the vehicle moved to F x_v + c, with
+  InformationGraph graph_;
+  // The controls since Omega was last brought up to date: the vehicle moved to F x_v + c, with
   // noise Q.
   Matrix3 pending_f_ = Matrix3::Identity();
   Matrix3 pending_q_ = Matrix3::Zero();
   Eigen::Vector3d pending_offset_ = Eigen::Vector3d::Zero();
 
  private:
-  /// Omega with a motion (F, Q) of the vehicle folded in (the Woodbury form in the file's comment).
-  static FoldedMotion fold(const Sparse& omega, const Matrix3& f, const Matrix3& q, Sparse& folded);
-  /// Columns of omega_^-1 from `first`, `count` of them (the factorisation current).
+  using Joint = Eigen::Matrix<double, 5, 5>;  // over (vehicle, one landmark)
+  /// `graph` with a motion (F, Q) of the vehicle folded in (the Woodbury form in the file's comment).
+  static FoldedMotion fold(InformationGraph& graph, const Matrix3& f, const Matrix3& q);
+  /// Columns of Omega^-1 from `first`, `count` of them (the factorisation current).
   Eigen::MatrixXd covariance_columns(std::size_t first, std::size_t count) const;
-  /// omega_^-1 (:, vehicle), before the pending motion; cached until omega_ changes.
+  /// Omega^-1 (:, vehicle), exact, before the pending motion; cached until Omega changes.
   const Eigen::MatrixXd& vehicle_columns() const;
-  /// omega_^-1 (:, landmark `index`); cached until omega_ changes.
+  /// Omega^-1 (:, landmark `index`), exact; cached until Omega changes.
   const Eigen::MatrixXd& landmark_columns(std::size_t index) const;
+  /// The covariance of `variables` from Omega over them and their neighbours (local recovery).
+  Eigen::MatrixXd local_covariance(const InformationGraph::Variables& variables) const;
+  /// The local covariance of (vehicle, landmark `index`); cached until Omega changes.
+  const Joint& local_joint(std::size_t index) const;
+  /// The vehicle's covariance before the pending motion, by the estimator's recovery.
+  Matrix3 vehicle_marginal() const;
 
+  CovarianceRecovery recovery_;
+  mutable Sparse exported_;  // Omega as factorised
   mutable Eigen::SimplicialLLT<Sparse, Eigen::Lower, Eigen::AMDOrdering<int>> llt_;
   mutable bool factorised_ = false;
-  mutable std::size_t factorisations_ = 0;
-  // The pattern llt_'s ordering was analysed for.
-  mutable bool pattern_changed_ = true;
-  mutable Eigen::Index analysed_rows_ = 0, analysed_nonzeros_ = 0;
+  mutable std::size_t factorisations_ = 0, local_recoveries_ = 0;
+  // The graph's pattern llt_'s ordering was analysed for.
+  mutable std::uint64_t analysed_pattern_ = ~std::uint64_t{0};
   mutable Eigen::MatrixXd vehicle_columns_;  // empty when out of date
-  mutable std::unordered_map<std::size_t, Eigen::MatrixXd> landmark_columns_;  // by first state row
+  mutable std::unordered_map<std::size_t, Eigen::MatrixXd> landmark_columns_;  // by map index
+  mutable std::optional<Matrix3> local_vehicle_;
+  mutable std::unordered_map<std::size_t, Joint> local_joints_;  // by map index
+  // prepare_covariances's joint covariance over (vehicle, its landmarks), and where each landmark's
+  // rows are in it (by map index).
+  mutable Eigen::MatrixXd prepared_;
+  mutable std::unordered_map<std::size_t, Eigen::Index> prepared_rows_;
 };
 
 }  // namespace slamkit

@@ -27,8 +27,15 @@
 // m_original = 0 after the change of variables, which in canonical form drops e's rows (the mean is
 // then recovered exactly: fusions are rare).
 //
-// The covariances association and the runner read are InformationFormEstimator's, exact for
-// SEIF's Omega: what the filter believes, so its NEES shows its overconfidence as it is.
+// The covariances association and the runner read are InformationFormEstimator's: by default
+// recovered locally, from Omega over the variables asked about and their Markov blanket, as Thrun et
+// al. do (constant time, and overconfident beyond SEIF's own approximation); or exactly for SEIF's
+// Omega. Either way the NEES shows the overconfidence as it is.
+//
+// Cost per step: the fold, the update, the sparsification and the relaxation touch the vehicle, the
+// active landmarks, the observed ones and their neighbours in Omega's graph, so a step costs the
+// same however large the map; a fusion (a loop closure by map matching) and an exact recovery cost
+// what the whole map costs.
 #include <vector>
 
 #include "slamkit/filters/information_form.hpp"
@@ -42,6 +49,10 @@ struct SeifOptions {
   /// Block Gauss-Seidel sweeps of the mean recovery per scan; 0 recovers the mean exactly (a sparse
   /// Cholesky solve of the whole map).
   int recovery_sweeps = 2;
+  /// How the covariances association and the runner read are recovered: local (from the Markov
+  /// blanket of what is asked about, the cost independent of the map's size; overconfident by the
+  /// conditioning) or exact (a sparse factorisation of the whole map, as the EIF).
+  CovarianceRecovery covariance = CovarianceRecovery::kLocal;
   static constexpr std::size_t kMaxActiveLandmarks = 1000000;
   static constexpr int kMaxRecoverySweeps = 1000;
 };
@@ -66,6 +77,12 @@ class SparseExtendedInformationFilter final : public InformationFormEstimator {
   /// The base's, and seif_active_landmarks (now), seif_sparsifications and seif_deactivated.
   void add_statistics(std::map<std::string, double>& statistics) const override;
 
+  /// About the bytes of the filter once the map has `landmarks` landmarks: Omega's graph, each
+  /// landmark linked to the landmarks it was active with, taken as four times the active bound (a
+  /// landmark stays active while it is seen, beside the others seen then). An exact recovery's
+  /// factorisation comes on top.
+  static double memory_estimate(std::size_t landmarks, const SeifOptions& options);
+
   /// The information vector over state() (the pending motion not applied).
   Eigen::VectorXd information_vector() const { return xi_.head(static_cast<Eigen::Index>(dim_)); }
   /// Map indices of the landmarks linked to the vehicle.
@@ -85,8 +102,9 @@ class SparseExtendedInformationFilter final : public InformationFormEstimator {
   /// recovery_sweeps sweeps over the vehicle, the active landmarks and the next ones in turn (or
   /// the exact solve); keeps the heading wrapped, moving xi with it.
   void recover_mean();
-  /// One Gauss-Seidel step for the `size` rows from `first`.
-  void relax_block(Eigen::Index first, Eigen::Index size);
+  /// One Gauss-Seidel step for the vehicle's rows, and for a landmark's.
+  void relax_vehicle();
+  void relax_landmark(std::size_t index);
 
   SeifOptions options_;
   Eigen::VectorXd xi_;  // capacity, as x_

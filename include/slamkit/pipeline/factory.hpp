@@ -46,7 +46,7 @@ struct FilterConfig {
   EkfVariant ekf_variant = EkfVariant::kFull;
   // UKF only.
   UkfNoise ukf_noise = UkfNoise::kAugmented;
-  // SEIF only: run.json's seif_active_landmarks and seif_recovery_sweeps.
+  // SEIF only: run.json's seif_active_landmarks, seif_recovery_sweeps and seif_covariance.
   SeifOptions seif;
   // How a landmark starts (filters/landmark_initialiser.hpp), and the delayed start's settings.
   LandmarkInit landmark_init = LandmarkInit::kAuto;
@@ -78,6 +78,9 @@ std::string to_string(EkfVariant variant);
 /// "augmented" or "additive"; throws std::invalid_argument naming the accepted values.
 UkfNoise parse_ukf_noise(const std::string& name);
 std::string to_string(UkfNoise noise);
+/// "local" or "exact".
+CovarianceRecovery parse_covariance_recovery(const std::string& name);
+std::string to_string(CovarianceRecovery recovery);
 /// "auto", "immediate", "delayed" or "ring"; throws std::invalid_argument naming the accepted values.
 LandmarkInit parse_landmark_init(const std::string& name);
 std::string to_string(LandmarkInit init);

@@ -1,0 +1,218 @@
+#include "slamkit/filters/information_graph.hpp"
+
+#include <algorithm>
+#include <atomic>
+
+namespace slamkit {
+
+namespace {
+
+// Unique across graphs, so that a graph built anew (a fusion's) never shows the version of the
+// pattern another graph had, which a factorisation analysed for that one would take as its own.
+std::uint64_t new_pattern_version() {
+  static std::atomic<std::uint64_t> last{0};
+  return ++last;
+}
+
+template <class Edges>
+auto find_edge(Edges& edges, std::size_t landmark) {
+  return std::lower_bound(edges.begin(), edges.end(), landmark,
+                          [](const auto& edge, std::size_t l) { return edge.landmark < l; });
+}
+
+// Where each of `variables`' landmarks sits among them, for lookups while walking edges.
+class Positions {
+ public:
+  explicit Positions(const InformationGraph::Variables& variables) {
+    sorted_.reserve(variables.landmarks.size());
+    for (std::size_t k = 0; k < variables.landmarks.size(); ++k) sorted_.emplace_back(variables.landmarks[k], k);
+    std::sort(sorted_.begin(), sorted_.end());
+  }
+  /// The position of `landmark` in the list, or -1.
+  std::ptrdiff_t operator()(std::size_t landmark) const {
+    const auto it = std::lower_bound(sorted_.begin(), sorted_.end(), std::make_pair(landmark, std::size_t{0}));
+    return it != sorted_.end() && it->first == landmark ? static_cast<std::ptrdiff_t>(it->second) : -1;
+  }
+
+ private:
+  std::vector<std::pair<std::size_t, std::size_t>> sorted_;
+};
+
+}  // namespace
+
+std::size_t InformationGraph::nonzeros() const {
+  std::size_t links = 0;
+  for (const Node& node : nodes_) links += node.links.size();
+  return 9 + 4 * nodes_.size() + 12 * vehicle_links_.size() + 4 * links;
+}
+
+const InformationGraph::VehicleBlock* InformationGraph::vehicle_link(std::size_t landmark) const {
+  const auto it = find_edge(vehicle_links_, landmark);
+  return it != vehicle_links_.end() && it->landmark == landmark ? &it->block : nullptr;
+}
+
+InformationGraph::VehicleLink* InformationGraph::find_vehicle_link(std::size_t landmark) {
+  auto it = find_edge(vehicle_links_, landmark);
+  if (it == vehicle_links_.end() || it->landmark != landmark) {
+    it = vehicle_links_.insert(it, {static_cast<std::uint32_t>(landmark), VehicleBlock::Zero()});
+    pattern_version_ = new_pattern_version();
+  }
+  return &*it;
+}
+
+Matrix2& InformationGraph::link_block(std::size_t a, std::size_t b) {
+  std::vector<Link>& links = nodes_[a].links;
+  auto it = find_edge(links, b);
+  if (it == links.end() || it->landmark != b) {
+    it = links.insert(it, {static_cast<std::uint32_t>(b), Matrix2::Zero()});
+    pattern_version_ = new_pattern_version();
+  }
+  return it->block;
+}
+
+void InformationGraph::add_vehicle_link(std::size_t landmark, const VehicleBlock& block) {
+  find_vehicle_link(landmark)->block += block;
+}
+
+void InformationGraph::add_link(std::size_t a, std::size_t b, const Matrix2& block) {
+  link_block(a, b) += block;
+  link_block(b, a) += block.transpose();
+}
+
+void InformationGraph::remove_vehicle_link(std::size_t landmark) {
+  const auto it = find_edge(vehicle_links_, landmark);
+  if (it == vehicle_links_.end() || it->landmark != landmark) return;
+  vehicle_links_.erase(it);
+  pattern_version_ = new_pattern_version();
+}
+
+void InformationGraph::isolate(std::size_t landmark) {
+  remove_vehicle_link(landmark);
+  for (const Link& link : nodes_[landmark].links) {
+    std::vector<Link>& other = nodes_[link.landmark].links;
+    other.erase(find_edge(other, landmark));
+  }
+  if (!nodes_[landmark].links.empty()) pattern_version_ = new_pattern_version();
+  nodes_[landmark].links.clear();
+}
+
+std::size_t InformationGraph::append_landmark(const Matrix2& own) {
+  nodes_.push_back({own, {}});
+  pattern_version_ = new_pattern_version();
+  return nodes_.size() - 1;
+}
+
+void InformationGraph::remove_landmark(std::size_t index) {
+  isolate(index);
+  nodes_.erase(nodes_.begin() + static_cast<std::ptrdiff_t>(index));
+  // Renumbering keeps every list sorted: only indices above the removed one move, all by one.
+  const auto renumber = [index](auto& edges) {
+    for (auto& edge : edges)
+      if (edge.landmark > index) --edge.landmark;
+  };
+  renumber(vehicle_links_);
+  for (Node& node : nodes_) renumber(node.links);
+  pattern_version_ = new_pattern_version();
+}
+
+InformationGraph::Variables InformationGraph::neighbourhood(const Variables& variables) const {
+  Variables out;
+  out.vehicle = variables.vehicle;
+  out.landmarks = variables.landmarks;
+  if (variables.vehicle)
+    for (const VehicleLink& link : vehicle_links_) out.landmarks.push_back(link.landmark);
+  for (const std::size_t l : variables.landmarks) {
+    for (const Link& link : nodes_[l].links) out.landmarks.push_back(link.landmark);
+    if (vehicle_link(l) != nullptr) out.vehicle = true;
+  }
+  std::sort(out.landmarks.begin(), out.landmarks.end());
+  out.landmarks.erase(std::unique(out.landmarks.begin(), out.landmarks.end()), out.landmarks.end());
+  return out;
+}
+
+Eigen::MatrixXd InformationGraph::gather(const Variables& variables) const {
+  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(variables.rows(), variables.rows());
+  const Positions position(variables);
+  if (variables.vehicle) {
+    m.topLeftCorner<3, 3>() = vehicle_;
+    for (const VehicleLink& link : vehicle_links_)
+      if (const std::ptrdiff_t k = position(link.landmark); k >= 0) {
+        const Eigen::Index r = variables.row(static_cast<std::size_t>(k));
+        m.block<3, 2>(0, r) = link.block;
+        m.block<2, 3>(r, 0) = link.block.transpose();
+      }
+  }
+  for (std::size_t k = 0; k < variables.landmarks.size(); ++k) {
+    const Eigen::Index r = variables.row(k);
+    const Node& node = nodes_[variables.landmarks[k]];
+    m.block<2, 2>(r, r) = node.own;
+    for (const Link& link : node.links)
+      if (const std::ptrdiff_t j = position(link.landmark); j >= 0)
+        m.block<2, 2>(r, variables.row(static_cast<std::size_t>(j))) = link.block;
+  }
+  return m;
+}
+
+void InformationGraph::scatter_add(const Variables& variables, const Eigen::MatrixXd& change) {
+  const std::size_t count = variables.landmarks.size();
+  if (variables.vehicle) {
+    vehicle_ += change.topLeftCorner<3, 3>();
+    for (std::size_t k = 0; k < count; ++k) {
+      const VehicleBlock block = change.block<3, 2>(0, variables.row(k));
+      if (!block.isZero(0.0)) find_vehicle_link(variables.landmarks[k])->block += block;
+    }
+  }
+  for (std::size_t a = 0; a < count; ++a) {
+    const Eigen::Index ra = variables.row(a);
+    nodes_[variables.landmarks[a]].own += change.block<2, 2>(ra, ra);
+    for (std::size_t b = a + 1; b < count; ++b) {
+      const Matrix2 block = change.block<2, 2>(ra, variables.row(b));
+      if (!block.isZero(0.0)) add_link(variables.landmarks[a], variables.landmarks[b], block);
+    }
+  }
+}
+
+Eigen::SparseMatrix<double> InformationGraph::to_sparse() const {
+  const auto n = static_cast<Eigen::Index>(3 + 2 * nodes_.size());
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(nonzeros());
+  const auto add = [&](Eigen::Index row, Eigen::Index col, const auto& block) {
+    for (Eigen::Index j = 0; j < block.cols(); ++j)
+      for (Eigen::Index i = 0; i < block.rows(); ++i) triplets.emplace_back(row + i, col + j, block(i, j));
+  };
+  const auto row = [](std::size_t landmark) { return static_cast<Eigen::Index>(3 + 2 * landmark); };
+  add(0, 0, vehicle_);
+  for (const VehicleLink& link : vehicle_links_) {
+    add(0, row(link.landmark), link.block);
+    add(row(link.landmark), 0, link.block.transpose());
+  }
+  for (std::size_t l = 0; l < nodes_.size(); ++l) {
+    add(row(l), row(l), nodes_[l].own);
+    for (const Link& link : nodes_[l].links) add(row(l), row(link.landmark), link.block);
+  }
+  Eigen::SparseMatrix<double> m(n, n);
+  m.setFromTriplets(triplets.begin(), triplets.end());
+  return m;
+}
+
+InformationGraph InformationGraph::from_sparse(const Eigen::SparseMatrix<double>& omega) {
+  InformationGraph graph;
+  graph.nodes_.resize(static_cast<std::size_t>((omega.rows() - 3) / 2));
+  graph.pattern_version_ = new_pattern_version();
+  for (Eigen::Index col = 0; col < omega.outerSize(); ++col)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(omega, col); it; ++it) {
+      const Eigen::Index row = it.row();
+      if (row < 3 && col < 3) {
+        graph.vehicle_(row, col) = it.value();
+      } else if (row < 3) {
+        graph.find_vehicle_link(static_cast<std::size_t>((col - 3) / 2))->block(row, (col - 3) % 2) = it.value();
+      } else if (col >= 3) {
+        const auto a = static_cast<std::size_t>((row - 3) / 2), b = static_cast<std::size_t>((col - 3) / 2);
+        Matrix2& block = a == b ? graph.nodes_[a].own : graph.link_block(a, b);
+        block((row - 3) % 2, (col - 3) % 2) = it.value();
+      }  // the vehicle's column below the diagonal: the transpose of its row, read there
+    }
+  return graph;
+}
+
+}  // namespace slamkit

@@ -1,0 +1,113 @@
+#include "slamkit/filters/information_graph.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace slamkit {
+namespace {
+
+// A graph of `landmarks` landmarks with random symmetric blocks on a random set of edges, built
+// through the public operations.
+InformationGraph random_graph(std::size_t landmarks, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> value;
+  std::bernoulli_distribution linked(0.3);
+  InformationGraph graph(Matrix3::Identity() * 10.0);
+  for (std::size_t i = 0; i < landmarks; ++i) {
+    graph.append_landmark(Matrix2::Identity() * 5.0);
+    if (linked(rng)) graph.add_vehicle_link(i, InformationGraph::VehicleBlock::NullaryExpr([&] { return value(rng); }));
+    for (std::size_t j = 0; j < i; ++j)
+      if (linked(rng)) graph.add_link(i, j, Matrix2::NullaryExpr([&] { return value(rng); }));
+  }
+  return graph;
+}
+
+Eigen::Index row(std::size_t landmark) { return static_cast<Eigen::Index>(3 + 2 * landmark); }
+
+// The dense rows of `variables` in a full matrix, in the block's order.
+std::vector<Eigen::Index> rows_of(const InformationGraph::Variables& variables) {
+  std::vector<Eigen::Index> rows;
+  if (variables.vehicle) rows = {0, 1, 2};
+  for (const std::size_t l : variables.landmarks) rows.insert(rows.end(), {row(l), row(l) + 1});
+  return rows;
+}
+
+TEST(InformationGraph, SparseRoundTripKeepsEveryEntryAndCountsThem) {
+  const InformationGraph graph = random_graph(12, 1);
+  const Eigen::SparseMatrix<double> omega = graph.to_sparse();
+  EXPECT_EQ(static_cast<std::size_t>(omega.nonZeros()), graph.nonzeros());
+  const Eigen::MatrixXd dense = omega.toDense();
+  EXPECT_TRUE(dense.isApprox(dense.transpose(), 0.0));
+  const InformationGraph back = InformationGraph::from_sparse(omega);
+  EXPECT_EQ(back.to_sparse().toDense(), dense);
+  EXPECT_EQ(back.nonzeros(), graph.nonzeros());
+}
+
+TEST(InformationGraph, GatherAndScatterAgreeWithTheDenseMatrix) {
+  InformationGraph graph = random_graph(10, 2);
+  Eigen::MatrixXd dense = graph.to_sparse().toDense();
+  const InformationGraph::Variables variables{true, {7, 2, 5}};
+  const std::vector<Eigen::Index> rows = rows_of(variables);
+  const Eigen::MatrixXd block = graph.gather(variables);
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    for (std::size_t j = 0; j < rows.size(); ++j)
+      EXPECT_EQ(block(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)), dense(rows[i], rows[j]));
+
+  const Eigen::MatrixXd random = Eigen::MatrixXd::Random(variables.rows(), variables.rows());
+  const Eigen::MatrixXd change = random + random.transpose();
+  graph.scatter_add(variables, change);
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    for (std::size_t j = 0; j < rows.size(); ++j)
+      dense(rows[i], rows[j]) += change(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+  EXPECT_LT((graph.to_sparse().toDense() - dense).cwiseAbs().maxCoeff(), 1e-14);
+}
+
+TEST(InformationGraph, RemovingALandmarkDropsItsRowsAndRenumbersTheRest) {
+  InformationGraph graph = random_graph(9, 3);
+  const Eigen::MatrixXd dense = graph.to_sparse().toDense();
+  graph.remove_landmark(4);
+  std::vector<Eigen::Index> kept;
+  for (Eigen::Index r = 0; r < dense.rows(); ++r)
+    if (r != row(4) && r != row(4) + 1) kept.push_back(r);
+  Eigen::MatrixXd expected(kept.size(), kept.size());
+  for (std::size_t i = 0; i < kept.size(); ++i)
+    for (std::size_t j = 0; j < kept.size(); ++j)
+      expected(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = dense(kept[i], kept[j]);
+  EXPECT_EQ(graph.landmarks(), 8u);
+  EXPECT_EQ(graph.to_sparse().toDense(), expected);
+}
+
+TEST(InformationGraph, NeighbourhoodIsTheMarkovBlanket) {
+  InformationGraph graph(Matrix3::Identity());
+  for (int i = 0; i < 6; ++i) graph.append_landmark(Matrix2::Identity());
+  graph.add_vehicle_link(1, InformationGraph::VehicleBlock::Ones());
+  graph.add_link(1, 3, Matrix2::Ones());
+  graph.add_link(3, 5, Matrix2::Ones());
+  const InformationGraph::Variables of_vehicle = graph.neighbourhood({true, {}});
+  EXPECT_TRUE(of_vehicle.vehicle);
+  EXPECT_EQ(of_vehicle.landmarks, (std::vector<std::size_t>{1}));
+  const InformationGraph::Variables of_three = graph.neighbourhood({false, {3}});
+  EXPECT_FALSE(of_three.vehicle);
+  EXPECT_EQ(of_three.landmarks, (std::vector<std::size_t>{1, 3, 5}));
+  EXPECT_TRUE(graph.neighbourhood({false, {1}}).vehicle);
+}
+
+TEST(InformationGraph, PatternVersionChangesWithEdgesNotValues) {
+  InformationGraph graph = random_graph(5, 4);
+  const std::uint64_t before = graph.pattern_version();
+  graph.own(2) += Matrix2::Identity();
+  graph.vehicle() += Matrix3::Identity();
+  graph.scatter_add({false, {0}}, Eigen::MatrixXd::Identity(2, 2));  // a diagonal block only
+  EXPECT_EQ(graph.pattern_version(), before);
+  graph.isolate(0);
+  graph.add_link(0, 1, Matrix2::Identity());
+  EXPECT_NE(graph.pattern_version(), before);
+  // An exact zero off the diagonal creates no edge.
+  const std::size_t edges = graph.nonzeros();
+  graph.scatter_add({true, {3, 4}}, Eigen::MatrixXd::Identity(7, 7));
+  EXPECT_EQ(graph.nonzeros(), edges);
+}
+
+}  // namespace
+}  // namespace slamkit
