@@ -238,7 +238,7 @@ void print_outputs(const std::string& dir, const Metrics& metrics, Verbosity ver
   fmt::print("{}\n", headline(metrics));
   std::string files = "metrics.json, map.svg, landmark_std.svg";
   // These need a truth of the right kind (with headings; any truth for truth.tum).
-  for (const char* optional : {"nees.svg", "pose_error.svg", "truth.tum"})
+  for (const char* optional : {"nees.svg", "pose_error.svg", "information.svg", "truth.tum"})
     if (fs::exists(fs::path(dir) / optional)) files += fmt::format(", {}", optional);
   fmt::print("results in {}/: {}, trajectory.tum, map.txt\n", dir, files);
 }

@@ -321,8 +321,9 @@ TEST_F(Cli, InformationFiltersRunTheCourseAndRecordTheirSettings) {
   const fs::path eif = *work_ / "course-eif", seif = *work_ / "course-seif";
   const Result e = slamkit_cli("run --filter eif --data " + course + " --out " + eif.string(), *work_);
   ASSERT_EQ(e.exit_code, 0) << e.err;
-  const Result s = slamkit_cli(
-      "run --filter seif --seif-active 2 --seif-sweeps 3 --data " + course + " --out " + seif.string(), *work_);
+  const Result s = slamkit_cli("run --filter seif --seif-active 2 --seif-sweeps 3 --seif-covariance exact --data " +
+                                   course + " --out " + seif.string(),
+                               *work_);
   ASSERT_EQ(s.exit_code, 0) << s.err;
   const auto read = [](const fs::path& file) {
     std::ifstream in(file);
@@ -341,6 +342,16 @@ TEST_F(Cli, InformationFiltersRunTheCourseAndRecordTheirSettings) {
   const auto settings = read(seif / "run.json")["settings"];
   EXPECT_EQ(settings["seif_active_landmarks"], 2);
   EXPECT_EQ(settings["seif_recovery_sweeps"], 3);
+  EXPECT_EQ(settings["seif_covariance"], "exact");
+  // The information matrix's picture: the EIF's one matrix, the SEIF's sparsification step.
+  const auto text = [](const fs::path& file) {
+    std::ifstream in(file);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_NE(text(eif / "information.svg").find("the exact information matrix"), std::string::npos);
+  const std::string seif_picture = text(seif / "information.svg");
+  EXPECT_NE(seif_picture.find("SEIF"), std::string::npos);
+  EXPECT_NE(seif_picture.find("seif_active_landmarks 2"), std::string::npos);
 }
 
 TEST_F(Cli, DatasetSettingsFileIsUsedAndChecked) {

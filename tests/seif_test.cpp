@@ -112,6 +112,31 @@ TEST(Seif, SparsificationKeepsTheMapMarginalAndCutsTheVehicleLinks) {
   EXPECT_LE(trace_after, trace_before * (1.0 + 1e-9));
 }
 
+TEST(Seif, ItsPictureIsTheNextSparsificationStep) {
+  const Dataset data = simulate(default_world(), SimulatorConfig{});
+  SeifOptions bounded = exact();
+  bounded.active_landmarks = 6;
+  const auto filter = run_scans(data, bounded, 200);
+  auto& seif = const_cast<SparseExtendedInformationFilter&>(seif_of(*filter));
+  const std::size_t active = seif.active_landmarks().size();
+  ASSERT_GT(active, 6u);  // the last scan's observed landmarks joined the bound's six
+  const std::vector<InformationMatrixPanel> panels = filter->information_panels();
+  ASSERT_EQ(panels.size(), 2u);
+  EXPECT_EQ((panels[0].information - seif.information()).norm(), 0.0);
+  seif.sparsify(6);
+  EXPECT_LT((Eigen::MatrixXd(panels[1].information) - Eigen::MatrixXd(seif.information())).cwiseAbs().maxCoeff(),
+            1e-12);
+  // The vehicle's rows keep their links to the six landmarks left active only.
+  const auto vehicle_entries = [](const Eigen::SparseMatrix<double>& omega) {
+    Eigen::Index entries = 0;
+    for (Eigen::Index col = 0; col < omega.outerSize(); ++col)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(omega, col); it; ++it) entries += it.row() < 3 ? 1 : 0;
+    return static_cast<std::size_t>(entries);
+  };
+  EXPECT_EQ(vehicle_entries(panels[0].information), 3 * (3 + 2 * active));
+  EXPECT_EQ(vehicle_entries(panels[1].information), 3 * (3 + 2 * 6));
+}
+
 TEST(Seif, ABoundedActiveSetKeepsOmegaSparseAndStillMaps) {
   const Dataset data = simulate(default_world(), SimulatorConfig{});
   const std::size_t scans = capped_under_sanitizer(600);

@@ -167,10 +167,14 @@ void InformationFormEstimator::apply_pending_motion() {
   motion_folded(motion);
 }
 
-Eigen::SparseMatrix<double> InformationFormEstimator::information() const {
+InformationGraph InformationFormEstimator::folded_information() const {
   InformationGraph folded = graph_;
   fold(folded, pending_f_, pending_q_);
-  return folded.to_sparse();
+  return folded;
+}
+
+std::vector<InformationMatrixPanel> InformationFormEstimator::information_panels() const {
+  return {{"the exact information matrix", information()}};
 }
 
 Matrix3 InformationFormEstimator::pose_covariance() const {

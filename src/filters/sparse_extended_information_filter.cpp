@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "slamkit/core/angles.hpp"
 
 namespace slamkit {
@@ -78,19 +80,11 @@ void SparseExtendedInformationFilter::begin_scan() {
   sparsify(options_.active_landmarks);
 }
 
-void SparseExtendedInformationFilter::sparsify(std::size_t active) {
-  if (active_.size() <= active) return;
-  apply_pending_motion();
-  // The most recently observed stay active (m+), the rest (m0) are made passive.
-  std::stable_sort(active_.begin(), active_.end(),
-                   [&](std::size_t a, std::size_t b) { return last_seen_[a] > last_seen_[b]; });
-  const std::size_t kept = active, passive = active_.size() - kept;
-  // S: the vehicle, m+, m0, in that order.
-  const InformationGraph::Variables variables{true, active_};
-  const Eigen::Index s = variables.rows();
-  const Eigen::Index np = 2 * static_cast<Eigen::Index>(kept), n0 = 2 * static_cast<Eigen::Index>(passive);
-  const Eigen::MatrixXd block = graph_.gather(variables);  // Omega(S, S): conditioned on m-
+namespace {
 
+/// The change to Omega(S, S) that makes m0 passive, for S = (vehicle, m+ of `np` rows, m0 of `n0`)
+/// and `block` = Omega(S, S) (conditioned on the rest, m-): Omega1 - Omega2 + Omega3 - block.
+Eigen::MatrixXd sparsification_change(const Eigen::MatrixXd& block, Eigen::Index np, Eigen::Index n0) {
   const auto marginalise = [](const Eigen::MatrixXd& m, Eigen::Index keep_first, Eigen::Index keep) {
     // The marginal over rows [keep_first, keep_first + keep) of a canonical form over all of m's.
     std::vector<Eigen::Index> out;
@@ -108,6 +102,7 @@ void SparseExtendedInformationFilter::sparsify(std::size_t active) {
     if (llt.info() != Eigen::Success) throw std::logic_error("SEIF sparsification: a block is not positive definite");
     return Eigen::MatrixXd(kept_block - cross * llt.solve(cross.transpose()));
   };
+  const Eigen::Index s = block.rows();
   // Omega1 = p(x, m+ | m-): m0 marginalised out of the block.
   const Eigen::MatrixXd joint = marginalise(block, 0, 3 + np);
   // Omega2 = p(m+ | m-): the vehicle marginalised out of Omega1.
@@ -119,9 +114,40 @@ void SparseExtendedInformationFilter::sparsify(std::size_t active) {
   sparsified.block(3, 3, np, np) -= landmarks_kept;
   sparsified.bottomRightCorner(np + n0, np + n0) += map;
   sparsified = (0.5 * (sparsified + sparsified.transpose())).eval();
-  const Eigen::MatrixXd change = sparsified - block;
+  return sparsified - block;
+}
 
-  Eigen::VectorXd mean(s);
+}  // namespace
+
+std::vector<std::size_t> SparseExtendedInformationFilter::active_by_recency() const {
+  std::vector<std::size_t> order = active_;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return last_seen_[a] > last_seen_[b]; });
+  return order;
+}
+
+Eigen::MatrixXd SparseExtendedInformationFilter::sparsify(InformationGraph& graph,
+                                                          const InformationGraph::Variables& variables,
+                                                          std::size_t kept) {
+  const auto np = 2 * static_cast<Eigen::Index>(kept);
+  const Eigen::Index n0 = 2 * static_cast<Eigen::Index>(variables.landmarks.size()) - np;
+  const Eigen::MatrixXd change = sparsification_change(graph.gather(variables), np, n0);
+  graph.scatter_add(variables, change);
+  // The vehicle's links to m0 are now zero: out of the graph, so that Omega stays sparse.
+  for (std::size_t k = kept; k < variables.landmarks.size(); ++k) graph.remove_vehicle_link(variables.landmarks[k]);
+  return change;
+}
+
+void SparseExtendedInformationFilter::sparsify(std::size_t active) {
+  if (active_.size() <= active) return;
+  apply_pending_motion();
+  // The most recently observed stay active (m+), the rest (m0) are made passive. S: the vehicle,
+  // m+, m0, in that order.
+  active_ = active_by_recency();
+  const InformationGraph::Variables variables{true, active_};
+  const Eigen::MatrixXd change = sparsify(graph_, variables, active);
+  information_changed();
+  Eigen::VectorXd mean(variables.rows());
   mean.head<3>() = x_.head<3>();
   for (std::size_t k = 0; k < active_.size(); ++k)
     mean.segment<2>(variables.row(k)) = landmark_position(active_[k]);
@@ -129,13 +155,25 @@ void SparseExtendedInformationFilter::sparsify(std::size_t active) {
   xi_.head<3>() += xi_change.head<3>();
   for (std::size_t k = 0; k < active_.size(); ++k)
     xi_.segment<2>(static_cast<Eigen::Index>(landmark_offset(active_[k]))) += xi_change.segment<2>(variables.row(k));
-  graph_.scatter_add(variables, change);
-  // The vehicle's links to m0 are now zero: out of the graph, so that Omega stays sparse.
-  for (std::size_t k = kept; k < active_.size(); ++k) graph_.remove_vehicle_link(active_[k]);
-  information_changed();
-  deactivated_ += passive;
+  deactivated_ += active_.size() - active;
   ++sparsifications_;
-  active_.resize(kept);
+  active_.resize(active);
+}
+
+std::vector<InformationMatrixPanel> SparseExtendedInformationFilter::information_panels() const {
+  InformationGraph graph = folded_information();
+  if (active_.size() <= options_.active_landmarks)
+    return {{fmt::format("SEIF: {} landmarks linked to the vehicle, within seif_active_landmarks {}", active_.size(),
+                         options_.active_landmarks),
+             graph.to_sparse()}};
+  std::vector<InformationMatrixPanel> panels;
+  panels.push_back({fmt::format("SEIF before sparsification: {} landmarks linked to the vehicle", active_.size()),
+                    graph.to_sparse()});
+  const std::size_t kept = options_.active_landmarks;
+  sparsify(graph, {true, active_by_recency()}, kept);
+  panels.push_back({fmt::format("after: {} linked (seif_active_landmarks {})", kept, options_.active_landmarks),
+                    graph.to_sparse()});
+  return panels;
 }
 
 bool SparseExtendedInformationFilter::update_landmarks(std::span<const LandmarkObservation> batch) {

@@ -275,6 +275,7 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
   if (!result.smoothed) result.trajectory = result.filtered;
   if (options.history == History::kFull) record_origins(filter, result);
   result.statistics = filter.statistics();
+  result.information = filter.information_panels();
   result.dead_reckoning = dead_reckoning(dataset, options);
   if (result.partial)
     std::erase_if(result.dead_reckoning, [&](const StampedPose& p) { return p.t > result.filtered.back().t; });

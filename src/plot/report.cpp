@@ -16,6 +16,7 @@
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/chi_square.hpp"
 #include "slamkit/core/error.hpp"
+#include "slamkit/plot/information_matrix_svg.hpp"
 #include "slamkit/plot/svg_plot.hpp"
 
 namespace slamkit {
@@ -216,6 +217,12 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
     const std::string nees_path = (fs::path(dir) / "nees.svg").string();
     draw_figure(nees_path, [&] { plot::nees_figure(nees).save(nees_path); });
   }
+
+  const std::string information_path = (fs::path(dir) / "information.svg").string();
+  if (!run.information.empty())
+    draw_figure(information_path, [&] { write_information_matrix_svg(information_path, run.information); });
+  else
+    fs::remove(information_path);
 
   const std::string pose_error_path = (fs::path(dir) / "pose_error.svg").string();
   if (truth.poses_have_heading)

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "slamkit/core/association_record.hpp"
+#include "slamkit/core/information_matrix.hpp"
 #include "slamkit/core/types.hpp"
 
 namespace slamkit {
@@ -40,6 +41,8 @@ struct RunResult {
   /// The per-step (filtering) estimates with their covariances: what ATE and NEES are computed on.
   std::vector<StampedPose> filtered;
   std::vector<Matrix3> pose_covariances;  // one per filtered sample
+  /// An information filter's information matrix at the end (SlamFilter::information_panels).
+  std::vector<InformationMatrixPanel> information;
   std::vector<StampedPose> dead_reckoning;
   std::vector<Landmark> map;
   std::vector<LandmarkStdSample> landmark_std;

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "slamkit/core/information_matrix.hpp"
 #include "slamkit/assoc/association.hpp"
 #include "slamkit/assoc/map_matching.hpp"
 #include "slamkit/filters/worker_pool.hpp"
@@ -113,6 +114,9 @@ class EkfEstimator : public GaussianMapView {
   /// vehicle's and with each other), so that an estimator that recovers covariances can recover them
   /// together (InformationFormEstimator's local recovery: one Markov blanket for all of them).
   virtual void prepare_covariances(std::span<const std::size_t> /*landmarks*/) const {}
+  /// The information matrix, for an estimator that keeps one (InformationFormEstimator), as its
+  /// picture shows it.
+  virtual std::vector<InformationMatrixPanel> information_panels() const { return {}; }
   /// Adds the implementation's own figures to a filter's statistics.
   virtual void add_statistics(std::map<std::string, double>& /*statistics*/) const {}
 

@@ -119,6 +119,7 @@ class EkfSlam final : public SlamFilter {
   std::vector<LandmarkHypothesis> landmark_hypotheses() const override;
   const std::vector<AssociationRecord>& last_associations() const override { return last_associations_; }
   std::map<std::string, double> statistics() const override;
+  std::vector<InformationMatrixPanel> information_panels() const override { return estimator_->information_panels(); }
   /// About the bytes of the joint covariance once the map has `landmarks` landmarks, which dwarfs
   /// the rest of the filter's state.
   static double memory_estimate(std::size_t landmarks);

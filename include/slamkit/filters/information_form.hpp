@@ -59,7 +59,9 @@ class InformationFormEstimator : public EkfEstimator {
   /// and exports).
   Eigen::MatrixXd covariance() const override;
   /// The information matrix over state(), the pending motion applied (both triangles stored).
-  Eigen::SparseMatrix<double> information() const;
+  Eigen::SparseMatrix<double> information() const { return folded_information().to_sparse(); }
+  /// information(), the one panel of an exact filter.
+  std::vector<InformationMatrixPanel> information_panels() const override;
 
   void predict(const Control& u, double dt) override;
   void inflate_pose(const Matrix3& q) override;
@@ -92,6 +94,8 @@ class InformationFormEstimator : public EkfEstimator {
     Matrix3 f;
     Eigen::Vector3d offset;
   };
+  /// Omega's graph with the pending motion folded in.
+  InformationGraph folded_information() const;
   /// Folds the pending motion into Omega (nothing if there is none); calls motion_folded.
   void apply_pending_motion();
   /// What an estimator that keeps more than Omega does when a motion is folded in (Omega already

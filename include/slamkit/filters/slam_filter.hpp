@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "slamkit/core/association_record.hpp"
+#include "slamkit/core/information_matrix.hpp"
 #include "slamkit/core/types.hpp"
 
 namespace slamkit {
@@ -52,6 +53,9 @@ class SlamFilter {
   virtual std::vector<LandmarkHypothesis> landmark_hypotheses() const { return {}; }
   /// Filter-specific figures for metrics.json, e.g. {"particles": 100, "ess_mean": 61.2}.
   virtual std::map<std::string, double> statistics() const { return {}; }
+  /// The information matrix of a filter in information form (EIF, SEIF), as its picture shows it;
+  /// empty for the others.
+  virtual std::vector<InformationMatrixPanel> information_panels() const { return {}; }
 };
 
 }  // namespace slamkit

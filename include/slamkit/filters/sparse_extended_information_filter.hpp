@@ -90,6 +90,8 @@ class SparseExtendedInformationFilter final : public InformationFormEstimator {
   /// Makes all but the `active` most recently observed active landmarks passive now (begin_scan
   /// does it before each scan with the options' bound).
   void sparsify(std::size_t active);
+  /// Omega now, and as the next sparsification to the options' bound leaves it (if any is due).
+  std::vector<InformationMatrixPanel> information_panels() const override;
 
  protected:
   void reserve(std::size_t dim) override;
@@ -97,6 +99,12 @@ class SparseExtendedInformationFilter final : public InformationFormEstimator {
   void motion_folded(const FoldedMotion& motion) override;
 
  private:
+  /// The active landmarks, the most recently observed first.
+  std::vector<std::size_t> active_by_recency() const;
+  /// Sparsifies `graph` over `variables` (the vehicle, then the active landmarks by recency), keeping
+  /// the first `kept` landmarks active; returns the change made to Omega over them.
+  static Eigen::MatrixXd sparsify(InformationGraph& graph, const InformationGraph::Variables& variables,
+                                  std::size_t kept);
   /// Marks landmark `index` linked to the vehicle and seen now.
   void activate(std::size_t index);
   /// recovery_sweeps sweeps over the vehicle, the active landmarks and the next ones in turn (or

@@ -4,6 +4,8 @@
 //                     estimated map with 2-sigma ellipses (estimates SE(2)-aligned onto the truth)
 //   landmark_std.svg  landmark standard deviations over time (the tutorial's Figure 3)
 //   nees.svg          pose NEES over time with its 95% interval (where the truth has headings)
+//   information.svg   an information filter's information matrix at the end (SEIF: before and
+//                     after a sparsification), each link's normalised magnitude
 #include <string>
 #include <vector>
 
@@ -13,7 +15,7 @@
 
 namespace slamkit {
 
-/// Writes map.svg, landmark_std.svg and nees.svg into `dir`.
+/// Writes map.svg, landmark_std.svg, nees.svg and (an information filter's) information.svg into `dir`.
 void write_run_plots(const std::string& dir, const RunResult& run, const GroundTruth& truth,
                      const Metrics& metrics);
 
