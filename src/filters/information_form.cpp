@@ -20,6 +20,16 @@ Eigen::SparseMatrix<double> from_triplets(Eigen::Index rows, Eigen::Index cols,
 }
 }  // namespace
 
+template <int N>
+Eigen::Matrix<double, N, N> InformationFormEstimator::floored(const Eigen::Matrix<double, N, N>& covariance) {
+  Eigen::Matrix<double, N, N> symmetric = 0.5 * (covariance + covariance.transpose());
+  const auto eigenvalues = Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>>(symmetric, Eigen::EigenvaluesOnly)
+                               .eigenvalues();
+  if (!(eigenvalues.minCoeff() >= kInitialPoseFloor))
+    symmetric += kInitialPoseFloor * Eigen::Matrix<double, N, N>::Identity();
+  return symmetric;
+}
+
 Eigen::MatrixXd InformationFormEstimator::spd_inverse(const Eigen::MatrixXd& m, const char* what) {
   const Eigen::LLT<Eigen::MatrixXd> llt(m);
   if (llt.info() != Eigen::Success)
@@ -33,11 +43,7 @@ InformationFormEstimator::InformationFormEstimator(std::shared_ptr<const MotionM
                                                    CovarianceRecovery recovery)
     : EkfEstimator(std::move(motion), std::move(observation), initial_pose), recovery_(recovery) {
   if (!initial_covariance.allFinite()) throw std::invalid_argument("the initial pose covariance must be finite");
-  Matrix3 prior = 0.5 * (initial_covariance + initial_covariance.transpose());
-  if (Eigen::SelfAdjointEigenSolver<Matrix3>(prior, Eigen::EigenvaluesOnly).eigenvalues().minCoeff() <
-      kInitialPoseFloor)
-    prior += kInitialPoseFloor * Matrix3::Identity();
-  graph_.vehicle() = spd_inverse(prior, "an initial pose covariance");
+  graph_.vehicle() = spd_inverse(floored(initial_covariance), "an initial pose covariance");
 }
 
 void InformationFormEstimator::information_changed() {
@@ -153,11 +159,23 @@ InformationFormEstimator::FoldedMotion InformationFormEstimator::fold(Informatio
   motion.gain = (0.5 * (motion.gain + motion.gain.transpose())).eval();
   motion.f = f;
   graph.scatter_add(motion.linked, -motion.psi_columns * motion.gain * motion.psi_columns.transpose());
+  // The vehicle's own block and its links, where Psi - Psi K Psi cancels most when Q dwarfs the
+  // vehicle's uncertainty, in the forms that do not cancel: (Psi_vv^-1 + Q)^-1 and
+  // (I + Psi_vv Q)^-1 Psi_vm (the push-through identity).
+  const Matrix3 vehicle = (psi_vv.inverse() + q).inverse();
+  graph.vehicle() = 0.5 * (vehicle + vehicle.transpose());
+  const Eigen::PartialPivLU<Matrix3> moved(Matrix3::Identity() + psi_vv * q);
+  for (std::size_t k = 0; k < motion.linked.landmarks.size(); ++k)
+    graph.vehicle_links()[k].block = moved.solve(motion.psi_columns.middleRows<2>(motion.linked.row(k)).transpose());
   return motion;
 }
 
+bool InformationFormEstimator::motion_pending() const {
+  return !(pending_f_.isIdentity(0.0) && pending_q_.isZero(0.0) && pending_offset_.isZero(0.0));
+}
+
 void InformationFormEstimator::apply_pending_motion() {
-  if (pending_f_.isIdentity(0.0) && pending_q_.isZero(0.0) && pending_offset_.isZero(0.0)) return;
+  if (!motion_pending()) return;
   FoldedMotion motion = fold(graph_, pending_f_, pending_q_);
   motion.offset = pending_offset_;
   information_changed();
@@ -169,7 +187,7 @@ void InformationFormEstimator::apply_pending_motion() {
 
 InformationGraph InformationFormEstimator::folded_information() const {
   InformationGraph folded = graph_;
-  fold(folded, pending_f_, pending_q_);
+  if (motion_pending()) fold(folded, pending_f_, pending_q_);
   return folded;
 }
 
@@ -302,7 +320,10 @@ InformationFormEstimator::FactorVector InformationFormEstimator::append_landmark
     const InitialLandmark& landmark) {
   apply_pending_motion();
   const auto l = static_cast<Eigen::Index>(dim_);
-  const Matrix2 information = spd_inverse(landmark.covariance, "a new landmark's covariance given the pose");
+  // A measurement that places the landmark exactly along some direction (a range of zero, say)
+  // gives a singular covariance, which the information form cannot hold.
+  const Matrix2 information =
+      spd_inverse(floored(landmark.covariance), "a new landmark's covariance given the pose");
   reserve(dim_ + 2);
   x_.segment<2>(l) = landmark.mean;
   const Vector2 offset = landmark.mean - landmark.gx * x_.head<3>();

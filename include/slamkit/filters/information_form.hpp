@@ -40,8 +40,8 @@ enum class CovarianceRecovery { kExact, kLocal };
 
 class InformationFormEstimator : public EkfEstimator {
  public:
-  /// The variance added to each of the pose's diagonal entries when the initial covariance is not
-  /// positive definite (m^2, m^2, rad^2).
+  /// The variance added to each diagonal entry of an initial pose's or a new landmark's covariance
+  /// that is not positive definite (m^2, m^2, rad^2).
   static constexpr double kInitialPoseFloor = 1e-6;
 
   Matrix3 pose_covariance() const override;
@@ -96,6 +96,8 @@ class InformationFormEstimator : public EkfEstimator {
   };
   /// Omega's graph with the pending motion folded in.
   InformationGraph folded_information() const;
+  /// Whether controls came since Omega was last brought up to date.
+  bool motion_pending() const;
   /// Folds the pending motion into Omega (nothing if there is none); calls motion_folded.
   void apply_pending_motion();
   /// What an estimator that keeps more than Omega does when a motion is folded in (Omega already
@@ -132,6 +134,10 @@ class InformationFormEstimator : public EkfEstimator {
   static Sparse conditioned_on_fusion(Sparse omega, const std::vector<char>& duplicate_row);
   void squeeze_stored_rows(std::size_t first, std::size_t count) override;
 
+  /// A covariance symmetrised, with kInitialPoseFloor added on its diagonal if it is not positive
+  /// definite by that much (the information form's floor for what a covariance says is exact).
+  template <int N>
+  static Eigen::Matrix<double, N, N> floored(const Eigen::Matrix<double, N, N>& covariance);
   /// The inverse of a symmetric positive definite block; throws std::logic_error naming `what` if it
   /// is not.
   static Eigen::MatrixXd spd_inverse(const Eigen::MatrixXd& m, const char* what);
