@@ -46,6 +46,30 @@ TEST(BenchmarkPlots, DrawsMediansOfThePresentSeries) {
   EXPECT_FALSE(std::filesystem::exists(dir.file("plots/fastslam_vs_particles.svg")));
 }
 
+// The information filters' steps span decades of landmarks: their x is drawn as its logarithm, so
+// 100 and 30,000 landmarks sit at 2 and 4.48 of an axis that says what its numbers mean.
+TEST(BenchmarkPlots, DrawsTheInformationFiltersAgainstTheLogarithmOfTheLandmarks) {
+  ScratchDir dir;
+  const std::string json = "{\"context\": {}, \"benchmarks\": [" +
+                           entry("BM_InformationStep/seif/100", "iteration", "", 150.0, "us") + ", " +
+                           entry("BM_InformationStep/seif/30000", "iteration", "", 4.5, "ms") + ", " +
+                           entry("BM_InformationStep/seif_ungated/30000", "iteration", "", 40.0, "us") + ", " +
+                           entry("BM_InformationStep/ekf/100", "iteration", "", 30.0, "us") + ", " +
+                           entry("BM_InformationStep/ekf/3000", "iteration", "", 15.0, "ms") + "]}";
+  write_text(dir.file("bench.json"), json);
+  const auto files = plot::write_benchmark_plots({dir.file("bench.json")}, dir.file("plots"));
+  ASSERT_EQ(files.size(), 1U);  // no other benchmarks in the file, so no other plots
+  const std::string svg = read_text(dir.file("plots/information_vs_landmarks.svg"));
+  EXPECT_NE(svg.find("SEIF (known-identity gate on)"), std::string::npos);
+  EXPECT_NE(svg.find("SEIF, gate off"), std::string::npos);
+  EXPECT_NE(svg.find("full EKF"), std::string::npos);
+  EXPECT_EQ(svg.find(">EIF<"), std::string::npos);  // no EIF benchmarks, no EIF series
+  EXPECT_NE(svg.find("log\u2081\u2080 landmarks"), std::string::npos);
+  // Ticks of the logarithm: had x been the landmarks themselves, the axis would read thousands.
+  EXPECT_NE(svg.find(">3.0<"), std::string::npos);
+  EXPECT_EQ(svg.find("000<"), std::string::npos);
+}
+
 TEST(BenchmarkPlots, RejectsWhatIsNotBenchmarkOutput) {
   ScratchDir dir;
   write_text(dir.file("bad.json"), "{\"benchmarks\": 3}");

@@ -1,5 +1,6 @@
 #include "slamkit/plot/benchmark_plots.hpp"
 
+#include <cmath>
 #include <filesystem>
 #include <fmt/format.h>
 #include <map>
@@ -25,6 +26,8 @@ struct Plot {
   const char* title;
   const char* x_label;
   std::vector<Series> series;
+  // x drawn as its logarithm, for x values over decades: Figure's x axis is linear only.
+  bool log_x = false;
 };
 
 // The benchmark names are those of bench/*.cpp.
@@ -54,6 +57,14 @@ const std::vector<Plot>& plots() {
        "landmarks",
        {{"nearest neighbour", R"(BM_AssociationNearestNeighbour/(\d+))"},
         {"JCBB", R"(BM_AssociationJcbb/(\d+))"}}},
+      {"information_vs_landmarks.svg",
+       "One SLAM step (8 predictions, a scan of ~10 known landmarks) against the map",
+       "landmarks",
+       {{"SEIF (known-identity gate on)", R"(BM_InformationStep/seif/(\d+))"},
+        {"EIF", R"(BM_InformationStep/eif/(\d+))"},
+        {"full EKF", R"(BM_InformationStep/ekf/(\d+))"},
+        {"SEIF, gate off: its own step", R"(BM_InformationStep/seif_ungated/(\d+))"}},
+       true},
   };
   return all;
 }
@@ -102,7 +113,8 @@ std::vector<std::string> write_benchmark_plots(const std::vector<std::string>& j
     Figure fig(900, 560);
     fig.set_title(plot.title);
     fig.set_subtitle("Google Benchmark, CPU time per operation; medians of the repetitions where run with them");
-    fig.set_x_label(plot.x_label);
+    fig.set_x_label(plot.log_x ? fmt::format("log\u2081\u2080 {} (2: 100, 3: 1,000, 4: 10,000)", plot.x_label)
+                               : std::string(plot.x_label));
     fig.set_y_label("time per operation [s]");
     fig.set_log_y(true);
     std::size_t drawn = 0;
@@ -115,7 +127,7 @@ std::vector<std::string> write_benchmark_plots(const std::vector<std::string>& j
       }
       if (points.empty()) continue;
       std::vector<Vector2> xy;
-      for (const auto& [x, t] : points) xy.emplace_back(x, t);
+      for (const auto& [x, t] : points) xy.emplace_back(plot.log_x ? std::log10(x) : x, t);
       const Color color = categorical_color(i);
       fig.add_line(xy, LineStyle{color, 1.5}, plot.series[i].label);
       fig.add_markers(xy, MarkerStyle{Marker::kCircle, color, 6.0});
