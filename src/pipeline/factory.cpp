@@ -160,8 +160,9 @@ void validate(const FilterConfig& config) {
   if (config.filter != FilterKind::kSeif && (config.seif.active_landmarks != SeifOptions{}.active_landmarks ||
                                              config.seif.recovery_sweeps != SeifOptions{}.recovery_sweeps ||
                                              config.seif.covariance != SeifOptions{}.covariance))
-    throw std::invalid_argument(fmt::format(
-        "seif_active_landmarks, seif_recovery_sweeps and seif_covariance apply to the filter 'seif', not '{}'", to_string(config.filter)));
+    throw std::invalid_argument(
+        fmt::format("seif_active_landmarks, seif_recovery_sweeps and seif_covariance apply to the filter 'seif', not '{}'",
+                    to_string(config.filter)));
   validate(config.delayed_init);
   validate(config.inverse_distance);
   if (config.landmark_init == LandmarkInit::kInverseDistance &&
@@ -359,11 +360,27 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
       else if (key == "threads")
         integer(config.threads);
       else {
-        const std::vector<std::string> keys = {"filter",        "seed",          "association",  "ekf_update",
-                                               "ekf_variant",   "ukf_noise",     "seif_active_landmarks", "seif_recovery_sweeps", "seif_covariance", "landmark_init", "delayed_init",
-                                               "inverse_distance_min_m", "inverse_distance_prior_m", "range_calibration", "likelihood", "likelihood_dof",
-                                               "particles",     "pose_sample_fraction",
-                                               "resample",      "resample_when", "threads"};
+        const std::vector<std::string> keys = {"filter",
+                                               "seed",
+                                               "association",
+                                               "ekf_update",
+                                               "ekf_variant",
+                                               "ukf_noise",
+                                               "seif_active_landmarks",
+                                               "seif_recovery_sweeps",
+                                               "seif_covariance",
+                                               "landmark_init",
+                                               "delayed_init",
+                                               "inverse_distance_min_m",
+                                               "inverse_distance_prior_m",
+                                               "range_calibration",
+                                               "likelihood",
+                                               "likelihood_dof",
+                                               "particles",
+                                               "pose_sample_fraction",
+                                               "resample",
+                                               "resample_when",
+                                               "threads"};
         throw InputError(source, 0,
                          fmt::format("unknown key '{}' in the filter settings{}; expected one of: {}", key,
                                      did_you_mean(key, keys), fmt::join(keys, ", ")));

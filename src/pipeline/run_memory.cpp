@@ -32,7 +32,8 @@ constexpr double kGiB = 0x1p30;
 double filter_bytes(const FilterConfig& config, std::size_t landmarks) {
   switch (config.filter) {
     case FilterKind::kFastSlam1:
-    case FilterKind::kFastSlam2: return FastSlam::memory_estimate(static_cast<std::size_t>(config.particles), landmarks);
+    case FilterKind::kFastSlam2:
+      return FastSlam::memory_estimate(static_cast<std::size_t>(config.particles), landmarks);
     // The exact information matrix fills in (every landmark linked with every other), and its
     // Cholesky factor is as large again.
     case FilterKind::kEif: return 2.0 * EkfSlam::memory_estimate(landmarks);
