@@ -437,7 +437,7 @@ int run_command(int argc, char** argv) {
   std::string data_spec, run_out, data_config;
   add_named_setting(run_cmd, "--filter", flag_settings, "/filter", parse_filter_kind,
                     "Filter: ekf, ukf, eif (the EKF in information form), seif (the sparse extended information filter), "
-                    "fastslam1, fastslam2",
+                    "eseif (the exactly sparse extended information filter), fastslam1, fastslam2",
                     defaults.filter);
   add_named_setting(run_cmd, "--assoc", flag_settings, "/association/method", parse_association_method,
                     "Data association: known (ids from the log), nn, jcbb", defaults.association.method);
@@ -505,6 +505,19 @@ int run_command(int argc, char** argv) {
                     "Markov blanket of what is asked about; the same cost however large the map, overconfident) "
                     "or exact (a sparse factorisation of the whole map)",
                     defaults.seif.covariance);
+  add_setting<std::size_t>(run_cmd, "--eseif-active", flag_settings, "/eseif_active_landmarks",
+                           "ESEIF: landmarks linked to the vehicle at most before a scan relocates it (more: fewer "
+                           "relocations, less information forgotten; fewer: a sparser information matrix)",
+                           std::to_string(defaults.eseif.active_landmarks))
+      ->check(integer_at_least(1));
+  add_setting<int>(run_cmd, "--eseif-sweeps", flag_settings, "/eseif_recovery_sweeps",
+                   "ESEIF: Gauss-Seidel sweeps of the mean recovery per scan, as --seif-sweeps",
+                   std::to_string(defaults.eseif.recovery_sweeps))
+      ->check(integer_at_least(0));
+  add_named_setting(run_cmd, "--eseif-covariance", flag_settings, "/eseif_covariance", parse_covariance_recovery,
+                    "ESEIF: how covariances are recovered, as --seif-covariance (exact by default: the local "
+                    "recovery of a relocated vehicle conditions on its two or three landmarks)",
+                    defaults.eseif.covariance);
   add_named_setting(run_cmd, "--landmark-init", flag_settings, "/landmark_init", parse_landmark_init,
                     "How a landmark starts: immediate (from one measurement's inverse), delayed "
                     "(triangulated from several observations at well-spread poses; known ids only), ring (range "
@@ -847,7 +860,8 @@ int run_command(int argc, char** argv) {
         if (!particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by the EKF and the UKF", name));
       if (filter.filter != FilterKind::kFastSlam2 && run_cmd->count("--pose-sample-fraction") > 0)
         warn(fmt::format("--pose-sample-fraction applies to fastslam2 only; {} ignores it", to_string(filter.filter)));
-      if ((filter.filter == FilterKind::kUkf || filter.filter == FilterKind::kEif || filter.filter == FilterKind::kSeif) &&
+      if ((filter.filter == FilterKind::kUkf || filter.filter == FilterKind::kEif || filter.filter == FilterKind::kSeif ||
+           filter.filter == FilterKind::kEseif) &&
           run_cmd->count("--threads") > 0)
         warn(fmt::format("--threads is ignored by the {}", to_string(filter.filter)));
       if (filter.filter != FilterKind::kUkf && run_cmd->count("--ukf-noise") > 0)

@@ -315,7 +315,8 @@ TEST_F(Cli, RunsTheShippedCourseExample) {
 }
 
 // The information filters from the command line, on the shipped course (a short log: the exact EIF
-// costs a factorisation per scan). The SEIF with two active landmarks sparsifies at every scan.
+// costs a factorisation per scan). The SEIF with two active landmarks sparsifies at every scan; the
+// ESEIF with four relocates.
 TEST_F(Cli, InformationFiltersRunTheCourseAndRecordTheirSettings) {
   const std::string course = "course:" + (fs::path(SLAMKIT_SOURCE_DIR) / "examples" / "course").string();
   const fs::path eif = *work_ / "course-eif", seif = *work_ / "course-seif";
@@ -352,6 +353,19 @@ TEST_F(Cli, InformationFiltersRunTheCourseAndRecordTheirSettings) {
   const std::string seif_picture = text(seif / "information.svg");
   EXPECT_NE(seif_picture.find("SEIF"), std::string::npos);
   EXPECT_NE(seif_picture.find("seif_active_landmarks 2"), std::string::npos);
+
+  const fs::path eseif = *work_ / "course-eseif";
+  const Result x = slamkit_cli("run --filter eseif --eseif-active 4 --eseif-covariance local --data " + course +
+                                   " --out " + eseif.string(),
+                               *work_);
+  ASSERT_EQ(x.exit_code, 0) << x.err;
+  const auto mx = read(eseif / "metrics.json");
+  EXPECT_EQ(mx["filter"], "eseif");
+  EXPECT_EQ(mx["landmarks"], 8);
+  EXPECT_LT(mx["map_rmse_m"].get<double>(), 0.5);
+  EXPECT_GT(mx["eseif_relocations"].get<double>(), 0.0);
+  EXPECT_EQ(read(eseif / "run.json")["settings"]["eseif_covariance"], "local");
+  EXPECT_NE(text(eseif / "information.svg").find("eseif_active_landmarks 4"), std::string::npos);
 }
 
 TEST_F(Cli, DatasetSettingsFileIsUsedAndChecked) {
@@ -445,7 +459,7 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
     const char* message;
   } cases[] = {
       {"--filter ekff",
-       "--filter: unknown filter 'ekff' (did you mean 'ekf'?); expected one of: ekf, ukf, eif, seif, fastslam1, fastslam2"},
+       "--filter: unknown filter 'ekff' (did you mean 'ekf'?); expected one of: ekf, ukf, eif, seif, eseif, fastslam1, fastslam2"},
       {"--filter ukf --ekf-variant fej", "EKF variant 'fej' applies to the filter 'ekf', not 'ukf'"},
       {"--assoc nearest", "--assoc: unknown association 'nearest'; expected one of: known, nn, jcbb"},
       {"--ekf-variant sparse", "--ekf-variant: unknown EKF variant 'sparse'; expected one of: full, compressed, fej, invariant"},
@@ -459,6 +473,7 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
       {"--seif-active 0", "--seif-active: expected an integer >= 1, found 0"},
       {"--seif-sweeps -1", "--seif-sweeps: expected an integer >= 0, found -1"},
       {"--seif-covariance all", "--seif-covariance: unknown covariance recovery 'all'; expected one of: local, exact"},
+      {"--eseif-active 0", "--eseif-active: expected an integer >= 1, found 0"},
       {"--particles 2.5", "--particles: expected an integer >= 1, found 2.5"},
       {"--pose-sample-fraction 0", "pose_sample_fraction must lie in (0, 1], found 0"},
       {"--threads -1", "--threads: expected an integer >= 0, found -1"},
@@ -836,6 +851,10 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"run --filter seif --seif-sweeps x" + data, 2, "--seif-sweeps: expected an integer >= 0, found x"},
       {"run --filter seif --seif-covariance exac" + data, 2,
        "--seif-covariance: unknown covariance recovery 'exac' (did you mean 'exact'?)"},
+      {"run --filter eseif --eseif-active 0" + data, 2, "--eseif-active: expected an integer >= 1, found 0"},
+      {"run --filter eseif --eseif-sweeps x" + data, 2, "--eseif-sweeps: expected an integer >= 0, found x"},
+      {"run --filter eseif --eseif-covariance locl" + data, 2,
+       "--eseif-covariance: unknown covariance recovery 'locl' (did you mean 'local'?)"},
       {"run --landmark-init delay" + data, 2,
        "--landmark-init: unknown landmark initialisation 'delay' (did you mean 'delayed'?)"},
       {"run --init-max-std 0" + data, 2, "delayed initialisation: max_std_m must be > 0 and <= 10000, found 0"},

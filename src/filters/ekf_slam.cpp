@@ -36,6 +36,10 @@ std::unique_ptr<EkfEstimator> make_estimator(std::shared_ptr<const MotionModel> 
       return std::make_unique<SparseExtendedInformationFilter>(std::move(motion), std::move(observation),
                                                                options.initial_pose, options.initial_covariance,
                                                                options.seif);
+    case EkfVariant::kExactlySparseInformation:
+      return std::make_unique<ExactlySparseInformationFilter>(std::move(motion), std::move(observation),
+                                                              options.initial_pose, options.initial_covariance,
+                                                              options.eseif);
     case EkfVariant::kFirstEstimates:
     case EkfVariant::kInvariant:
     case EkfVariant::kFull:
@@ -81,10 +85,11 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
       recover_known_(options.association.method == AssociationMethod::kKnown && gate_known_ &&
                      options.association.relocalise_min_pairs >= 2 && estimator_->observation_model().invertible()),
       joint_scan_update_(options.joint_scan_update),
-      name_(options.variant == EkfVariant::kUnscented           ? "ukf"
-            : options.variant == EkfVariant::kInformation       ? "eif"
-            : options.variant == EkfVariant::kSparseInformation ? "seif"
-                                                                : "ekf") {
+      name_(options.variant == EkfVariant::kUnscented                  ? "ukf"
+            : options.variant == EkfVariant::kInformation              ? "eif"
+            : options.variant == EkfVariant::kSparseInformation        ? "seif"
+            : options.variant == EkfVariant::kExactlySparseInformation ? "eseif"
+                                                                       : "ekf") {
   require_searchable(association_, estimator_->observation_model());
   if (estimator_->calibrates_ranges() && association_.method != AssociationMethod::kKnown)
     throw std::invalid_argument("a range calibration is estimated with association 'known': nn and jcbb predict "

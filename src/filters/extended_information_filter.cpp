@@ -31,7 +31,7 @@ std::size_t ExtendedInformationFilter::add_landmark(const InitialLandmark& landm
 
 void ExtendedInformationFilter::remove_landmark(std::size_t index) {
   apply_pending_motion();
-  marginalise(index);
+  marginalise({false, {index}});
   remove_stored_landmark(index);
 }
 

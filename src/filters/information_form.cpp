@@ -158,10 +158,12 @@ InformationFormEstimator::FoldedMotion InformationFormEstimator::fold(Informatio
   motion.gain = (Matrix3::Identity() + q * psi_vv).lu().solve(q);
   motion.gain = (0.5 * (motion.gain + motion.gain.transpose())).eval();
   motion.f = f;
-  graph.scatter_add(motion.linked, -motion.psi_columns * motion.gain * motion.psi_columns.transpose());
-  // The vehicle's own block and its links, where Psi - Psi K Psi cancels most when Q dwarfs the
-  // vehicle's uncertainty, in the forms that do not cancel: (Psi_vv^-1 + Q)^-1 and
-  // (I + Psi_vv Q)^-1 Psi_vm (the push-through identity).
+  // Psi - Psi(:, v) K Psi(v, :) between the linked landmarks. The vehicle's own block and its links,
+  // where that difference cancels most when Q dwarfs the vehicle's uncertainty, are set in the
+  // forms that do not cancel: (Psi_vv^-1 + Q)^-1 and (I + Psi_vv Q)^-1 Psi_vm (the push-through
+  // identity).
+  const auto landmark_rows = motion.psi_columns.bottomRows(motion.linked.rows() - 3);
+  graph.scatter_add({false, motion.linked.landmarks}, -landmark_rows * motion.gain * landmark_rows.transpose());
   const Matrix3 vehicle = (psi_vv.inverse() + q).inverse();
   graph.vehicle() = 0.5 * (vehicle + vehicle.transpose());
   const Eigen::PartialPivLU<Matrix3> moved(Matrix3::Identity() + psi_vv * q);
@@ -335,20 +337,50 @@ InformationFormEstimator::FactorVector InformationFormEstimator::append_landmark
   return {coupling * offset, information * offset};
 }
 
-void InformationFormEstimator::marginalise(std::size_t index) {
-  // Omega_nn - Omega_nm Omega_mm^-1 Omega_mn over m's neighbours n.
-  const InformationGraph::Variables landmark{false, {index}};
-  InformationGraph::Variables blanket = graph_.neighbourhood(landmark);
-  std::erase(blanket.landmarks, index);
+void InformationFormEstimator::marginalise(const InformationGraph::Variables& variable, Eigen::VectorXd* vector) {
+  // Omega_nn - Omega_nm Omega_mm^-1 Omega_mn over m's neighbours n, and xi_n - Omega_nm Omega_mm^-1 xi_m.
+  InformationGraph::Variables blanket = graph_.neighbourhood(variable);
   InformationGraph::Variables both = blanket;
-  both.landmarks.push_back(index);
+  if (variable.vehicle) {
+    blanket.vehicle = false;
+  } else {
+    std::erase(blanket.landmarks, variable.landmarks.front());
+    both = blanket;
+    both.landmarks.push_back(variable.landmarks.front());
+  }
   const Eigen::MatrixXd joint = graph_.gather(both);
-  const Eigen::Index r = blanket.rows();
-  const Eigen::MatrixXd cross = joint.topRightCorner(r, 2);
-  const Eigen::MatrixXd own = spd_inverse(joint.bottomRightCorner(2, 2), "a landmark's information block");
-  graph_.isolate(index);
-  graph_.scatter_add(blanket, -cross * own * cross.transpose());
+  const Eigen::Index r = blanket.rows(), v = variable.rows();
+  // The variable's rows come first in `both` if it is the vehicle, last if it is a landmark.
+  const Eigen::Index first = variable.vehicle ? 0 : r, others = variable.vehicle ? v : 0;
+  const Eigen::MatrixXd cross = joint.block(others, first, r, v);
+  const Eigen::LLT<Eigen::MatrixXd> own(joint.block(first, first, v, v));
+  if (own.info() != Eigen::Success)
+    throw std::logic_error("marginalisation: an information block is not positive definite");
+  if (vector) add_to_rows(blanket, -cross * own.solve(rows_of(variable, *vector)), *vector);
+  if (variable.vehicle)
+    graph_.isolate_vehicle();
+  else
+    graph_.isolate(variable.landmarks.front());
+  graph_.scatter_add(blanket, -cross * own.solve(cross.transpose()));
   information_changed();
+}
+
+Eigen::VectorXd InformationFormEstimator::rows_of(const InformationGraph::Variables& variables,
+                                                  const Eigen::VectorXd& vector) const {
+  Eigen::VectorXd rows(variables.rows());
+  if (variables.vehicle) rows.head<3>() = vector.head<3>();
+  for (std::size_t k = 0; k < variables.landmarks.size(); ++k)
+    rows.segment<2>(variables.row(k)) =
+        vector.segment<2>(static_cast<Eigen::Index>(landmark_offset(variables.landmarks[k])));
+  return rows;
+}
+
+void InformationFormEstimator::add_to_rows(const InformationGraph::Variables& variables,
+                                           const Eigen::VectorXd& change, Eigen::VectorXd& vector) const {
+  if (variables.vehicle) vector.head<3>() += change.head<3>();
+  for (std::size_t k = 0; k < variables.landmarks.size(); ++k)
+    vector.segment<2>(static_cast<Eigen::Index>(landmark_offset(variables.landmarks[k]))) +=
+        change.segment<2>(variables.row(k));
 }
 
 void InformationFormEstimator::squeeze_stored_rows(std::size_t first, std::size_t /*count: a landmark's 2*/) {

@@ -96,6 +96,12 @@ void InformationGraph::isolate(std::size_t landmark) {
   nodes_[landmark].links.clear();
 }
 
+void InformationGraph::isolate_vehicle() {
+  if (vehicle_links_.empty()) return;
+  vehicle_links_.clear();
+  pattern_version_ = new_pattern_version();
+}
+
 std::size_t InformationGraph::append_landmark(const Matrix2& own) {
   nodes_.push_back({own, {}});
   pattern_version_ = new_pattern_version();

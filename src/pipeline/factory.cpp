@@ -22,6 +22,7 @@ constexpr std::pair<FilterKind, const char*> kFilterNames[] = {
     {FilterKind::kUkf, "ukf"},
     {FilterKind::kEif, "eif"},
     {FilterKind::kSeif, "seif"},
+    {FilterKind::kEseif, "eseif"},
     {FilterKind::kFastSlam1, "fastslam1"},
     {FilterKind::kFastSlam2, "fastslam2"}};
 constexpr std::pair<EkfUpdate, const char*> kEkfUpdateNames[] = {
@@ -30,7 +31,7 @@ constexpr std::pair<EkfUpdate, const char*> kEkfUpdateNames[] = {
 // long drift, where it may take several; beyond ten it would only creep.
 constexpr int kIteratedUpdateLinearisations = 10;
 // The unscented and information estimators are chosen as filters of their own ("ukf", "eif",
-// "seif"), not as EKF variants.
+// "seif", "eseif"), not as EKF variants.
 constexpr std::pair<EkfVariant, const char*> kEkfVariantNames[] = {{EkfVariant::kFull, "full"},
                                                                    {EkfVariant::kCompressed, "compressed"},
                                                                    {EkfVariant::kFirstEstimates, "fej"},
@@ -109,6 +110,27 @@ std::optional<LandmarkInitialisation> landmark_initialisation(LandmarkInit init)
   return std::nullopt;
 }
 
+// The filters EkfSlam runs: a joint Gaussian over the vehicle and the map, in covariance or
+// information form.
+bool is_gaussian_estimator(FilterKind kind) {
+  return kind == FilterKind::kEkf || kind == FilterKind::kUkf || kind == FilterKind::kEif ||
+         kind == FilterKind::kSeif || kind == FilterKind::kEseif;
+}
+
+// A sparse information filter's settings, valid, and left at their defaults by every other filter.
+void require_sparse_information_settings(const FilterConfig& config, FilterKind kind,
+                                         const SparseInformationOptions& options,
+                                         const SparseInformationOptions& defaults) {
+  const std::string prefix = to_string(kind);
+  validate(options, prefix);
+  if (config.filter != kind &&
+      (options.active_landmarks != defaults.active_landmarks || options.recovery_sweeps != defaults.recovery_sweeps ||
+       options.covariance != defaults.covariance))
+    throw std::invalid_argument(fmt::format("{0}_active_landmarks, {0}_recovery_sweeps and {0}_covariance apply to "
+                                            "the filter '{0}', not '{1}'",
+                                            prefix, to_string(config.filter)));
+}
+
 }  // namespace
 
 FilterKind parse_filter_kind(const std::string& name) { return parse_name(kFilterNames, name, "filter"); }
@@ -145,10 +167,10 @@ void validate(const FilterConfig& config) {
     throw std::invalid_argument(fmt::format("threads must be from 0 (all cores) to {}, found {}",
                                             FastSlamConfig::kMaxThreads, config.threads));
   if (config.ekf_variant == EkfVariant::kUnscented || config.ekf_variant == EkfVariant::kInformation ||
-      config.ekf_variant == EkfVariant::kSparseInformation)
-    throw std::invalid_argument("the unscented and information estimators are the filters 'ukf', 'eif' and 'seif', "
-                                "not EKF variants");
-  if ((config.filter == FilterKind::kUkf || config.filter == FilterKind::kEif || config.filter == FilterKind::kSeif) &&
+      config.ekf_variant == EkfVariant::kSparseInformation || config.ekf_variant == EkfVariant::kExactlySparseInformation)
+    throw std::invalid_argument("the unscented and information estimators are the filters 'ukf', 'eif', 'seif' and "
+                                "'eseif', not EKF variants");
+  if (is_gaussian_estimator(config.filter) && config.filter != FilterKind::kEkf &&
       config.ekf_variant != EkfVariant::kFull)
     throw std::invalid_argument(fmt::format("EKF variant '{}' applies to the filter 'ekf', not '{}'",
                                             to_string(config.ekf_variant), to_string(config.filter)));
@@ -156,13 +178,8 @@ void validate(const FilterConfig& config) {
       (config.filter != FilterKind::kEkf || config.ekf_variant == EkfVariant::kCompressed))
     throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full, fej or invariant");
   validate(config.association);
-  validate(config.seif);
-  if (config.filter != FilterKind::kSeif && (config.seif.active_landmarks != SeifOptions{}.active_landmarks ||
-                                             config.seif.recovery_sweeps != SeifOptions{}.recovery_sweeps ||
-                                             config.seif.covariance != SeifOptions{}.covariance))
-    throw std::invalid_argument(
-        fmt::format("seif_active_landmarks, seif_recovery_sweeps and seif_covariance apply to the filter 'seif', not '{}'",
-                    to_string(config.filter)));
+  require_sparse_information_settings(config, FilterKind::kSeif, config.seif, SeifOptions{});
+  require_sparse_information_settings(config, FilterKind::kEseif, config.eseif, EseifOptions{});
   validate(config.delayed_init);
   validate(config.inverse_distance);
   if (config.landmark_init == LandmarkInit::kInverseDistance &&
@@ -209,16 +226,19 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
     case FilterKind::kEkf:
     case FilterKind::kUkf:
     case FilterKind::kEif:
-    case FilterKind::kSeif: {
+    case FilterKind::kSeif:
+    case FilterKind::kEseif: {
       EkfSlamOptions options;
       options.initial_pose = dataset.initial_pose;
       options.association = config.association;
       options.sensor = dataset.sensor;
-      options.variant = config.filter == FilterKind::kUkf    ? EkfVariant::kUnscented
-                        : config.filter == FilterKind::kEif  ? EkfVariant::kInformation
-                        : config.filter == FilterKind::kSeif ? EkfVariant::kSparseInformation
-                                                             : config.ekf_variant;
+      options.variant = config.filter == FilterKind::kUkf     ? EkfVariant::kUnscented
+                        : config.filter == FilterKind::kEif   ? EkfVariant::kInformation
+                        : config.filter == FilterKind::kSeif  ? EkfVariant::kSparseInformation
+                        : config.filter == FilterKind::kEseif ? EkfVariant::kExactlySparseInformation
+                                                              : config.ekf_variant;
       options.seif = config.seif;
+      options.eseif = config.eseif;
       options.joint_scan_update = config.ekf_update != EkfUpdate::kSequential;
       if (config.ekf_update == EkfUpdate::kIterated) options.update_iterations = kIteratedUpdateLinearisations;
       options.threads = config.threads;
@@ -263,6 +283,9 @@ nlohmann::json to_json(const FilterConfig& config) {
           {"seif_active_landmarks", config.seif.active_landmarks},
           {"seif_recovery_sweeps", config.seif.recovery_sweeps},
           {"seif_covariance", to_string(config.seif.covariance)},
+          {"eseif_active_landmarks", config.eseif.active_landmarks},
+          {"eseif_recovery_sweeps", config.eseif.recovery_sweeps},
+          {"eseif_covariance", to_string(config.eseif.covariance)},
           {"landmark_init", to_string(config.landmark_init)},
           {"delayed_init", options_to_json<Delayed>(config.delayed_init, kDelayedInitKeys)},
           {"inverse_distance_min_m", config.inverse_distance.min_distance_m},
@@ -327,6 +350,12 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
         integer(config.seif.recovery_sweeps);
       else if (key == "seif_covariance")
         config.seif.covariance = parse_covariance_recovery(name());
+      else if (key == "eseif_active_landmarks")
+        integer(config.eseif.active_landmarks);
+      else if (key == "eseif_recovery_sweeps")
+        integer(config.eseif.recovery_sweeps);
+      else if (key == "eseif_covariance")
+        config.eseif.covariance = parse_covariance_recovery(name());
       else if (key == "landmark_init")
         config.landmark_init = parse_landmark_init(name());
       else if (key == "delayed_init")
@@ -369,6 +398,9 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
                                                "seif_active_landmarks",
                                                "seif_recovery_sweeps",
                                                "seif_covariance",
+                                               "eseif_active_landmarks",
+                                               "eseif_recovery_sweeps",
+                                               "eseif_covariance",
                                                "landmark_init",
                                                "delayed_init",
                                                "inverse_distance_min_m",

@@ -37,7 +37,8 @@ double filter_bytes(const FilterConfig& config, std::size_t landmarks) {
     // The exact information matrix fills in (every landmark linked with every other), and its
     // Cholesky factor is as large again.
     case FilterKind::kEif: return 2.0 * EkfSlam::memory_estimate(landmarks);
-    case FilterKind::kSeif: return SparseExtendedInformationFilter::memory_estimate(landmarks, config.seif);
+    case FilterKind::kSeif: return SparseInformationFilter::memory_estimate(landmarks, config.seif);
+    case FilterKind::kEseif: return SparseInformationFilter::memory_estimate(landmarks, config.eseif);
     default: return EkfSlam::memory_estimate(landmarks);
   }
 }
@@ -84,8 +85,10 @@ void require_run_memory(const FilterConfig& config, const Dataset& dataset, cons
                         to_string(config.filter), config.particles, estimate.landmarks, estimate.filter_bytes / kGiB)
           : fmt::format("{} with a map of about {} landmarks ({:.3g} GiB for its {})", to_string(config.filter),
                         estimate.landmarks, estimate.filter_bytes / kGiB,
-                        config.filter == FilterKind::kEif || config.filter == FilterKind::kSeif ? "information matrix"
-                                                                                                : "covariance");
+                        config.filter == FilterKind::kEif || config.filter == FilterKind::kSeif ||
+                                config.filter == FilterKind::kEseif
+                            ? "information matrix"
+                            : "covariance");
   require_memory(estimate.total_bytes(), fmt::format("{} and the history --history {} keeps ({:.3g} GiB)", filter,
                                                      to_string(options.history), estimate.history_bytes / kGiB));
 }

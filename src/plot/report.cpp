@@ -35,6 +35,7 @@ std::string filter_title(const std::string& filter) {
   if (filter == "ukf") return "UKF-SLAM";
   if (filter == "eif") return "EIF-SLAM";
   if (filter == "seif") return "SEIF-SLAM";
+  if (filter == "eseif") return "ESEIF-SLAM";
   if (filter == "fastslam1") return "FastSLAM 1.0";
   if (filter == "fastslam2") return "FastSLAM 2.0";
   return filter;

@@ -28,6 +28,7 @@
 #include "slamkit/filters/ekf_estimator.hpp"
 #include "slamkit/filters/landmark_initialiser.hpp"
 #include "slamkit/filters/slam_filter.hpp"
+#include "slamkit/filters/exactly_sparse_information_filter.hpp"
 #include "slamkit/filters/sparse_extended_information_filter.hpp"
 #include "slamkit/filters/unscented_joint_gaussian.hpp"
 #include "slamkit/models/measurement_likelihood.hpp"
@@ -42,6 +43,7 @@ enum class EkfVariant {
   kUnscented,       ///< UnscentedJointGaussian: UKF-SLAM, the filter named "ukf"
   kInformation,     ///< ExtendedInformationFilter: the EKF in information form, the filter named "eif"
   kSparseInformation,  ///< SparseExtendedInformationFilter: SEIF, the filter named "seif"
+  kExactlySparseInformation,  ///< ExactlySparseInformationFilter: ESEIF, the filter named "eseif"
 };
 
 struct EkfSlamOptions {
@@ -74,6 +76,8 @@ struct EkfSlamOptions {
   UkfNoise ukf_noise = UkfNoise::kAugmented;
   /// The SEIF's settings (variant kSparseInformation).
   SeifOptions seif;
+  /// The ESEIF's settings (variant kExactlySparseInformation).
+  EseifOptions eseif;
   /// How a landmark starts (filters/landmark_initialiser.hpp); unset: immediately where the
   /// observation model inverts a measurement, delayed where it does not. Delayed needs known
   /// identities.
@@ -243,7 +247,7 @@ class EkfSlam final : public SlamFilter {
   bool recent_confirmed_ = false;  // a landmark started in the window was confirmed this scan
   std::vector<std::size_t> recent_, old_;
   bool joint_scan_update_;
-  std::string name_;  // "ekf", or the filter its estimator makes it: "ukf", "eif", "seif"
+  std::string name_;  // "ekf", or the filter its estimator makes it: "ukf", "eif", "seif", "eseif"
   std::vector<LandmarkObservation> batch_;  // a scan's updates, when applied jointly
   // Reused per scan.
   std::vector<std::size_t> new_observations_;

@@ -123,9 +123,16 @@ class InformationFormEstimator : public EkfEstimator {
   /// grows by [-Gx I]^T L [-Gx I] over (vehicle, landmark), L the inverse of its covariance given the
   /// pose, and the mean by its position. Returns the factor's information vector [-Gx I]^T L c.
   FactorVector append_landmark_factor(const InitialLandmark& landmark);
-  /// Marginalises landmark `index` out of Omega (the Schur complement over its neighbours), leaving
-  /// it without edges until remove_stored_landmark takes its rows.
-  void marginalise(std::size_t index);
+  /// Marginalises `variable` (the vehicle, or one landmark) out of Omega and, if given, out of the
+  /// information vector `vector` over the state's rows: the Schur complement over its neighbours.
+  /// It is left without edges, its own block and rows of `vector` as they were (a landmark until
+  /// remove_stored_landmark takes its rows).
+  void marginalise(const InformationGraph::Variables& variable, Eigen::VectorXd* vector = nullptr);
+  /// The rows of `vector` (over the state's rows) that `variables` hold, in the block's row order.
+  Eigen::VectorXd rows_of(const InformationGraph::Variables& variables, const Eigen::VectorXd& vector) const;
+  /// vector (over the state's rows) += change (over `variables`' block rows).
+  void add_to_rows(const InformationGraph::Variables& variables, const Eigen::VectorXd& change,
+                   Eigen::VectorXd& vector) const;
   /// The change of variables that fuses `pairs`: x = T y, with each duplicate's rows of y holding
   /// e = m_duplicate - m_original; `duplicate_row` marks those rows.
   Sparse fusion_transform(std::span<const LandmarkPair> pairs, std::vector<char>& duplicate_row) const;

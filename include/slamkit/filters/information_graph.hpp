@@ -65,6 +65,8 @@ class InformationGraph {
   void remove_vehicle_link(std::size_t landmark);
   /// Drops every edge of `landmark`, keeping the node with its own block.
   void isolate(std::size_t landmark);
+  /// Drops every edge of the vehicle, keeping its own block.
+  void isolate_vehicle();
   /// A new landmark with information `own` and no edges; returns its index.
   std::size_t append_landmark(const Matrix2& own);
   /// Drops landmark `index` (and its edges); the landmarks after it move down by one.

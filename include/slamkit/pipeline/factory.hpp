@@ -19,7 +19,7 @@
 
 namespace slamkit {
 
-enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2, kEif, kSeif };
+enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2, kEif, kSeif, kEseif };
 
 /// How the EKF applies a scan's paired observations.
 enum class EkfUpdate {
@@ -48,6 +48,8 @@ struct FilterConfig {
   UkfNoise ukf_noise = UkfNoise::kAugmented;
   // SEIF only: run.json's seif_active_landmarks, seif_recovery_sweeps and seif_covariance.
   SeifOptions seif;
+  // ESEIF only: run.json's eseif_active_landmarks, eseif_recovery_sweeps and eseif_covariance.
+  EseifOptions eseif;
   // How a landmark starts (filters/landmark_initialiser.hpp), and the delayed start's settings.
   LandmarkInit landmark_init = LandmarkInit::kAuto;
   DelayedInitialisationOptions delayed_init;
@@ -65,7 +67,7 @@ struct FilterConfig {
   unsigned threads = 0;          // 0: all cores
 };
 
-/// "ekf", "ukf", "eif", "seif", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
+/// "ekf", "ukf", "eif", "seif", "eseif", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
 FilterKind parse_filter_kind(const std::string& name);
 std::string to_string(FilterKind kind);
 /// "joint", "sequential" or "iterated"; throws std::invalid_argument naming the accepted values.
