@@ -5,21 +5,23 @@
 // factorisation of an Omega that the motion has filled in. `slamkit plot-bench` draws them as
 // information_vs_landmarks.svg.
 //
-// A step is what a run does per scan, through EkfSlam with its defaults (SeifOptions' 20 active
-// landmarks, 2 recovery sweeps, local covariances): the predictions of the scan's controls (eight of
+// A step is what a run does per scan, through EkfSlam with its defaults (20 active landmarks, 2
+// recovery sweeps; SEIF's local covariances): the predictions of the scan's controls (eight of
 // 25 ms), then the update with the scan (about ten range-bearing observations with known identities).
 // The known-identity gate is on, as the command line runs it; for the SEIF that is most of a step (the
 // covariances it reads come from one local recovery over the Markov blanket of the scan's landmarks),
 // so seif_ungated times the SEIF without it: the filter's own step, the paper's constant-time one.
+// eseif_ungated is the exactly sparse filter's own step (its default exact covariance recovery, which
+// the gate would read, is a factorisation of the whole map).
 //
 // The maps have the city's landmark density whatever their size (30,000 landmarks on 66 km of street,
 // 4-12 m beside it), so that a scan sees as many landmarks and a landmark has as many neighbours at
 // every n: a street grid of fewer or smaller blocks (the city itself at 30,000), or, where a grid would
 // need blocks too small to drive round (n = 100), a loop of generate_world's shape with the same band.
 // The sensor is the city scenario's (a 180 degree view reaching 22 m).
-//  * SEIF: drives the world's route once, which sees every landmark, so that Omega's links are those a
-//    run gives it (landmarks linked where they were active together, streets linked at crossings).
-//    The city's 120,000 scans take about 40 s; it is done once per map size. The counters say how the
+//  * SEIF and ESEIF: drive the world's route once, which sees every landmark, so that Omega's links
+//    are those a run gives it (landmarks linked where they were active together, streets linked at
+//    crossings). The city's 120,000 scans take about 40 s; it is done once per map size. The counters say how the
 //    route left it: pose_error_m at the stretch's start, route_rejected (the share the gate refused).
 //  * EKF and EIF: driving to their largest maps is out of reach (3,000 landmarks are 13,000 scans, of
 //    up to 25 ms each for the EKF; the EIF's step at 1,000 takes seconds), so, as ekf_fixture.hpp
@@ -284,15 +286,19 @@ EkfSlamOptions options(EkfVariant variant, bool gate, const Scene& s, const Pose
   return o;
 }
 
+bool sparse(EkfVariant variant) {
+  return variant == EkfVariant::kSparseInformation || variant == EkfVariant::kExactlySparseInformation;
+}
+
 double statistic(const EkfSlam& filter, const std::string& name) {
   const auto s = filter.statistics();
   const auto it = s.find(name);
   return it == s.end() ? 0.0 : it->second;
 }
 
-/// The SEIF after the route and the lap that settles the laps.
-void drive_seif(Running& r, Scene& s) {
-  if (!s.route) s.route = simulate(s.world, s.config);  // driven before, by the other SEIF
+/// A sparse filter (SEIF, ESEIF) after the route and the lap that settles the laps.
+void drive_sparse(Running& r, Scene& s) {
+  if (!s.route) s.route = simulate(s.world, s.config);  // driven before, by another sparse filter
   r.filter = std::make_unique<EkfSlam>(s.motion, s.observation, options(r.variant, r.gate, s, s.route->initial_pose));
   for (const Event& event : s.route->events)
     std::visit(
@@ -333,8 +339,8 @@ Running& running(EkfVariant variant, bool gate, int n) {
   r.gate = gate;
   r.n = n;
   Scene& s = scene(n);
-  if (variant == EkfVariant::kSparseInformation)
-    drive_seif(r, s);
+  if (sparse(variant))
+    drive_sparse(r, s);
   else
     map_exact(r, s);
   return r;
@@ -364,8 +370,9 @@ void BM_InformationStep(benchmark::State& state, EkfVariant variant, bool gate) 
   state.counters["setup_scans"] = static_cast<double>(r.setup_scans);
   if (variant != EkfVariant::kFull)
     state.counters["information_nonzeros"] = statistic(filter, "information_nonzeros");
-  if (variant == EkfVariant::kSparseInformation) {
-    state.counters["active"] = statistic(filter, "seif_active_landmarks");
+  if (sparse(variant)) {
+    state.counters["active"] = statistic(
+        filter, variant == EkfVariant::kSparseInformation ? "seif_active_landmarks" : "eseif_active_landmarks");
     state.counters["pose_error_m"] = r.pose_error_m;
     state.counters["route_rejected"] = r.route_rejected;
   }
@@ -383,6 +390,8 @@ void ekf_sizes(benchmark::internal::Benchmark* b) { map_sizes(b, kMaxEkf); }
 // Named BM_InformationStep/<filter>/<landmarks>: the series of information_vs_landmarks.svg.
 BENCHMARK_CAPTURE(BM_InformationStep, seif, EkfVariant::kSparseInformation, true)->Apply(seif_sizes);
 BENCHMARK_CAPTURE(BM_InformationStep, seif_ungated, EkfVariant::kSparseInformation, false)->Apply(seif_sizes);
+BENCHMARK_CAPTURE(BM_InformationStep, eseif_ungated, EkfVariant::kExactlySparseInformation, false)
+    ->Apply(seif_sizes);
 BENCHMARK_CAPTURE(BM_InformationStep, eif, EkfVariant::kInformation, true)->Apply(eif_sizes);
 BENCHMARK_CAPTURE(BM_InformationStep, ekf, EkfVariant::kFull, true)->Apply(ekf_sizes);
 

@@ -9,8 +9,9 @@
 #   e.g. scripts/consistency_monte_carlo.sh w1k.txt --config fov150.json --loops 1
 # Environment: SLAMKIT (the binary, default build/slamkit), RUNS (default 50), JOBS (parallel runs,
 # default 2), OUT (scratch folder, default out/consistency-<world>), FILTERS (default
-# "ekf ukf fej fej-iterated invariant invariant-iterated"; also ekf-iterated and ukf-additive, the UKF
-# with --ukf-noise additive), FIRST_SEED (default 1:
+# "ekf ukf fej fej-iterated invariant invariant-iterated"; also ekf-iterated, ukf-additive (the UKF
+# with --ukf-noise additive), the information filters eif, seif, seif-exact (--seif-covariance exact)
+# and eseif), FIRST_SEED (default 1:
 # seeds FIRST_SEED .. FIRST_SEED + RUNS - 1; choices are made on other seeds than the table's).
 set -euo pipefail
 
@@ -42,6 +43,10 @@ filter_args() {
     invariant) echo "--filter ekf --ekf-variant invariant" ;;
     invariant-iterated) echo "--filter ekf --ekf-variant invariant --ekf-update iterated" ;;
     ekf-iterated) echo "--filter ekf --ekf-update iterated" ;;
+    eif) echo "--filter eif" ;;
+    seif) echo "--filter seif" ;;
+    seif-exact) echo "--filter seif --seif-covariance exact" ;;
+    eseif) echo "--filter eseif" ;;
     *) die "unknown filter '$1'" ;;
   esac
 }

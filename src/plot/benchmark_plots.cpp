@@ -63,7 +63,8 @@ const std::vector<Plot>& plots() {
        {{"SEIF (known-identity gate on)", R"(BM_InformationStep/seif/(\d+))"},
         {"EIF", R"(BM_InformationStep/eif/(\d+))"},
         {"full EKF", R"(BM_InformationStep/ekf/(\d+))"},
-        {"SEIF, gate off: its own step", R"(BM_InformationStep/seif_ungated/(\d+))"}},
+        {"SEIF, gate off: its own step", R"(BM_InformationStep/seif_ungated/(\d+))"},
+        {"ESEIF, gate off: its own step", R"(BM_InformationStep/eseif_ungated/(\d+))"}},
        true},
   };
   return all;
