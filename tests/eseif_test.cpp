@@ -24,22 +24,9 @@ EseifOptions exact_mean(std::size_t active) {
 }
 
 std::unique_ptr<EkfSlam> run_scans(const Dataset& data, const EseifOptions& options, std::size_t scans) {
-  EkfSlamOptions settings;
-  settings.eseif = options;
-  settings.initial_pose = data.initial_pose;
-  settings.initial_covariance = kPrior;
-  settings.sensor = data.sensor;
-  settings.variant = EkfVariant::kExactlySparseInformation;
-  auto filter = std::make_unique<EkfSlam>(data.motion, data.observation, settings);
-  std::size_t done = 0;
-  for (const Event& e : data.events) {
-    if (const auto* c = std::get_if<ControlEvent>(&e)) {
-      filter->predict(*c);
-    } else {
-      filter->update(std::get<ScanEvent>(e));
-      if (++done == scans) break;
-    }
-  }
+  auto filter =
+      make(data, EkfVariant::kExactlySparseInformation, AssociationMethod::kKnown, true, kPrior, {}, options);
+  drive(*filter, data, scans);
   return filter;
 }
 

@@ -58,6 +58,19 @@ inline std::unique_ptr<EkfSlam> make(const Dataset& data, EkfVariant variant, As
   return std::make_unique<EkfSlam>(data.motion, data.observation, options);
 }
 
+/// Runs `filter` over the first `scans` scans of `data` and the controls before them.
+inline void drive(EkfSlam& filter, const Dataset& data, std::size_t scans) {
+  std::size_t done = 0;
+  for (const Event& e : data.events) {
+    if (const auto* c = std::get_if<ControlEvent>(&e)) {
+      filter.predict(*c);
+    } else {
+      filter.update(std::get<ScanEvent>(e));
+      if (++done == scans) break;
+    }
+  }
+}
+
 inline double max_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   return (a - b).cwiseAbs().maxCoeff();
 }

@@ -29,15 +29,7 @@ SeifOptions exact() {
 std::unique_ptr<EkfSlam> run_scans(const Dataset& data, const SeifOptions& options, std::size_t scans,
                                    EkfVariant variant = EkfVariant::kSparseInformation) {
   auto seif = make(data, variant, AssociationMethod::kKnown, true, kPrior, options);
-  std::size_t done = 0;
-  for (const Event& e : data.events) {
-    if (const auto* c = std::get_if<ControlEvent>(&e)) {
-      seif->predict(*c);
-    } else {
-      seif->update(std::get<ScanEvent>(e));
-      if (++done == scans) break;
-    }
-  }
+  drive(*seif, data, scans);
   return seif;
 }
 

@@ -53,14 +53,7 @@ bool ExtendedInformationFilter::fuse_landmarks(std::span<const LandmarkPair> pai
   Eigen::VectorXd shift = fused * difference;
   for (Eigen::Index i = 0; i < n; ++i)
     if (duplicate_row[static_cast<std::size_t>(i)]) shift[i] = 0.0;
-  InformationGraph prior = InformationGraph::from_sparse(conditioned_on_fusion(fused, duplicate_row));
-  std::swap(prior, graph_);
-  information_changed();
-  if (!factorise()) {
-    graph_ = std::move(prior);
-    information_changed();
-    return false;
-  }
+  if (!replace_information(InformationGraph::from_sparse(conditioned_on_fusion(fused, duplicate_row)))) return false;
   x_.head(n) += solve(shift);
   x_[2] = wrap_angle(x_[2]);
   for (const LandmarkPair& pair : pairs)

@@ -89,6 +89,15 @@ bool InformationFormEstimator::factorise() const {
   return factorised_;
 }
 
+bool InformationFormEstimator::replace_information(InformationGraph omega) {
+  std::swap(omega, graph_);
+  information_changed();
+  if (factorise()) return true;
+  graph_ = std::move(omega);
+  information_changed();
+  return false;
+}
+
 Eigen::MatrixXd InformationFormEstimator::covariance_columns(std::size_t first, std::size_t count) const {
   if (!factorise()) throw std::logic_error("the information matrix is not positive definite");
   Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(exported_.rows(), static_cast<Eigen::Index>(count));

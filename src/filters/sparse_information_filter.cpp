@@ -111,15 +111,9 @@ bool SparseInformationFilter::fuse_landmarks(std::span<const LandmarkPair> pairs
   Eigen::VectorXd xi = Sparse(t.transpose()) * xi_.head(n);
   for (const LandmarkPair& pair : pairs)
     xi.segment<2>(static_cast<Eigen::Index>(landmark_offset(pair.duplicate))) = landmark_position(pair.original);
-  InformationGraph prior = InformationGraph::from_sparse(
-      conditioned_on_fusion(Sparse(t.transpose()) * graph_.to_sparse() * t, duplicate_row));
-  std::swap(prior, graph_);
-  information_changed();
-  if (!factorise()) {
-    graph_ = std::move(prior);
-    information_changed();
+  if (!replace_information(InformationGraph::from_sparse(
+          conditioned_on_fusion(Sparse(t.transpose()) * graph_.to_sparse() * t, duplicate_row))))
     return false;
-  }
   xi_.head(n) = xi;
   x_.head(n) = solve(xi);
   x_[2] = wrap_angle(x_[2]);

@@ -107,6 +107,9 @@ class InformationFormEstimator : public EkfEstimator {
   void information_changed();
   /// The Cholesky factor of Omega, computed on first use after a change; false if it failed.
   bool factorise() const;
+  /// Makes `omega` the information matrix if it factorises (then factorised); otherwise keeps the
+  /// present one and returns false.
+  bool replace_information(InformationGraph omega);
   /// Omega^-1 b (the factorisation current).
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const { return llt_.solve(b); }
   /// Applies the pending motion, then adds H^T R^-1 H of `batch` (each observation linearised at the
