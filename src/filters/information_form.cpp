@@ -349,8 +349,9 @@ InformationFormEstimator::FactorVector InformationFormEstimator::append_landmark
 void InformationFormEstimator::marginalise(const InformationGraph::Variables& variable, Eigen::VectorXd* vector) {
   // Omega_nn - Omega_nm Omega_mm^-1 Omega_mn over m's neighbours n, and xi_n - Omega_nm Omega_mm^-1 xi_m.
   InformationGraph::Variables blanket = graph_.neighbourhood(variable);
-  InformationGraph::Variables both = blanket;
+  InformationGraph::Variables both;  // the variable and its blanket
   if (variable.vehicle) {
+    both = blanket;
     blanket.vehicle = false;
   } else {
     std::erase(blanket.landmarks, variable.landmarks.front());
