@@ -516,7 +516,7 @@ int run_command(int argc, char** argv) {
       ->check(integer_at_least(0));
   add_named_setting(run_cmd, "--eseif-covariance", flag_settings, "/eseif_covariance", parse_covariance_recovery,
                     "ESEIF: how covariances are recovered, as --seif-covariance (exact by default: the local "
-                    "recovery of a relocated vehicle conditions on its two or three landmarks)",
+                    "recovery of a relocated vehicle conditions on the landmarks that relocated it)",
                     defaults.eseif.covariance);
   add_named_setting(run_cmd, "--landmark-init", flag_settings, "/landmark_init", parse_landmark_init,
                     "How a landmark starts: immediate (from one measurement's inverse), delayed "

@@ -5,8 +5,8 @@
 // factorisation of an Omega that the motion has filled in. `slamkit plot-bench` draws them as
 // information_vs_landmarks.svg.
 //
-// A step is what a run does per scan, through EkfSlam with its defaults (20 active landmarks, 2
-// recovery sweeps; SEIF's local covariances): the predictions of the scan's controls (eight of
+// A step is what a run does per scan, through EkfSlam with its defaults (SEIF 20 active landmarks,
+// ESEIF 60; 2 recovery sweeps; SEIF's local covariances): the predictions of the scan's controls (eight of
 // 25 ms), then the update with the scan (about ten range-bearing observations with known identities).
 // The known-identity gate is on, as the command line runs it; for the SEIF that is most of a step (the
 // covariances it reads come from one local recovery over the Markov blanket of the scan's landmarks),

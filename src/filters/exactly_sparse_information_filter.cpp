@@ -55,7 +55,9 @@ std::vector<std::size_t> ExactlySparseInformationFilter::relocation_set(
   // the next relocation.
   const std::size_t relocating = std::max<std::size_t>(1, options().active_landmarks / 2);
   std::vector<std::size_t> chosen;
+  std::vector<char> taken(batch.size(), 0);
   for (const std::size_t k : order) {
+    if (directions == 3) break;
     const LandmarkObservation& o = batch[k];
     PoseJacobian hx;
     LandmarkJacobian hm;
@@ -63,13 +65,16 @@ std::vector<std::size_t> ExactlySparseInformationFilter::relocation_set(
     const Eigen::MatrixXd noise = o.noise_scale * observation_model().noise();
     const Matrix3 with = determined + hx.transpose() * noise.llt().solve(Eigen::MatrixXd(hx));
     const int now = determined_directions(with);
-    if (now <= directions && directions < 3) continue;
+    if (now <= directions) continue;
     determined = with;
     directions = now;
     chosen.push_back(k);
-    if (directions == 3 && chosen.size() >= relocating) return chosen;
+    taken[k] = 1;
   }
-  return directions == 3 ? chosen : std::vector<std::size_t>{};
+  if (directions < 3) return {};
+  for (const std::size_t k : order)
+    if (chosen.size() < relocating && !taken[k]) chosen.push_back(k);
+  return chosen;
 }
 
 bool ExactlySparseInformationFilter::update_landmarks(std::span<const LandmarkObservation> batch) {

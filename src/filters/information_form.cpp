@@ -348,6 +348,8 @@ InformationFormEstimator::FactorVector InformationFormEstimator::append_landmark
 
 void InformationFormEstimator::marginalise(const InformationGraph::Variables& variable, Eigen::VectorXd* vector) {
   // Omega_nn - Omega_nm Omega_mm^-1 Omega_mn over m's neighbours n, and xi_n - Omega_nm Omega_mm^-1 xi_m.
+  if (variable.landmarks.size() != (variable.vehicle ? 0u : 1u))
+    throw std::logic_error("marginalise: the vehicle or one landmark, not both or several");
   InformationGraph::Variables blanket = graph_.neighbourhood(variable);
   InformationGraph::Variables both;  // the variable and its blanket
   if (variable.vehicle) {
@@ -361,8 +363,8 @@ void InformationFormEstimator::marginalise(const InformationGraph::Variables& va
   const Eigen::MatrixXd joint = graph_.gather(both);
   const Eigen::Index r = blanket.rows(), v = variable.rows();
   // The variable's rows come first in `both` if it is the vehicle, last if it is a landmark.
-  const Eigen::Index first = variable.vehicle ? 0 : r, others = variable.vehicle ? v : 0;
-  const Eigen::MatrixXd cross = joint.block(others, first, r, v);
+  const Eigen::Index first = variable.vehicle ? 0 : r, blanket_first = variable.vehicle ? v : 0;
+  const Eigen::MatrixXd cross = joint.block(blanket_first, first, r, v);
   const Eigen::LLT<Eigen::MatrixXd> own(joint.block(first, first, v, v));
   if (own.info() != Eigen::Success)
     throw std::logic_error("marginalisation: an information block is not positive definite");

@@ -96,6 +96,10 @@ void SparseInformationFilter::remove_landmark(std::size_t index) {
   std::erase(active_, index);
   for (std::size_t& a : active_)
     if (a > index) --a;
+  // An active landmark's removal links the vehicle to its neighbours, which count as active from
+  // now on (keeping the scan they were last seen in, so that SEIF's recency order stands).
+  for (const InformationGraph::VehicleLink& link : graph_.vehicle_links())
+    if (std::find(active_.begin(), active_.end(), link.landmark) == active_.end()) active_.push_back(link.landmark);
   if (next_relaxed_ >= num_landmarks()) next_relaxed_ = 0;
 }
 

@@ -167,13 +167,17 @@ void validate(const FilterConfig& config) {
     throw std::invalid_argument(fmt::format("threads must be from 0 (all cores) to {}, found {}",
                                             FastSlamConfig::kMaxThreads, config.threads));
   if (config.ekf_variant == EkfVariant::kUnscented || config.ekf_variant == EkfVariant::kInformation ||
-      config.ekf_variant == EkfVariant::kSparseInformation || config.ekf_variant == EkfVariant::kExactlySparseInformation)
+      config.ekf_variant == EkfVariant::kSparseInformation ||
+      config.ekf_variant == EkfVariant::kExactlySparseInformation)
     throw std::invalid_argument("the unscented and information estimators are the filters 'ukf', 'eif', 'seif' and "
                                 "'eseif', not EKF variants");
   if (is_gaussian_estimator(config.filter) && config.filter != FilterKind::kEkf &&
       config.ekf_variant != EkfVariant::kFull)
     throw std::invalid_argument(fmt::format("EKF variant '{}' applies to the filter 'ekf', not '{}'",
                                             to_string(config.ekf_variant), to_string(config.filter)));
+  if (config.ekf_update == EkfUpdate::kSequential && config.filter == FilterKind::kEseif)
+    throw std::invalid_argument("EKF update 'sequential' does not apply to the filter 'eseif': a relocation needs the "
+                                "scan's observations together");
   if (config.ekf_update == EkfUpdate::kIterated &&
       (config.filter != FilterKind::kEkf || config.ekf_variant == EkfVariant::kCompressed))
     throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full, fej or invariant");

@@ -4,26 +4,29 @@
 // are bounded by forgetting what it knows, never by asserting what it does not:
 //  * while no more than `active_landmarks` landmarks are linked to the vehicle, a scan is the
 //    exact information filter's update (SparseInformationFilter's);
-//  * when a scan would link more, its observations are split. Those of the few landmarks that pin
-//    the vehicle down best (z_beta) are kept aside; the rest (z_alpha) update the filter as usual.
-//    Then the vehicle is marginalised out (exact: the landmarks linked to it become linked to each
-//    other, a clique no larger than the bound), and put back with no information at all, at its
-//    current estimate. z_beta's update then relocates it: the vehicle is linked to beta's
-//    landmarks only.
+//  * when a scan would link more, its observations are split. Those of up to half the bound's
+//    landmarks (z_beta) are kept aside; the rest (z_alpha) update the filter as usual. Then the
+//    vehicle is marginalised out (exact: the landmarks linked to it, the active set and alpha's,
+//    become linked to each other), and put back with no information at all, at its current
+//    estimate. z_beta's update then relocates it: the vehicle is linked to beta's landmarks only.
 // Marginalising is exact and starting the vehicle again from nothing only drops information (the
 // vehicle's links to the map through its past motion), so the belief stays consistent: the filter's
-// Omega is the exact information matrix of a little less data. What is lost is the odometry's share
-// in pinning the vehicle to the map, at each relocation; z_beta alone must determine the pose (two
-// range-bearing landmarks; three bearings or ranges in general position). A scan that cannot does
-// not relocate, and the active set grows until one can (eseif_relocations_deferred counts them).
+// Omega is the exact information matrix of a little less data. What is lost is what the filter knew
+// of the pose given the map, its odometry's share above all, at each relocation (docs/filters.md
+// measures it); z_beta alone must determine the pose (two range-bearing landmarks; three bearings or
+// ranges in general position). A scan that cannot does not relocate, and the active set grows until
+// one can (eseif_relocations_deferred counts them). The update must see the scan's observations
+// together: the sequential update, one observation at a time, could never relocate, and is refused.
 //
 // beta is chosen in order of how firmly each landmark is tied into the map (its own information
-// block's trace: the landmarks observed most), taking each that adds a direction the vehicle's
-// pose was not yet determined in, until all three are.
+// block's trace: the landmarks observed most): first each that adds a direction the pose was not
+// yet determined in, until all three are, then the others in that order, up to half the bound. Two
+// landmarks that just determine the pose leave its heading so loose that later linearisations make
+// the filter overconfident; more pin it down.
 //
 // The covariances are recovered exactly by default (a sparse factorisation, as the EIF): the local
-// recovery conditions on the Markov blanket, which for a relocated vehicle is its two or three
-// landmarks, and is overconfident by far.
+// recovery conditions on the Markov blanket, which for a relocated vehicle is beta's landmarks and
+// their neighbours, and is overconfident by far.
 #include <vector>
 
 #include "slamkit/filters/sparse_information_filter.hpp"

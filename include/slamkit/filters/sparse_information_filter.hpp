@@ -30,8 +30,10 @@ namespace slamkit {
 
 /// The settings of a sparse information filter (run.json's seif_* or eseif_* keys).
 struct SparseInformationOptions {
-  /// The landmarks linked to the vehicle at most (after each SEIF sparsification; before each ESEIF
-  /// relocation): more keeps more of the exact filter's information, fewer keeps Omega sparser.
+  /// The landmarks linked to the vehicle at most: after each SEIF sparsification; for ESEIF, the
+  /// count a scan's update may not exceed without relocating the vehicle (the scan's new landmarks,
+  /// and scans that cannot determine the pose, go beyond it until the next relocation). More keeps
+  /// more of the exact filter's information, fewer keeps Omega sparser.
   std::size_t active_landmarks = 20;
   /// Block Gauss-Seidel sweeps of the mean recovery per scan; 0 recovers the mean exactly (a sparse
   /// Cholesky solve of the whole map).
