@@ -437,7 +437,8 @@ int run_command(int argc, char** argv) {
   std::string data_spec, run_out, data_config;
   add_named_setting(run_cmd, "--filter", flag_settings, "/filter", parse_filter_kind,
                     "Filter: ekf, ukf, eif (the EKF in information form), seif (the sparse extended information filter), "
-                    "eseif (the exactly sparse extended information filter), fastslam1, fastslam2",
+                    "eseif (the exactly sparse extended information filter), tjtf (Paskin's thin junction tree filter), "
+                    "fastslam1, fastslam2",
                     defaults.filter);
   add_named_setting(run_cmd, "--assoc", flag_settings, "/association/method", parse_association_method,
                     "Data association: known (ids from the log), nn, jcbb", defaults.association.method);
@@ -478,7 +479,8 @@ int run_command(int argc, char** argv) {
   add_named_setting(run_cmd, "--ekf-update", flag_settings, "/ekf_update", parse_ekf_update,
                     "EKF and UKF: joint (a scan at once) or sequential (one observation after another). "
                     "EKF full, fej or invariant: iterated (joint, relinearised at the "
-                    "result until it converges; keeps a loop closure after a long drift consistent)",
+                    "result until it converges; keeps a loop closure after a long drift consistent). tjtf: always one "
+                    "observation after another",
                     defaults.ekf_update);
   add_named_setting(run_cmd, "--ekf-variant", flag_settings, "/ekf_variant", parse_ekf_variant,
                     "EKF: full, compressed (local-area updates, the same result as full), "
@@ -518,6 +520,11 @@ int run_command(int argc, char** argv) {
                     "ESEIF: how covariances are recovered, as --seif-covariance (exact by default: the local "
                     "recovery of a relocated vehicle conditions on the landmarks that relocated it)",
                     defaults.eseif.covariance);
+  add_setting<std::size_t>(run_cmd, "--tjtf-clique", flag_settings, "/tjtf_max_clique_landmarks",
+                           "TJTF: landmarks a clique of the junction tree holds at most (more: more of the EKF's "
+                           "correlations kept, each clique costing (3 + 2k)^3)",
+                           std::to_string(defaults.tjtf.max_clique_landmarks))
+      ->check(integer_at_least(1));
   add_named_setting(run_cmd, "--landmark-init", flag_settings, "/landmark_init", parse_landmark_init,
                     "How a landmark starts: immediate (from one measurement's inverse), delayed "
                     "(triangulated from several observations at well-spread poses; known ids only), ring (range "
@@ -861,7 +868,7 @@ int run_command(int argc, char** argv) {
       if (filter.filter != FilterKind::kFastSlam2 && run_cmd->count("--pose-sample-fraction") > 0)
         warn(fmt::format("--pose-sample-fraction applies to fastslam2 only; {} ignores it", to_string(filter.filter)));
       if ((filter.filter == FilterKind::kUkf || filter.filter == FilterKind::kEif || filter.filter == FilterKind::kSeif ||
-           filter.filter == FilterKind::kEseif) &&
+           filter.filter == FilterKind::kEseif || filter.filter == FilterKind::kTjtf) &&
           run_cmd->count("--threads") > 0)
         warn(fmt::format("--threads is ignored by the {}", to_string(filter.filter)));
       if (filter.filter != FilterKind::kUkf && run_cmd->count("--ukf-noise") > 0)

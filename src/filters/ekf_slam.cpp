@@ -40,6 +40,9 @@ std::unique_ptr<EkfEstimator> make_estimator(std::shared_ptr<const MotionModel> 
       return std::make_unique<ExactlySparseInformationFilter>(std::move(motion), std::move(observation),
                                                               options.initial_pose, options.initial_covariance,
                                                               options.eseif);
+    case EkfVariant::kThinJunctionTree:
+      return std::make_unique<ThinJunctionTreeFilter>(std::move(motion), std::move(observation), options.initial_pose,
+                                                      options.initial_covariance, options.tjtf);
     case EkfVariant::kFirstEstimates:
     case EkfVariant::kInvariant:
     case EkfVariant::kFull:
@@ -89,6 +92,7 @@ EkfSlam::EkfSlam(std::unique_ptr<EkfEstimator> estimator, std::span<const int> i
             : options.variant == EkfVariant::kInformation              ? "eif"
             : options.variant == EkfVariant::kSparseInformation        ? "seif"
             : options.variant == EkfVariant::kExactlySparseInformation ? "eseif"
+            : options.variant == EkfVariant::kThinJunctionTree         ? "tjtf"
                                                                        : "ekf") {
   require_searchable(association_, estimator_->observation_model());
   if (estimator_->calibrates_ranges() && association_.method != AssociationMethod::kKnown)

@@ -23,6 +23,7 @@ constexpr std::pair<FilterKind, const char*> kFilterNames[] = {
     {FilterKind::kEif, "eif"},
     {FilterKind::kSeif, "seif"},
     {FilterKind::kEseif, "eseif"},
+    {FilterKind::kTjtf, "tjtf"},
     {FilterKind::kFastSlam1, "fastslam1"},
     {FilterKind::kFastSlam2, "fastslam2"}};
 constexpr std::pair<EkfUpdate, const char*> kEkfUpdateNames[] = {
@@ -30,8 +31,8 @@ constexpr std::pair<EkfUpdate, const char*> kEkfUpdateNames[] = {
 // The iterated update converges in two or three linearisations except at a loop closure after a
 // long drift, where it may take several; beyond ten it would only creep.
 constexpr int kIteratedUpdateLinearisations = 10;
-// The unscented and information estimators are chosen as filters of their own ("ukf", "eif",
-// "seif", "eseif"), not as EKF variants.
+// The unscented, information and junction tree estimators are chosen as filters of their own ("ukf",
+// "eif", "seif", "eseif", "tjtf"), not as EKF variants.
 constexpr std::pair<EkfVariant, const char*> kEkfVariantNames[] = {{EkfVariant::kFull, "full"},
                                                                    {EkfVariant::kCompressed, "compressed"},
                                                                    {EkfVariant::kFirstEstimates, "fej"},
@@ -114,7 +115,7 @@ std::optional<LandmarkInitialisation> landmark_initialisation(LandmarkInit init)
 // information form.
 bool is_gaussian_estimator(FilterKind kind) {
   return kind == FilterKind::kEkf || kind == FilterKind::kUkf || kind == FilterKind::kEif ||
-         kind == FilterKind::kSeif || kind == FilterKind::kEseif;
+         kind == FilterKind::kSeif || kind == FilterKind::kEseif || kind == FilterKind::kTjtf;
 }
 
 // A sparse information filter's settings, valid, and left at their defaults by every other filter.
@@ -168,9 +169,10 @@ void validate(const FilterConfig& config) {
                                             FastSlamConfig::kMaxThreads, config.threads));
   if (config.ekf_variant == EkfVariant::kUnscented || config.ekf_variant == EkfVariant::kInformation ||
       config.ekf_variant == EkfVariant::kSparseInformation ||
-      config.ekf_variant == EkfVariant::kExactlySparseInformation)
-    throw std::invalid_argument("the unscented and information estimators are the filters 'ukf', 'eif', 'seif' and "
-                                "'eseif', not EKF variants");
+      config.ekf_variant == EkfVariant::kExactlySparseInformation ||
+      config.ekf_variant == EkfVariant::kThinJunctionTree)
+    throw std::invalid_argument("the unscented, information and junction tree estimators are the filters 'ukf', "
+                                "'eif', 'seif', 'eseif' and 'tjtf', not EKF variants");
   if (is_gaussian_estimator(config.filter) && config.filter != FilterKind::kEkf &&
       config.ekf_variant != EkfVariant::kFull)
     throw std::invalid_argument(fmt::format("EKF variant '{}' applies to the filter 'ekf', not '{}'",
@@ -184,6 +186,10 @@ void validate(const FilterConfig& config) {
   validate(config.association);
   require_sparse_information_settings(config, FilterKind::kSeif, config.seif, SeifOptions{});
   require_sparse_information_settings(config, FilterKind::kEseif, config.eseif, EseifOptions{});
+  validate(config.tjtf);
+  if (config.filter != FilterKind::kTjtf && config.tjtf.max_clique_landmarks != TjtfOptions{}.max_clique_landmarks)
+    throw std::invalid_argument(
+        fmt::format("tjtf_max_clique_landmarks applies to the filter 'tjtf', not '{}'", to_string(config.filter)));
   validate(config.delayed_init);
   validate(config.inverse_distance);
   if (config.landmark_init == LandmarkInit::kInverseDistance &&
@@ -231,7 +237,8 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
     case FilterKind::kUkf:
     case FilterKind::kEif:
     case FilterKind::kSeif:
-    case FilterKind::kEseif: {
+    case FilterKind::kEseif:
+    case FilterKind::kTjtf: {
       EkfSlamOptions options;
       options.initial_pose = dataset.initial_pose;
       options.association = config.association;
@@ -240,9 +247,11 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
                         : config.filter == FilterKind::kEif   ? EkfVariant::kInformation
                         : config.filter == FilterKind::kSeif  ? EkfVariant::kSparseInformation
                         : config.filter == FilterKind::kEseif ? EkfVariant::kExactlySparseInformation
+                        : config.filter == FilterKind::kTjtf  ? EkfVariant::kThinJunctionTree
                                                               : config.ekf_variant;
       options.seif = config.seif;
       options.eseif = config.eseif;
+      options.tjtf = config.tjtf;
       options.joint_scan_update = config.ekf_update != EkfUpdate::kSequential;
       if (config.ekf_update == EkfUpdate::kIterated) options.update_iterations = kIteratedUpdateLinearisations;
       options.threads = config.threads;
@@ -290,6 +299,7 @@ nlohmann::json to_json(const FilterConfig& config) {
           {"eseif_active_landmarks", config.eseif.active_landmarks},
           {"eseif_recovery_sweeps", config.eseif.recovery_sweeps},
           {"eseif_covariance", to_string(config.eseif.covariance)},
+          {"tjtf_max_clique_landmarks", config.tjtf.max_clique_landmarks},
           {"landmark_init", to_string(config.landmark_init)},
           {"delayed_init", options_to_json<Delayed>(config.delayed_init, kDelayedInitKeys)},
           {"inverse_distance_min_m", config.inverse_distance.min_distance_m},
@@ -360,6 +370,8 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
         integer(config.eseif.recovery_sweeps);
       else if (key == "eseif_covariance")
         config.eseif.covariance = parse_covariance_recovery(name());
+      else if (key == "tjtf_max_clique_landmarks")
+        integer(config.tjtf.max_clique_landmarks);
       else if (key == "landmark_init")
         config.landmark_init = parse_landmark_init(name());
       else if (key == "delayed_init")
@@ -405,6 +417,7 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
                                                "eseif_active_landmarks",
                                                "eseif_recovery_sweeps",
                                                "eseif_covariance",
+                                               "tjtf_max_clique_landmarks",
                                                "landmark_init",
                                                "delayed_init",
                                                "inverse_distance_min_m",

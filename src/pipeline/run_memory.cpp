@@ -39,6 +39,7 @@ double filter_bytes(const FilterConfig& config, std::size_t landmarks) {
     case FilterKind::kEif: return 2.0 * EkfSlam::memory_estimate(landmarks);
     case FilterKind::kSeif: return SparseInformationFilter::memory_estimate(landmarks, config.seif);
     case FilterKind::kEseif: return SparseInformationFilter::memory_estimate(landmarks, config.eseif);
+    case FilterKind::kTjtf: return ThinJunctionTreeFilter::memory_estimate(landmarks, config.tjtf);
     default: return EkfSlam::memory_estimate(landmarks);
   }
 }
@@ -88,7 +89,8 @@ void require_run_memory(const FilterConfig& config, const Dataset& dataset, cons
                         config.filter == FilterKind::kEif || config.filter == FilterKind::kSeif ||
                                 config.filter == FilterKind::kEseif
                             ? "information matrix"
-                            : "covariance");
+                        : config.filter == FilterKind::kTjtf ? "junction tree"
+                                                             : "covariance");
   require_memory(estimate.total_bytes(), fmt::format("{} and the history --history {} keeps ({:.3g} GiB)", filter,
                                                      to_string(options.history), estimate.history_bytes / kGiB));
 }

@@ -36,6 +36,7 @@ std::string filter_title(const std::string& filter) {
   if (filter == "eif") return "EIF-SLAM";
   if (filter == "seif") return "SEIF-SLAM";
   if (filter == "eseif") return "ESEIF-SLAM";
+  if (filter == "tjtf") return "TJTF-SLAM";
   if (filter == "fastslam1") return "FastSLAM 1.0";
   if (filter == "fastslam2") return "FastSLAM 2.0";
   return filter;

@@ -30,6 +30,7 @@
 #include "slamkit/filters/landmark_initialiser.hpp"
 #include "slamkit/filters/slam_filter.hpp"
 #include "slamkit/filters/sparse_extended_information_filter.hpp"
+#include "slamkit/filters/thin_junction_tree_filter.hpp"
 #include "slamkit/filters/unscented_joint_gaussian.hpp"
 #include "slamkit/models/measurement_likelihood.hpp"
 
@@ -44,6 +45,7 @@ enum class EkfVariant {
   kInformation,     ///< ExtendedInformationFilter: the EKF in information form, the filter named "eif"
   kSparseInformation,  ///< SparseExtendedInformationFilter: SEIF, the filter named "seif"
   kExactlySparseInformation,  ///< ExactlySparseInformationFilter: ESEIF, the filter named "eseif"
+  kThinJunctionTree,          ///< ThinJunctionTreeFilter: Paskin's TJTF, the filter named "tjtf"
 };
 
 struct EkfSlamOptions {
@@ -78,6 +80,8 @@ struct EkfSlamOptions {
   SeifOptions seif;
   /// The ESEIF's settings (variant kExactlySparseInformation).
   EseifOptions eseif;
+  /// The thin junction tree filter's settings (variant kThinJunctionTree).
+  TjtfOptions tjtf;
   /// How a landmark starts (filters/landmark_initialiser.hpp); unset: immediately where the
   /// observation model inverts a measurement, delayed where it does not. Delayed needs known
   /// identities.
@@ -247,7 +251,7 @@ class EkfSlam final : public SlamFilter {
   bool recent_confirmed_ = false;  // a landmark started in the window was confirmed this scan
   std::vector<std::size_t> recent_, old_;
   bool joint_scan_update_;
-  std::string name_;  // "ekf", or the filter its estimator makes it: "ukf", "eif", "seif", "eseif"
+  std::string name_;  // "ekf", or the filter its estimator makes it: "ukf", "eif", "seif", "eseif", "tjtf"
   std::vector<LandmarkObservation> batch_;  // a scan's updates, when applied jointly
   // Reused per scan.
   std::vector<std::size_t> new_observations_;

@@ -19,7 +19,7 @@
 
 namespace slamkit {
 
-enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2, kEif, kSeif, kEseif };
+enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2, kEif, kSeif, kEseif, kTjtf };
 
 /// How the EKF applies a scan's paired observations.
 enum class EkfUpdate {
@@ -50,6 +50,8 @@ struct FilterConfig {
   SeifOptions seif;
   // ESEIF only: run.json's eseif_active_landmarks, eseif_recovery_sweeps and eseif_covariance.
   EseifOptions eseif;
+  // TJTF only: run.json's tjtf_max_clique_landmarks.
+  TjtfOptions tjtf;
   // How a landmark starts (filters/landmark_initialiser.hpp), and the delayed start's settings.
   LandmarkInit landmark_init = LandmarkInit::kAuto;
   DelayedInitialisationOptions delayed_init;
@@ -67,7 +69,7 @@ struct FilterConfig {
   unsigned threads = 0;          // 0: all cores
 };
 
-/// "ekf", "ukf", "eif", "seif", "eseif", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
+/// "ekf", "ukf", "eif", "seif", "eseif", "tjtf", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
 FilterKind parse_filter_kind(const std::string& name);
 std::string to_string(FilterKind kind);
 /// "joint", "sequential" or "iterated"; throws std::invalid_argument naming the accepted values.

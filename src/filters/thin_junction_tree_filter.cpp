@@ -1,0 +1,731 @@
+#include "slamkit/filters/thin_junction_tree_filter.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "slamkit/core/angles.hpp"
+
+namespace slamkit {
+
+namespace {
+
+using Rows = std::vector<Eigen::Index>;
+
+// Two rows for each landmark's first row.
+Rows both_rows(const Rows& firsts) {
+  Rows rows;
+  rows.reserve(2 * firsts.size());
+  for (const Eigen::Index r : firsts) {
+    rows.push_back(r);
+    rows.push_back(r + 1);
+  }
+  return rows;
+}
+
+Eigen::LLT<Eigen::MatrixXd> positive_definite(const Eigen::MatrixXd& m, const char* what) {
+  Eigen::LLT<Eigen::MatrixXd> llt(m);
+  if (llt.info() != Eigen::Success)
+    throw std::logic_error(std::string("the thin junction tree met ") + what + " that is not positive definite");
+  return llt;
+}
+
+void symmetrise(Eigen::MatrixXd& m) { m = (0.5 * (m + m.transpose())).eval(); }
+
+// log det of a symmetric positive semi-definite block, its zero pivots taken as tiny.
+double log_determinant(const Eigen::MatrixXd& m) {
+  if (m.rows() == 0) return 0.0;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(m);
+  return ldlt.vectorD().array().max(1e-300).log().sum();
+}
+
+}  // namespace
+
+void validate(const TjtfOptions& options) {
+  if (options.max_clique_landmarks < TjtfOptions::kMinCliqueLandmarks ||
+      options.max_clique_landmarks > TjtfOptions::kMaxCliqueLandmarks)
+    throw std::invalid_argument(fmt::format("tjtf_max_clique_landmarks must be an integer from {} to {}, found {}",
+                                            TjtfOptions::kMinCliqueLandmarks, TjtfOptions::kMaxCliqueLandmarks,
+                                            options.max_clique_landmarks));
+}
+
+Eigen::Index ThinJunctionTreeFilter::Clique::row_of(std::size_t landmark) const {
+  const auto it = std::find(landmarks.begin(), landmarks.end(), landmark);
+  if (it == landmarks.end()) return -1;
+  return (vehicle ? 3 : 0) + 2 * static_cast<Eigen::Index>(it - landmarks.begin());
+}
+
+ThinJunctionTreeFilter::ThinJunctionTreeFilter(std::shared_ptr<const MotionModel> motion,
+                                               std::shared_ptr<const ObservationModel> observation,
+                                               const Pose2& initial_pose, const Matrix3& initial_covariance,
+                                               const TjtfOptions& options)
+    : EkfEstimator(std::move(motion), std::move(observation), initial_pose), options_(options) {
+  validate(options_);
+  if (!initial_covariance.allFinite()) throw std::invalid_argument("the initial pose covariance must be finite");
+  Clique root;
+  root.vehicle = true;
+  root.mean = x_.head<3>();
+  root.covariance = 0.5 * (initial_covariance + initial_covariance.transpose());
+  root.epoch = epoch_;
+  cliques_.push_back(std::move(root));
+}
+
+ThinJunctionTreeFilter::Separator ThinJunctionTreeFilter::separator(const Clique& a, const Clique& b) const {
+  Separator s;
+  for (const std::size_t l : a.landmarks)
+    if (const Eigen::Index rb = b.row_of(l); rb >= 0) {
+      s.landmarks.push_back(l);
+      s.rows_a.push_back(a.row_of(l));
+      s.rows_b.push_back(rb);
+    }
+  return s;
+}
+
+std::vector<std::size_t> ThinJunctionTreeFilter::neighbours(std::size_t c) const {
+  std::vector<std::size_t> out = cliques_[c].children;
+  if (cliques_[c].parent != kNone) out.push_back(cliques_[c].parent);
+  return out;
+}
+
+// ---- keeping the cliques current ----------------------------------------------------------------
+
+void ThinJunctionTreeFilter::make_current(std::size_t c) const {
+  // The root is always current, and so is every ancestor of a current clique.
+  std::vector<std::size_t> behind;
+  for (; cliques_[c].epoch != epoch_; c = cliques_[c].parent) behind.push_back(c);
+  for (auto it = behind.rbegin(); it != behind.rend(); ++it) propagate(cliques_[*it].parent, *it);
+}
+
+void ThinJunctionTreeFilter::propagate(std::size_t parent, std::size_t c) const {
+  Clique& child = cliques_[c];
+  const Clique& above = cliques_[parent];
+  child.epoch = epoch_;
+  const Separator s = separator(child, above);
+  if (s.landmarks.empty()) return;  // independent of everything the evidence touched
+  const Rows in_child = both_rows(s.rows_a), in_parent = both_rows(s.rows_b);
+  const Eigen::MatrixXd old_separator = child.covariance(in_child, in_child);
+  // c = mu_c + G (S - mu_S) + e with G = Sigma_cS Sigma_SS^-1 is what the separator leaves unchanged.
+  const Eigen::MatrixXd gain =
+      positive_definite(old_separator, "a separator's covariance").solve(child.covariance(in_child, Eigen::all)).transpose();
+  const Eigen::VectorXd mean_change = above.mean(in_parent) - child.mean(in_child);
+  const Eigen::MatrixXd covariance_change = above.covariance(in_parent, in_parent) - old_separator;
+  child.mean += gain * mean_change;
+  child.covariance += gain * covariance_change * gain.transpose();
+  symmetrise(child.covariance);
+}
+
+void ThinJunctionTreeFilter::calibrate_all() const {
+  std::vector<std::size_t> queue{kRoot};
+  for (std::size_t k = 0; k < queue.size(); ++k)
+    for (const std::size_t child : cliques_[queue[k]].children) {
+      if (cliques_[child].epoch != epoch_) propagate(queue[k], child);
+      queue.push_back(child);
+    }
+}
+
+const ThinJunctionTreeFilter::Clique& ThinJunctionTreeFilter::current_home(std::size_t index) const {
+  make_current(home_[index]);
+  return cliques_[home_[index]];
+}
+
+const Eigen::MatrixXd& ThinJunctionTreeFilter::vehicle_cross(std::size_t c) const {
+  make_current(c);
+  std::vector<std::size_t> behind;
+  std::size_t a = c;
+  for (; a != kRoot && cliques_[a].cross_version != version_; a = cliques_[a].parent) behind.push_back(a);
+  if (a == kRoot && cliques_[kRoot].cross_version != version_) {
+    cliques_[kRoot].vehicle_cross = cliques_[kRoot].covariance.topRows<3>();
+    cliques_[kRoot].cross_version = version_;
+  }
+  // Down the path: the vehicle is independent of a clique's other variables given its separator.
+  for (auto it = behind.rbegin(); it != behind.rend(); ++it) {
+    Clique& q = cliques_[*it];
+    const Clique& p = cliques_[q.parent];
+    const Separator s = separator(q, p);
+    if (s.landmarks.empty()) {
+      q.vehicle_cross = Eigen::MatrixXd::Zero(3, q.rows());
+    } else {
+      const Rows in_q = both_rows(s.rows_a), in_p = both_rows(s.rows_b);
+      q.vehicle_cross = p.vehicle_cross(Eigen::all, in_p) *
+                        positive_definite(q.covariance(in_q, in_q), "a separator's covariance")
+                            .solve(q.covariance(in_q, Eigen::all));
+    }
+    q.cross_version = version_;
+  }
+  return cliques_[c].vehicle_cross;
+}
+
+Eigen::MatrixXd ThinJunctionTreeFilter::landmark_cross(std::size_t index, std::size_t to) const {
+  const std::size_t from = home_[index];
+  make_current(from);
+  make_current(to);
+  // The path from -> lowest common ancestor -> to.
+  std::vector<std::size_t> up_from, up_to;
+  for (std::size_t a = from; a != kNone; a = cliques_[a].parent) up_from.push_back(a);
+  for (std::size_t a = to; a != kNone; a = cliques_[a].parent) up_to.push_back(a);
+  while (up_from.size() > 1 && up_to.size() > 1 && up_from[up_from.size() - 2] == up_to[up_to.size() - 2]) {
+    up_from.pop_back();
+    up_to.pop_back();
+  }
+  std::vector<std::size_t> path = up_from;  // ends at the common ancestor
+  path.insert(path.end(), up_to.rbegin() + 1, up_to.rend());
+  const Clique& start = cliques_[from];
+  const Eigen::Index r = start.row_of(index);
+  Eigen::MatrixXd cross = start.covariance.middleRows<2>(r);
+  for (std::size_t k = 1; k < path.size(); ++k) {
+    const Clique& p = cliques_[path[k - 1]];
+    const Clique& q = cliques_[path[k]];
+    const Separator s = separator(q, p);
+    if (s.landmarks.empty()) return Eigen::MatrixXd::Zero(2, cliques_[to].rows());
+    const Rows in_q = both_rows(s.rows_a), in_p = both_rows(s.rows_b);
+    cross = (cross(Eigen::all, in_p) * positive_definite(q.covariance(in_q, in_q), "a separator's covariance")
+                                           .solve(q.covariance(in_q, Eigen::all)))
+                .eval();
+  }
+  return cross;
+}
+
+// ---- reads ---------------------------------------------------------------------------------------
+
+Matrix3 ThinJunctionTreeFilter::pose_covariance() const { return cliques_[kRoot].covariance.topLeftCorner<3, 3>(); }
+
+Vector2 ThinJunctionTreeFilter::landmark_position(std::size_t index) const {
+  const Clique& c = current_home(index);
+  return c.mean.segment<2>(c.row_of(index));
+}
+
+Matrix2 ThinJunctionTreeFilter::landmark_covariance(std::size_t index) const {
+  const Clique& c = current_home(index);
+  const Eigen::Index r = c.row_of(index);
+  return c.covariance.block<2, 2>(r, r);
+}
+
+Matrix23 ThinJunctionTreeFilter::landmark_pose_covariance(std::size_t index) const {
+  const std::size_t c = home_[index];
+  return vehicle_cross(c).middleCols<2>(cliques_[c].row_of(index)).transpose();
+}
+
+Matrix2 ThinJunctionTreeFilter::landmark_cross_covariance(std::size_t i, std::size_t j) const {
+  if (i == j) return landmark_covariance(i);
+  for (const std::size_t c : {home_[i], home_[j], kRoot}) {
+    const Clique& clique = cliques_[c];
+    const Eigen::Index ri = clique.row_of(i), rj = clique.row_of(j);
+    if (ri >= 0 && rj >= 0) {
+      make_current(c);
+      return clique.covariance.block<2, 2>(ri, rj);
+    }
+  }
+  return landmark_cross(i, home_[j]).middleCols<2>(cliques_[home_[j]].row_of(j));
+}
+
+void ThinJunctionTreeFilter::landmark_marginals(std::vector<Vector2>& means, std::vector<Matrix2>& covariances) const {
+  calibrate_all();
+  EkfEstimator::landmark_marginals(means, covariances);
+}
+
+Eigen::VectorXd ThinJunctionTreeFilter::state() const {
+  calibrate_all();
+  Eigen::VectorXd x(static_cast<Eigen::Index>(dim_));
+  x.head<3>() = cliques_[kRoot].mean.head<3>();
+  for (std::size_t i = 0; i < num_landmarks(); ++i)
+    x.segment<2>(static_cast<Eigen::Index>(landmark_offset(i))) = landmark_position(i);
+  return x;
+}
+
+Eigen::MatrixXd ThinJunctionTreeFilter::covariance() const {
+  calibrate_all();
+  const auto n = static_cast<Eigen::Index>(dim_);
+  Eigen::MatrixXd p = Eigen::MatrixXd::Zero(n, n);
+  const auto state_rows = [&](const Clique& c, const std::vector<std::size_t>& landmarks) {
+    Rows rows;
+    if (c.vehicle) rows = {0, 1, 2};
+    for (const std::size_t l : landmarks) {
+      rows.push_back(static_cast<Eigen::Index>(landmark_offset(l)));
+      rows.push_back(static_cast<Eigen::Index>(landmark_offset(l)) + 1);
+    }
+    return rows;
+  };
+  const Clique& root = cliques_[kRoot];
+  Rows placed = state_rows(root, root.landmarks);
+  p(placed, placed) = root.covariance;
+  // Each clique's variables not in its parent are independent of everything placed before, given
+  // the separator: they are regressed on it.
+  std::vector<std::size_t> queue{kRoot};
+  for (std::size_t k = 0; k < queue.size(); ++k)
+    for (const std::size_t child : cliques_[queue[k]].children) {
+      queue.push_back(child);
+      const Clique& c = cliques_[child];
+      const Separator s = separator(c, cliques_[queue[k]]);
+      Rows fresh_rows;
+      std::vector<std::size_t> fresh;
+      for (const std::size_t l : c.landmarks)
+        if (std::find(s.landmarks.begin(), s.landmarks.end(), l) == s.landmarks.end()) {
+          fresh.push_back(l);
+          fresh_rows.push_back(c.row_of(l));
+        }
+      if (fresh.empty()) continue;
+      const Rows in_c = both_rows(fresh_rows), new_state = state_rows(Clique{}, fresh);
+      if (!s.landmarks.empty()) {
+        const Rows sep_c = both_rows(s.rows_a), sep_state = state_rows(Clique{}, s.landmarks);
+        const Eigen::MatrixXd gain = positive_definite(c.covariance(sep_c, sep_c), "a separator's covariance")
+                                         .solve(c.covariance(sep_c, in_c))
+                                         .transpose();
+        const Eigen::MatrixXd cross = gain * p(sep_state, placed);
+        p(new_state, placed) = cross;
+        p(placed, new_state) = cross.transpose();
+      }
+      p(new_state, new_state) = c.covariance(in_c, in_c);
+      placed.insert(placed.end(), new_state.begin(), new_state.end());
+    }
+  return p;
+}
+
+// ---- the filter's steps ----------------------------------------------------------------------------
+
+void ThinJunctionTreeFilter::root_changed() {
+  cliques_[kRoot].epoch = ++epoch_;
+  ++version_;
+  x_.head<3>() = cliques_[kRoot].mean.head<3>();
+}
+
+void ThinJunctionTreeFilter::predict(const Control& u, double dt) {
+  Clique& root = cliques_[kRoot];
+  const Pose2 xv = root.mean.head<3>();
+  const Matrix3 f = motion_->jacobian_state(xv, u, dt);
+  root.mean.head<3>() = motion_->predict(xv, u, dt);
+  root.mean[2] = wrap_angle(root.mean[2]);
+  root.covariance.topRows<3>() = (f * root.covariance.topRows<3>()).eval();
+  root.covariance.leftCols<3>() = (root.covariance.leftCols<3>() * f.transpose()).eval();
+  root.covariance.topLeftCorner<3, 3>() += motion_->process_noise(xv, u, dt);
+  symmetrise(root.covariance);
+  // No separator holds the vehicle: the other cliques stay current.
+  ++version_;
+  x_.head<3>() = root.mean.head<3>();
+}
+
+void ThinJunctionTreeFilter::inflate_pose(const Matrix3& q) {
+  cliques_[kRoot].covariance.topLeftCorner<3, 3>() += 0.5 * (q + q.transpose());
+  ++version_;
+}
+
+bool ThinJunctionTreeFilter::update_root(const Eigen::MatrixXd& h, const Eigen::VectorXd& innovation,
+                                         const Eigen::MatrixXd& noise) {
+  Clique& root = cliques_[kRoot];
+  const Eigen::MatrixXd ph = root.covariance * h.transpose();
+  Eigen::MatrixXd s = h * ph + noise;
+  symmetrise(s);
+  const Eigen::LLT<Eigen::MatrixXd> llt(s);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::MatrixXd gain = llt.solve(ph.transpose()).transpose();
+  root.mean += gain * innovation;
+  root.mean[2] = wrap_angle(root.mean[2]);
+  root.covariance -= gain * ph.transpose();
+  symmetrise(root.covariance);
+  root_changed();
+  return true;
+}
+
+void ThinJunctionTreeFilter::begin_scan() { ++scans_; }
+
+bool ThinJunctionTreeFilter::update_landmark(const LandmarkObservation& observation) {
+  last_observed_[observation.index] = scans_;
+  admit(observation.index, {observation.index});
+  const Clique& root = cliques_[kRoot];
+  const Pose2 xv = root.mean.head<3>();
+  const Eigen::Index r = root.row_of(observation.index);
+  const Vector2 m = root.mean.segment<2>(r);
+  PoseJacobian hx;
+  LandmarkJacobian hm;
+  observation_->jacobians(xv, m, hx, hm);
+  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(hx.rows(), root.rows());
+  h.leftCols<3>() = hx;
+  h.middleCols<2>(r) = hm;
+  const Eigen::VectorXd innovation = observation_->residual(observation.z, observation_->predict(xv, m));
+  const bool updated =
+      update_root(h, innovation, observation.noise_scale * Eigen::MatrixXd(observation_->noise()));
+  thin(kRoot, {});
+  return updated;
+}
+
+bool ThinJunctionTreeFilter::update_landmarks(std::span<const LandmarkObservation> batch) {
+  bool all = true;
+  for (const LandmarkObservation& o : batch) all = update_landmark(o) && all;
+  return all;
+}
+
+std::size_t ThinJunctionTreeFilter::add_landmark(const InitialLandmark& landmark) {
+  const std::size_t bridge = std::max<std::size_t>(1, options_.max_clique_landmarks / 2);
+  if (cliques_[kRoot].landmarks.size() >= options_.max_clique_landmarks && contractible_in_root({}) < bridge)
+    push_root();
+  Clique& root = cliques_[kRoot];
+  const Eigen::Index n = root.rows();
+  const Eigen::MatrixXd cross = landmark.gx * root.covariance.topRows<3>();
+  Matrix2 own = landmark.gx * root.covariance.topLeftCorner<3, 3>() * landmark.gx.transpose() + landmark.covariance;
+  own = (0.5 * (own + own.transpose())).eval();
+  root.mean.conservativeResize(n + 2);
+  root.mean.tail<2>() = landmark.mean;
+  root.covariance.conservativeResize(n + 2, n + 2);
+  root.covariance.bottomRows<2>().leftCols(n) = cross;
+  root.covariance.rightCols<2>().topRows(n) = cross.transpose();
+  root.covariance.bottomRightCorner<2, 2>() = own;
+  const std::size_t index = num_landmarks();
+  root.landmarks.push_back(index);
+  home_.push_back(kRoot);
+  last_observed_.push_back(scans_);
+  reserve(dim_ + 2);
+  x_.segment<2>(static_cast<Eigen::Index>(dim_)) = landmark.mean;
+  append_landmark_rows(2);
+  ++version_;  // a new variable in the root alone leaves every other clique's distribution as it was
+  thin(kRoot, {index});
+  return index;
+}
+
+void ThinJunctionTreeFilter::remove_landmark(std::size_t index) {
+  // Every clique that holds it, each current before any changes (a drop changes separators).
+  std::vector<std::size_t> holders{home_[index]};
+  for (std::size_t k = 0; k < holders.size(); ++k)
+    for (const std::size_t n : neighbours(holders[k]))
+      if (cliques_[n].holds(index) && std::find(holders.begin(), holders.end(), n) == holders.end())
+        holders.push_back(n);
+  for (const std::size_t c : holders) make_current(c);
+  for (const std::size_t c : holders) drop(c, index);
+  for (Clique& c : cliques_)
+    for (std::size_t& l : c.landmarks)
+      if (l > index) --l;
+  home_.erase(home_.begin() + static_cast<std::ptrdiff_t>(index));
+  last_observed_.erase(last_observed_.begin() + static_cast<std::ptrdiff_t>(index));
+  remove_stored_landmark(index);
+  ++version_;
+  for (const std::size_t c : holders) {
+    if (!cliques_[c].alive) continue;
+    const std::vector<std::size_t> children = cliques_[c].children;
+    for (const std::size_t child : children) dissolve_if_redundant(child);
+    if (c != kRoot) dissolve_if_redundant(c);
+  }
+}
+
+bool ThinJunctionTreeFilter::fuse_landmarks(std::span<const LandmarkPair> pairs) {
+  for (const LandmarkPair& pair : pairs) {
+    admit(pair.original, {pair.original});
+    admit(pair.duplicate, {pair.original, pair.duplicate});
+    const Clique& root = cliques_[kRoot];
+    const Eigen::Index ro = root.row_of(pair.original), rd = root.row_of(pair.duplicate);
+    // The noiseless measurement m_original - m_duplicate = 0.
+    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(2, root.rows());
+    h.middleCols<2>(ro).setIdentity();
+    h.middleCols<2>(rd) = -Matrix2::Identity();
+    const Eigen::VectorXd innovation = root.mean.segment<2>(rd) - root.mean.segment<2>(ro);
+    if (!update_root(h, innovation, Eigen::MatrixXd::Zero(2, 2))) return false;
+    set_duplicate_aside(pair);
+    thin(kRoot, {});
+  }
+  return true;
+}
+
+void ThinJunctionTreeFilter::set_duplicate_aside(const LandmarkPair& pair) {
+  // The duplicate now equals the original: where a clique holds both it is dropped, where it holds
+  // the duplicate alone the original takes its rows (the same numbers), so the original keeps the
+  // duplicate's links to its neighbours, and no separator holds two copies of one point (a singular
+  // covariance). The duplicate stays, until it is removed, as a clique of its own, independent.
+  std::vector<std::size_t> holders{kRoot};
+  for (std::size_t k = 0; k < holders.size(); ++k)
+    for (const std::size_t n : neighbours(holders[k]))
+      if (cliques_[n].holds(pair.duplicate) && std::find(holders.begin(), holders.end(), n) == holders.end())
+        holders.push_back(n);
+  for (const std::size_t c : holders) make_current(c);
+  const Clique& root = cliques_[kRoot];
+  const Eigen::Index rd = root.row_of(pair.duplicate);
+  const Vector2 mean = root.mean.segment<2>(rd);
+  const Matrix2 covariance = root.covariance.block<2, 2>(rd, rd);
+  for (const std::size_t c : holders) {
+    if (cliques_[c].holds(pair.original))
+      drop(c, pair.duplicate);
+    else
+      *std::find(cliques_[c].landmarks.begin(), cliques_[c].landmarks.end(), pair.duplicate) = pair.original;
+  }
+  const std::size_t aside = new_clique();
+  cliques_[aside].landmarks = {pair.duplicate};
+  cliques_[aside].mean = mean;
+  cliques_[aside].covariance = covariance;
+  cliques_[aside].parent = kRoot;
+  cliques_[kRoot].children.push_back(aside);
+  home_[pair.duplicate] = aside;
+  ++version_;
+}
+
+// ---- the tree's shape ------------------------------------------------------------------------------
+
+std::size_t ThinJunctionTreeFilter::new_clique() {
+  std::size_t c;
+  if (!free_.empty()) {
+    c = free_.back();
+    free_.pop_back();
+    cliques_[c] = Clique{};
+  } else {
+    c = cliques_.size();
+    cliques_.emplace_back();
+  }
+  cliques_[c].epoch = epoch_;
+  return c;
+}
+
+void ThinJunctionTreeFilter::admit(std::size_t index, const std::vector<std::size_t>& pinned) {
+  if (cliques_[kRoot].holds(index)) return;
+  const std::size_t bridge = std::max<std::size_t>(1, options_.max_clique_landmarks / 2);
+  if (cliques_[kRoot].landmarks.size() >= options_.max_clique_landmarks && contractible_in_root(pinned) < bridge)
+    push_root();
+  make_current(home_[index]);
+  std::vector<std::size_t> path;  // from the home up to the root
+  for (std::size_t a = home_[index]; a != kNone; a = cliques_[a].parent) path.push_back(a);
+  for (std::size_t k = 1; k < path.size(); ++k)
+    if (!cliques_[path[k]].holds(index)) extend(path[k], path[k - 1], index);
+  home_[index] = kRoot;
+  ++path_extensions_;
+  ++version_;
+  // The cliques between grew by one: thin them from the root down. Where one cannot lose another
+  // landmark, the landmark's link below it is cut instead (it stays in the cliques above).
+  for (std::size_t k = path.size() - 1; k-- > 1;) {
+    const std::size_t c = path[k];
+    if (!cliques_[c].alive || !cliques_[c].holds(index)) continue;
+    if (cliques_[c].landmarks.size() <= options_.max_clique_landmarks) continue;
+    if (!thin(c, {index})) {
+      cut(index, c, cliques_[c].parent);
+      break;
+    }
+  }
+}
+
+void ThinJunctionTreeFilter::extend(std::size_t target, std::size_t source, std::size_t index) {
+  const Clique& from = cliques_[source];
+  Clique& to = cliques_[target];
+  const Separator s = separator(from, to);
+  const Eigen::Index n = to.rows(), r = from.row_of(index);
+  // The landmark is independent of the target's other variables given the separator.
+  Eigen::MatrixXd cross = Eigen::MatrixXd::Zero(2, n);
+  if (!s.landmarks.empty()) {
+    const Rows in_from = both_rows(s.rows_a), in_to = both_rows(s.rows_b);
+    const Eigen::MatrixXd gain = positive_definite(from.covariance(in_from, in_from), "a separator's covariance")
+                                     .solve(from.covariance(in_from, Eigen::seqN(r, 2)))
+                                     .transpose();
+    cross = gain * to.covariance(in_to, Eigen::all);
+  }
+  to.mean.conservativeResize(n + 2);
+  to.mean.tail<2>() = from.mean.segment<2>(r);
+  to.covariance.conservativeResize(n + 2, n + 2);
+  to.covariance.bottomRows<2>().leftCols(n) = cross;
+  to.covariance.rightCols<2>().topRows(n) = cross.transpose();
+  to.covariance.bottomRightCorner<2, 2>() = from.covariance.block<2, 2>(r, r);
+  to.landmarks.push_back(index);
+}
+
+void ThinJunctionTreeFilter::push_root() {
+  const std::size_t l = new_clique();
+  Clique& root = cliques_[kRoot];
+  Clique& copy = cliques_[l];
+  const Eigen::Index n = root.rows() - 3;
+  copy.landmarks = root.landmarks;
+  copy.mean = root.mean.tail(n);
+  copy.covariance = root.covariance.bottomRightCorner(n, n);
+  copy.parent = kRoot;
+  copy.children = root.children;
+  for (const std::size_t child : copy.children) cliques_[child].parent = l;
+  root.children = {l};
+  ++pushes_;
+  ++version_;
+}
+
+std::size_t ThinJunctionTreeFilter::contractible_in_root(const std::vector<std::size_t>& pinned) const {
+  const Clique& root = cliques_[kRoot];
+  std::size_t count = 0;
+  for (const std::size_t l : root.landmarks) {
+    if (std::find(pinned.begin(), pinned.end(), l) != pinned.end()) continue;
+    std::size_t holders = 0;
+    for (const std::size_t child : root.children) holders += cliques_[child].holds(l) ? 1 : 0;
+    count += holders == 1 ? 1 : 0;
+  }
+  return count;
+}
+
+double ThinJunctionTreeFilter::contraction_cost(const Clique& c, const Eigen::MatrixXd& information,
+                                                std::size_t landmark, const Clique& keeper) const {
+  // I(u; R | Z), u the landmark, Z what else the keeper shares with c, R the rest of c. Given Z,
+  // (u, R) has the information Lambda(uR, uR) of c's information matrix, so that
+  // I = (log det Lambda(uR) - log det of its Schur complement on u - that on R) / 2.
+  Rows u = both_rows({c.row_of(landmark)}), rest;
+  if (c.vehicle) rest = {0, 1, 2};
+  for (const std::size_t l : c.landmarks)
+    if (l != landmark && !keeper.holds(l)) {
+      const Eigen::Index r = c.row_of(l);
+      rest.insert(rest.end(), {r, r + 1});
+    }
+  if (rest.empty()) return 0.0;
+  const Eigen::Index nu = 2, nr = static_cast<Eigen::Index>(rest.size());
+  Rows both = u;
+  both.insert(both.end(), rest.begin(), rest.end());
+  const Eigen::MatrixXd joint = information(both, both);
+  const Eigen::MatrixXd uu = joint.topLeftCorner(nu, nu), rr = joint.bottomRightCorner(nr, nr);
+  const Eigen::MatrixXd ur = joint.topRightCorner(nu, nr);
+  const Eigen::MatrixXd on_u = uu - ur * rr.ldlt().solve(ur.transpose());
+  const Eigen::MatrixXd on_rest = rr - ur.transpose() * uu.ldlt().solve(ur);
+  return std::max(0.0, 0.5 * (log_determinant(joint) - log_determinant(on_u) - log_determinant(on_rest)));
+}
+
+bool ThinJunctionTreeFilter::thin(std::size_t c, const std::vector<std::size_t>& pinned) {
+  while (cliques_[c].landmarks.size() > options_.max_clique_landmarks) {
+    make_current(c);
+    const Clique& clique = cliques_[c];
+    // The jitter stands in for the exactly known start pose, far below any noise.
+    Eigen::MatrixXd jittered = clique.covariance;
+    jittered.diagonal().array() += kInformationJitter;
+    const Eigen::MatrixXd information =
+        jittered.ldlt().solve(Eigen::MatrixXd::Identity(clique.rows(), clique.rows()));
+    const std::vector<std::size_t> around = neighbours(c);
+    std::size_t best = kNone, keeper = kNone;
+    // A landmark this scan observed goes only if no other can: it would come back at the next one.
+    std::pair<bool, double> cheapest{true, std::numeric_limits<double>::infinity()};
+    for (const std::size_t l : clique.landmarks) {
+      if (std::find(pinned.begin(), pinned.end(), l) != pinned.end()) continue;
+      std::size_t holder = kNone, holders = 0;
+      for (const std::size_t n : around)
+        if (cliques_[n].holds(l)) {
+          holder = n;
+          ++holders;
+        }
+      if (holders != 1) continue;
+      const std::pair<bool, double> cost{last_observed_[l] == scans_,
+                                         contraction_cost(clique, information, l, cliques_[holder])};
+      if (cost < cheapest) {
+        cheapest = cost;
+        best = l;
+        keeper = holder;
+      }
+    }
+    if (best == kNone) return false;
+    make_current(keeper);  // its separator with c changes
+    drop(c, best);
+    if (home_[best] == c) home_[best] = keeper;
+    projection_nats_ += cheapest.second;
+    ++contractions_;
+    ++version_;
+  }
+  if (c != kRoot) dissolve_if_redundant(c);
+  return true;
+}
+
+void ThinJunctionTreeFilter::drop(std::size_t c, std::size_t index) {
+  Clique& clique = cliques_[c];
+  const Eigen::Index r = clique.row_of(index);
+  Rows keep;
+  for (Eigen::Index i = 0; i < clique.rows(); ++i)
+    if (i != r && i != r + 1) keep.push_back(i);
+  clique.mean = clique.mean(keep).eval();
+  clique.covariance = clique.covariance(keep, keep).eval();
+  std::erase(clique.landmarks, index);
+  clique.cross_version = 0;
+}
+
+void ThinJunctionTreeFilter::cut(std::size_t index, std::size_t c, std::size_t kept) {
+  std::vector<std::size_t> beyond{c};
+  for (std::size_t k = 0; k < beyond.size(); ++k)
+    for (const std::size_t n : neighbours(beyond[k]))
+      if (n != kept && cliques_[n].holds(index) && std::find(beyond.begin(), beyond.end(), n) == beyond.end())
+        beyond.push_back(n);
+  for (const std::size_t b : beyond) make_current(b);
+  for (const std::size_t b : beyond) drop(b, index);
+  home_[index] = kept;
+  ++version_;
+}
+
+void ThinJunctionTreeFilter::dissolve_if_redundant(std::size_t c) {
+  Clique& clique = cliques_[c];
+  if (c == kRoot || !clique.alive) return;
+  Clique& parent = cliques_[clique.parent];
+  for (const std::size_t l : clique.landmarks)
+    if (!parent.holds(l)) return;
+  // Whatever a child shares with c, the parent holds too: the child's separator is unchanged.
+  for (const std::size_t child : clique.children) {
+    cliques_[child].parent = clique.parent;
+    parent.children.push_back(child);
+  }
+  std::erase(parent.children, c);
+  for (const std::size_t l : clique.landmarks)
+    if (home_[l] == c) home_[l] = clique.parent;
+  clique = Clique{};
+  clique.alive = false;
+  free_.push_back(c);
+}
+
+// ---- what a run reports ------------------------------------------------------------------------------
+
+std::vector<InformationMatrixPanel> ThinJunctionTreeFilter::information_panels() const {
+  calibrate_all();
+  std::vector<Eigen::Triplet<double>> triplets;
+  const auto add = [&](const Clique& c, const Rows& local, bool vehicle, const std::vector<std::size_t>& landmarks,
+                       double sign) {
+    Rows rows;
+    if (vehicle) rows = {0, 1, 2};
+    for (const std::size_t l : landmarks) {
+      rows.push_back(static_cast<Eigen::Index>(landmark_offset(l)));
+      rows.push_back(static_cast<Eigen::Index>(landmark_offset(l)) + 1);
+    }
+    Eigen::MatrixXd block = c.covariance(local, local);
+    block.diagonal().array() += kInformationJitter;
+    const Eigen::MatrixXd inverse = block.ldlt().solve(Eigen::MatrixXd::Identity(block.rows(), block.cols()));
+    for (Eigen::Index j = 0; j < inverse.cols(); ++j)
+      for (Eigen::Index i = 0; i < inverse.rows(); ++i) triplets.emplace_back(rows[i], rows[j], sign * inverse(i, j));
+  };
+  std::size_t count = 0;
+  for (std::size_t c = 0; c < cliques_.size(); ++c) {
+    const Clique& clique = cliques_[c];
+    if (!clique.alive) continue;
+    ++count;
+    Rows all(static_cast<std::size_t>(clique.rows()));
+    for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<Eigen::Index>(i);
+    add(clique, all, clique.vehicle, clique.landmarks, 1.0);
+    if (c == kRoot) continue;
+    const Separator s = separator(clique, cliques_[clique.parent]);
+    if (!s.landmarks.empty()) add(clique, both_rows(s.rows_a), false, s.landmarks, -1.0);
+  }
+  const auto n = static_cast<Eigen::Index>(dim_);
+  Eigen::SparseMatrix<double> information(n, n);
+  information.setFromTriplets(triplets.begin(), triplets.end());
+  information.prune(0.0);
+  return {{fmt::format("TJTF: the information its junction tree stands for, {} cliques (tjtf_max_clique_landmarks "
+                       "{})",
+                       count, options_.max_clique_landmarks),
+           information}};
+}
+
+void ThinJunctionTreeFilter::add_statistics(std::map<std::string, double>& statistics) const {
+  std::size_t cliques = 0, widest = 0;
+  for (const Clique& c : cliques_)
+    if (c.alive) {
+      ++cliques;
+      widest = std::max(widest, c.landmarks.size());
+    }
+  statistics["tjtf_cliques"] = static_cast<double>(cliques);
+  statistics["tjtf_widest_clique"] = static_cast<double>(widest);
+  statistics["tjtf_contractions"] = static_cast<double>(contractions_);
+  statistics["tjtf_pushes"] = static_cast<double>(pushes_);
+  statistics["tjtf_path_extensions"] = static_cast<double>(path_extensions_);
+  statistics["tjtf_projection_nats"] = projection_nats_;
+}
+
+double ThinJunctionTreeFilter::memory_estimate(std::size_t landmarks, const TjtfOptions& options) {
+  const double k = static_cast<double>(options.max_clique_landmarks);
+  const double rows = 3.0 + 2.0 * k;
+  const double cliques = static_cast<double>(landmarks) / std::max(1.0, std::floor(k / 2.0)) + 1.0;
+  return 2.0 * cliques * (rows * rows + rows) * sizeof(double) + 32.0 * static_cast<double>(landmarks);
+}
+
+std::vector<std::vector<std::size_t>> ThinJunctionTreeFilter::cliques() const {
+  std::vector<std::vector<std::size_t>> out;
+  for (const Clique& c : cliques_)
+    if (c.alive) out.push_back(c.landmarks);
+  return out;
+}
+
+}  // namespace slamkit
