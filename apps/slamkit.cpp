@@ -524,7 +524,7 @@ int run_command(int argc, char** argv) {
                            "TJTF: landmarks a clique of the junction tree holds at most (more: more of the EKF's "
                            "correlations kept, each clique costing (3 + 2k)^3)",
                            std::to_string(defaults.tjtf.max_clique_landmarks))
-      ->check(integer_at_least(1));
+      ->check(integer_at_least(TjtfOptions::kMinCliqueLandmarks));
   add_named_setting(run_cmd, "--landmark-init", flag_settings, "/landmark_init", parse_landmark_init,
                     "How a landmark starts: immediate (from one measurement's inverse), delayed "
                     "(triangulated from several observations at well-spread poses; known ids only), ring (range "

@@ -366,6 +366,19 @@ TEST_F(Cli, InformationFiltersRunTheCourseAndRecordTheirSettings) {
   EXPECT_GT(mx["eseif_relocations"].get<double>(), 0.0);
   EXPECT_EQ(read(eseif / "run.json")["settings"]["eseif_covariance"], "local");
   EXPECT_NE(text(eseif / "information.svg").find("eseif_active_landmarks 4"), std::string::npos);
+
+  const fs::path tjtf = *work_ / "course-tjtf";
+  const Result j =
+      slamkit_cli("run --filter tjtf --tjtf-clique 3 --assoc jcbb --data " + course + " --out " + tjtf.string(), *work_);
+  ASSERT_EQ(j.exit_code, 0) << j.err;
+  const auto mj = read(tjtf / "metrics.json");
+  EXPECT_EQ(mj["filter"], "tjtf");
+  EXPECT_EQ(mj["landmarks"], 7);  // as the EKF's JCBB run: one landmark is seen too rarely to be confirmed
+  EXPECT_LT(mj["map_rmse_m"].get<double>(), 0.5);
+  EXPECT_GT(mj["tjtf_contractions"].get<double>(), 0.0);
+  EXPECT_LE(mj["tjtf_widest_clique"].get<double>(), 3.0);
+  EXPECT_EQ(read(tjtf / "run.json")["settings"]["tjtf_max_clique_landmarks"], 3);
+  EXPECT_NE(text(tjtf / "information.svg").find("tjtf_max_clique_landmarks 3"), std::string::npos);
 }
 
 TEST_F(Cli, DatasetSettingsFileIsUsedAndChecked) {
@@ -459,7 +472,7 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
     const char* message;
   } cases[] = {
       {"--filter ekff",
-       "--filter: unknown filter 'ekff' (did you mean 'ekf'?); expected one of: ekf, ukf, eif, seif, eseif, fastslam1, fastslam2"},
+       "--filter: unknown filter 'ekff' (did you mean 'ekf'?); expected one of: ekf, ukf, eif, seif, eseif, tjtf, fastslam1, fastslam2"},
       {"--filter ukf --ekf-variant fej", "EKF variant 'fej' applies to the filter 'ekf', not 'ukf'"},
       {"--assoc nearest", "--assoc: unknown association 'nearest'; expected one of: known, nn, jcbb"},
       {"--ekf-variant sparse", "--ekf-variant: unknown EKF variant 'sparse'; expected one of: full, compressed, fej, invariant"},
@@ -474,6 +487,7 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
       {"--seif-sweeps -1", "--seif-sweeps: expected an integer >= 0, found -1"},
       {"--seif-covariance all", "--seif-covariance: unknown covariance recovery 'all'; expected one of: local, exact"},
       {"--eseif-active 0", "--eseif-active: expected an integer >= 1, found 0"},
+      {"--tjtf-clique 2", "--tjtf-clique: expected an integer >= 3, found 2"},
       {"--particles 2.5", "--particles: expected an integer >= 1, found 2.5"},
       {"--pose-sample-fraction 0", "pose_sample_fraction must lie in (0, 1], found 0"},
       {"--threads -1", "--threads: expected an integer >= 0, found -1"},

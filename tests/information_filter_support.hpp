@@ -1,6 +1,7 @@
 #pragma once
 // Side-by-side runs of two joint-Gaussian estimators under EkfSlam, for the information filters'
-// oracle tests: the EIF against the EKF, the SEIF and the ESEIF against the EIF.
+// oracle tests: the EIF against the EKF, the SEIF and the ESEIF against the EIF, the TJTF against the
+// EKF.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -45,10 +46,12 @@ struct Differences {
 
 inline std::unique_ptr<EkfSlam> make(const Dataset& data, EkfVariant variant, AssociationMethod method,
                                      bool joint_scan_update, const Matrix3& prior = kPrior,
-                                     const SeifOptions& seif = {}, const EseifOptions& eseif = {}) {
+                                     const SeifOptions& seif = {}, const EseifOptions& eseif = {},
+                                     const TjtfOptions& tjtf = {}) {
   EkfSlamOptions options;
   options.seif = seif;
   options.eseif = eseif;
+  options.tjtf = tjtf;
   options.initial_pose = data.initial_pose;
   options.initial_covariance = prior;
   options.association.method = method;
@@ -88,9 +91,9 @@ inline double relative_difference(const Eigen::MatrixXd& a, const Eigen::MatrixX
 inline Differences compare(const Dataset& data, AssociationMethod method, std::size_t check_every,
                            std::size_t max_scans, bool joint_scan_update = true, const Matrix3& prior = kPrior,
                            EkfVariant reference = EkfVariant::kFull, EkfVariant tested = EkfVariant::kInformation,
-                           const SeifOptions& seif = {}, const EseifOptions& eseif = {}) {
-  const auto ekf = make(data, reference, method, joint_scan_update, prior, seif, eseif);
-  const auto eif = make(data, tested, method, joint_scan_update, prior, seif, eseif);
+                           const SeifOptions& seif = {}, const EseifOptions& eseif = {}, const TjtfOptions& tjtf = {}) {
+  const auto ekf = make(data, reference, method, joint_scan_update, prior, seif, eseif, tjtf);
+  const auto eif = make(data, tested, method, joint_scan_update, prior, seif, eseif, tjtf);
   const EkfEstimator& a = ekf->estimator();
   const EkfEstimator& b = eif->estimator();
   Differences diff;

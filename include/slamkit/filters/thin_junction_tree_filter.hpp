@@ -46,7 +46,7 @@ namespace slamkit {
 struct TjtfOptions {
   /// The landmarks a clique holds at most (the vehicle's clique holds the vehicle besides). More
   /// keeps more of the exact filter's correlations, and each clique costs (3 + 2k)^3.
-  std::size_t max_clique_landmarks = 16;
+  std::size_t max_clique_landmarks = 24;
   static constexpr std::size_t kMinCliqueLandmarks = 3;
   static constexpr std::size_t kMaxCliqueLandmarks = 200;
 };
