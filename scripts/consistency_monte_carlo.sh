@@ -11,7 +11,7 @@
 # default 2), OUT (scratch folder, default out/consistency-<world>), FILTERS (default
 # "ekf ukf fej fej-iterated invariant invariant-iterated"; also ekf-iterated, ukf-additive (the UKF
 # with --ukf-noise additive), the information filters eif, seif, seif-exact (--seif-covariance exact)
-# and eseif), FIRST_SEED (default 1:
+# and eseif, and the thin junction tree filter tjtf), FIRST_SEED (default 1:
 # seeds FIRST_SEED .. FIRST_SEED + RUNS - 1; choices are made on other seeds than the table's).
 set -euo pipefail
 
@@ -47,6 +47,7 @@ filter_args() {
     seif) echo "--filter seif" ;;
     seif-exact) echo "--filter seif --seif-covariance exact" ;;
     eseif) echo "--filter eseif" ;;
+    tjtf) echo "--filter tjtf" ;;
     *) die "unknown filter '$1'" ;;
   esac
 }

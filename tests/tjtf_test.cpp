@@ -76,6 +76,18 @@ TEST(Tjtf, ThinnedItsCliquesStandForOneValidJunctionTree) {
     const auto rj = static_cast<Eigen::Index>(3 + 2 * j);
     EXPECT_LT(relative_difference(tjtf.landmark_cross_covariance(i, j), p.block<2, 2>(r, rj)), 1e-9) << i << " " << j;
   }
+  // As association reads them: one joint over the cliques on the asked landmarks' paths.
+  const std::vector<std::size_t> asked = {0, n / 3, n / 2, n - 1};
+  tjtf.prepare_covariances(asked);
+  for (const std::size_t i : asked) {
+    const auto r = static_cast<Eigen::Index>(3 + 2 * i);
+    EXPECT_LT(relative_difference(tjtf.landmark_pose_covariance(i), p.block<2, 3>(r, 0)), 1e-9) << i;
+    for (const std::size_t j : asked)
+      EXPECT_LT(relative_difference(tjtf.landmark_cross_covariance(i, j),
+                                    p.block<2, 2>(r, static_cast<Eigen::Index>(3 + 2 * j))),
+                1e-9)
+          << i << " " << j;
+  }
 }
 
 TEST(Tjtf, AContractionKeepsEveryMarginal) {

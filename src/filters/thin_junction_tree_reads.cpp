@@ -50,7 +50,9 @@ void ThinJunctionTreeFilter::propagate(std::size_t parent, std::size_t c) const 
   const Eigen::MatrixXd old_separator = child.covariance(in_child, in_child);
   // c = mu_c + G (S - mu_S) + e with G = Sigma_cS Sigma_SS^-1 is what the separator leaves unchanged.
   const Eigen::MatrixXd gain =
-      positive_definite(old_separator, "a separator's covariance").solve(child.covariance(in_child, Eigen::all)).transpose();
+      positive_definite(old_separator, "a separator's covariance")
+          .solve(child.covariance(in_child, Eigen::all))
+          .transpose();
   const Eigen::VectorXd mean_change = above.mean(in_parent) - child.mean(in_child);
   const Eigen::MatrixXd covariance_change = above.covariance(in_parent, in_parent) - old_separator;
   child.mean += gain * mean_change;
@@ -144,13 +146,22 @@ Matrix2 ThinJunctionTreeFilter::landmark_covariance(std::size_t index) const {
   return c.covariance.block<2, 2>(r, r);
 }
 
+const Eigen::Index* ThinJunctionTreeFilter::prepared_row(std::size_t index) const {
+  if (prepared_.version != version_) return nullptr;
+  const auto it = prepared_.rows.find(index);
+  return it == prepared_.rows.end() ? nullptr : &it->second;
+}
+
 Matrix23 ThinJunctionTreeFilter::landmark_pose_covariance(std::size_t index) const {
+  if (const Eigen::Index* r = prepared_row(index)) return prepared_.covariance.block<2, 3>(*r, 0);
   const std::size_t c = home_[index];
   return vehicle_cross(c).middleCols<2>(cliques_[c].row_of(index)).transpose();
 }
 
 Matrix2 ThinJunctionTreeFilter::landmark_cross_covariance(std::size_t i, std::size_t j) const {
   if (i == j) return landmark_covariance(i);
+  if (const Eigen::Index *ri = prepared_row(i), *rj = prepared_row(j); ri && rj)
+    return prepared_.covariance.block<2, 2>(*ri, *rj);
   for (const std::size_t c : {home_[i], home_[j], kRoot}) {
     const Clique& clique = cliques_[c];
     const Eigen::Index ri = clique.row_of(i), rj = clique.row_of(j);
@@ -159,7 +170,16 @@ Matrix2 ThinJunctionTreeFilter::landmark_cross_covariance(std::size_t i, std::si
       return clique.covariance.block<2, 2>(ri, rj);
     }
   }
-  return landmark_cross(i, home_[j]).middleCols<2>(cliques_[home_[j]].row_of(j));
+  // Map matching asks about many pairs in one search: one walk answers for all of j's clique.
+  if (cross_cache_version_ != version_) {
+    cross_cache_.clear();
+    cross_cache_version_ = version_;
+  }
+  const std::size_t to = home_[j];
+  const std::uint64_t key = (static_cast<std::uint64_t>(i) << 32) | static_cast<std::uint64_t>(to);
+  auto it = cross_cache_.find(key);
+  if (it == cross_cache_.end()) it = cross_cache_.emplace(key, landmark_cross(i, to)).first;
+  return it->second.middleCols<2>(cliques_[to].row_of(j));
 }
 
 void ThinJunctionTreeFilter::landmark_marginals(std::vector<Vector2>& means, std::vector<Matrix2>& covariances) const {
@@ -176,52 +196,76 @@ Eigen::VectorXd ThinJunctionTreeFilter::state() const {
   return x;
 }
 
-Eigen::MatrixXd ThinJunctionTreeFilter::covariance() const {
-  calibrate_all();
-  const auto n = static_cast<Eigen::Index>(dim_);
-  Eigen::MatrixXd p = Eigen::MatrixXd::Zero(n, n);
-  const auto state_rows = [&](const Clique& c, const std::vector<std::size_t>& landmarks) {
-    Rows rows;
-    if (c.vehicle) rows = {0, 1, 2};
-    for (const std::size_t l : landmarks) {
-      rows.push_back(static_cast<Eigen::Index>(landmark_offset(l)));
-      rows.push_back(static_cast<Eigen::Index>(landmark_offset(l)) + 1);
-    }
-    return rows;
-  };
-  const Clique& root = cliques_[kRoot];
-  Rows placed = state_rows(root, root.landmarks);
-  p(placed, placed) = root.covariance;
-  // Each clique's variables not in its parent are independent of everything placed before, given
-  // the separator: they are regressed on it.
+ThinJunctionTreeFilter::Joint ThinJunctionTreeFilter::joint(const std::vector<char>& included) const {
+  // Breadth first from the root: each clique's landmarks not in its parent are independent of
+  // everything placed before, given the separator, so they are regressed on it.
   std::vector<std::size_t> queue{kRoot};
   for (std::size_t k = 0; k < queue.size(); ++k)
-    for (const std::size_t child : cliques_[queue[k]].children) {
-      queue.push_back(child);
-      const Clique& c = cliques_[child];
-      const Separator s = separator(c, cliques_[queue[k]]);
-      Rows fresh_rows;
-      std::vector<std::size_t> fresh;
-      for (const std::size_t l : c.landmarks)
-        if (std::find(s.landmarks.begin(), s.landmarks.end(), l) == s.landmarks.end()) {
-          fresh.push_back(l);
-          fresh_rows.push_back(c.row_of(l));
-        }
-      if (fresh.empty()) continue;
-      const Rows in_c = both_rows(fresh_rows), new_state = state_rows(Clique{}, fresh);
-      if (!s.landmarks.empty()) {
-        const Rows sep_c = both_rows(s.rows_a), sep_state = state_rows(Clique{}, s.landmarks);
-        const Eigen::MatrixXd gain = positive_definite(c.covariance(sep_c, sep_c), "a separator's covariance")
-                                         .solve(c.covariance(sep_c, in_c))
-                                         .transpose();
-        const Eigen::MatrixXd cross = gain * p(sep_state, placed);
-        p(new_state, placed) = cross;
-        p(placed, new_state) = cross.transpose();
+    for (const std::size_t child : cliques_[queue[k]].children)
+      if (included[child]) {
+        make_current(child);
+        queue.push_back(child);
       }
-      p(new_state, new_state) = c.covariance(in_c, in_c);
-      placed.insert(placed.end(), new_state.begin(), new_state.end());
+  Joint out;
+  std::size_t rows = 0;
+  for (const std::size_t c : queue) rows += cliques_[c].landmarks.size();  // an upper bound
+  out.covariance.resize(static_cast<Eigen::Index>(3 + 2 * rows), static_cast<Eigen::Index>(3 + 2 * rows));
+  const Clique& root = cliques_[kRoot];
+  out.covariance.topLeftCorner(root.rows(), root.rows()) = root.covariance;
+  Eigen::Index placed = root.rows();
+  for (std::size_t k = 0; k < root.landmarks.size(); ++k)
+    out.rows[root.landmarks[k]] = 3 + 2 * static_cast<Eigen::Index>(k);
+  for (std::size_t k = 1; k < queue.size(); ++k) {
+    const Clique& c = cliques_[queue[k]];
+    const Separator s = separator(c, cliques_[c.parent]);
+    Rows fresh_in_c;
+    for (const std::size_t l : c.landmarks)
+      if (std::find(s.landmarks.begin(), s.landmarks.end(), l) == s.landmarks.end()) {
+        fresh_in_c.push_back(c.row_of(l));
+        out.rows[l] = placed + 2 * static_cast<Eigen::Index>(fresh_in_c.size() - 1);
+      }
+    if (fresh_in_c.empty()) continue;
+    const Rows in_c = both_rows(fresh_in_c);
+    const auto fresh = static_cast<Eigen::Index>(in_c.size());
+    auto before = out.covariance.block(placed, 0, fresh, placed);
+    if (s.landmarks.empty()) {
+      before.setZero();
+    } else {
+      Rows separator_rows;
+      for (const std::size_t l : s.landmarks) separator_rows.push_back(out.rows.at(l));
+      const Rows sep_c = both_rows(s.rows_a);
+      const Eigen::MatrixXd gain = positive_definite(c.covariance(sep_c, sep_c), "a separator's covariance")
+                                       .solve(c.covariance(sep_c, in_c))
+                                       .transpose();
+      before = gain * out.covariance(both_rows(separator_rows), Eigen::seqN(0, placed));
     }
-  return p;
+    out.covariance.block(0, placed, placed, fresh) = before.transpose();
+    out.covariance.block(placed, placed, fresh, fresh) = c.covariance(in_c, in_c);
+    placed += fresh;
+  }
+  out.covariance.conservativeResize(placed, placed);
+  out.version = version_;
+  return out;
+}
+
+Eigen::MatrixXd ThinJunctionTreeFilter::covariance() const {
+  const Joint all = joint(std::vector<char>(cliques_.size(), 1));
+  Rows state_order{0, 1, 2};
+  for (std::size_t i = 0; i < num_landmarks(); ++i) state_order.push_back(all.rows.at(i));
+  const Rows rows = both_rows(Rows(state_order.begin() + 3, state_order.end()));
+  Rows order{0, 1, 2};
+  order.insert(order.end(), rows.begin(), rows.end());
+  return all.covariance(order, order);
+}
+
+void ThinJunctionTreeFilter::prepare_covariances(std::span<const std::size_t> landmarks) const {
+  // The cliques on the paths from the landmarks up to the root: their joint holds every covariance
+  // association will read, each pair's at once rather than along its own path.
+  std::vector<char> included(cliques_.size(), 0);
+  included[kRoot] = 1;
+  for (const std::size_t l : landmarks)
+    for (std::size_t a = home_[l]; !included[a]; a = cliques_[a].parent) included[a] = 1;
+  prepared_ = joint(included);
 }
 
 // ---- what a run reports ------------------------------------------------------------------------------

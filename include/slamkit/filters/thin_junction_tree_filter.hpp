@@ -36,6 +36,7 @@
 // reading the whole map (the runner's cadence) brings every clique up to date, O(n k^2).
 #include <cstdint>
 #include <limits>
+#include <unordered_map>
 #include <vector>
 
 #include "slamkit/filters/ekf_estimator.hpp"
@@ -65,6 +66,9 @@ class ThinJunctionTreeFilter final : public EkfEstimator {
   Matrix2 landmark_covariance(std::size_t index) const override;
   Matrix23 landmark_pose_covariance(std::size_t index) const override;
   Matrix2 landmark_cross_covariance(std::size_t i, std::size_t j) const override;
+  /// The joint covariance of the vehicle and `landmarks`, from the cliques on their paths to the
+  /// root at once, kept for the reads that follow until the belief changes.
+  void prepare_covariances(std::span<const std::size_t> landmarks) const override;
   /// Brings every clique up to date once and reads each landmark from a clique that holds it.
   void landmark_marginals(std::vector<Vector2>& means, std::vector<Matrix2>& covariances) const override;
   Eigen::VectorXd state() const override;
@@ -135,6 +139,18 @@ class ThinJunctionTreeFilter final : public EkfEstimator {
     Eigen::Index size() const { return 2 * static_cast<Eigen::Index>(landmarks.size()); }
   };
   Separator separator(const Clique& a, const Clique& b) const;
+
+  /// A joint covariance over the vehicle (rows 0-2) and landmarks (their first rows by map index).
+  struct Joint {
+    Eigen::MatrixXd covariance;
+    std::unordered_map<std::size_t, Eigen::Index> rows;
+    std::uint64_t version = 0;  // the filter's version_ it was computed at
+  };
+  /// The joint of every variable of the `included` cliques (by clique index; they must form a
+  /// subtree holding the root), each clique regressed on its separator.
+  Joint joint(const std::vector<char>& included) const;
+  /// Landmark `index`'s first row in the prepared joint, or null if it is not there or out of date.
+  const Eigen::Index* prepared_row(std::size_t index) const;
   std::vector<std::size_t> neighbours(std::size_t c) const;
 
   /// Brings clique `c` up to date from its nearest current ancestor down.
@@ -190,6 +206,12 @@ class ThinJunctionTreeFilter final : public EkfEstimator {
   std::vector<std::size_t> last_observed_;  // by map index: the scan count when last observed
   std::size_t scans_ = 0;
   mutable std::uint64_t epoch_ = 1;
+  mutable Joint prepared_;  // prepare_covariances'
+  // landmark_cross's answers (key: landmark << 32 | clique), while the belief is at
+  // cross_cache_version_.
+  mutable std::unordered_map<std::uint64_t, Eigen::MatrixXd> cross_cache_;
+  mutable std::uint64_t cross_cache_version_ = 0;
+
   std::uint64_t version_ = 1;  // changes with every change of the belief (caches of vehicle_cross)
   std::size_t contractions_ = 0, pushes_ = 0, path_extensions_ = 0;
   double projection_nats_ = 0.0;
