@@ -869,6 +869,7 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
       {"run --filter eseif --eseif-sweeps x" + data, 2, "--eseif-sweeps: expected an integer >= 0, found x"},
       {"run --filter eseif --eseif-covariance locl" + data, 2,
        "--eseif-covariance: unknown covariance recovery 'locl' (did you mean 'local'?)"},
+      {"run --filter tjtf --tjtf-clique 2" + data, 2, "--tjtf-clique: expected an integer >= 3, found 2"},
       {"run --landmark-init delay" + data, 2,
        "--landmark-init: unknown landmark initialisation 'delay' (did you mean 'delayed'?)"},
       {"run --init-max-std 0" + data, 2, "delayed initialisation: max_std_m must be > 0 and <= 10000, found 0"},

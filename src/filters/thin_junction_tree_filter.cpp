@@ -120,18 +120,11 @@ std::size_t ThinJunctionTreeFilter::add_landmark(const InitialLandmark& landmark
   if (cliques_[kRoot].landmarks.size() >= options_.max_clique_landmarks && contractible_in_root({}) < bridge)
     push_root();
   Clique& root = cliques_[kRoot];
-  const Eigen::Index n = root.rows();
   const Eigen::MatrixXd cross = landmark.gx * root.covariance.topRows<3>();
   Matrix2 own = landmark.gx * root.covariance.topLeftCorner<3, 3>() * landmark.gx.transpose() + landmark.covariance;
   own = (0.5 * (own + own.transpose())).eval();
-  root.mean.conservativeResize(n + 2);
-  root.mean.tail<2>() = landmark.mean;
-  root.covariance.conservativeResize(n + 2, n + 2);
-  root.covariance.bottomRows<2>().leftCols(n) = cross;
-  root.covariance.rightCols<2>().topRows(n) = cross.transpose();
-  root.covariance.bottomRightCorner<2, 2>() = own;
   const std::size_t index = num_landmarks();
-  root.landmarks.push_back(index);
+  append(root, index, landmark.mean, cross, own);
   home_.push_back(kRoot);
   last_observed_.push_back(scans_);
   reserve(dim_ + 2);
@@ -271,13 +264,19 @@ void ThinJunctionTreeFilter::extend(std::size_t target, std::size_t source, std:
                                      .transpose();
     cross = gain * to.covariance(in_to, Eigen::all);
   }
-  to.mean.conservativeResize(n + 2);
-  to.mean.tail<2>() = from.mean.segment<2>(r);
-  to.covariance.conservativeResize(n + 2, n + 2);
-  to.covariance.bottomRows<2>().leftCols(n) = cross;
-  to.covariance.rightCols<2>().topRows(n) = cross.transpose();
-  to.covariance.bottomRightCorner<2, 2>() = from.covariance.block<2, 2>(r, r);
-  to.landmarks.push_back(index);
+  append(to, index, from.mean.segment<2>(r), cross, from.covariance.block<2, 2>(r, r));
+}
+
+void ThinJunctionTreeFilter::append(Clique& c, std::size_t index, const Vector2& mean, const Eigen::MatrixXd& cross,
+                                    const Matrix2& own) {
+  const Eigen::Index n = c.rows();
+  c.mean.conservativeResize(n + 2);
+  c.mean.tail<2>() = mean;
+  c.covariance.conservativeResize(n + 2, n + 2);
+  c.covariance.bottomRows<2>().leftCols(n) = cross;
+  c.covariance.rightCols<2>().topRows(n) = cross.transpose();
+  c.covariance.bottomRightCorner<2, 2>() = own;
+  c.landmarks.push_back(index);
 }
 
 void ThinJunctionTreeFilter::push_root() {

@@ -173,6 +173,10 @@ class ThinJunctionTreeFilter final : public EkfEstimator {
   void admit(std::size_t index, const std::vector<std::size_t>& pinned);
   /// Adds landmark `index` to `target` from `source`, a neighbour that holds it (both current).
   void extend(std::size_t target, std::size_t source, std::size_t index);
+  /// Appends landmark `index` to clique `c` with its mean, its covariance with c's variables and its
+  /// own.
+  static void append(Clique& c, std::size_t index, const Vector2& mean, const Eigen::MatrixXd& cross,
+                     const Matrix2& own);
   /// A copy of the root's landmarks, put between the root and its children.
   void push_root();
   /// How many of the root's landmarks, `pinned` aside, one child alone holds.
