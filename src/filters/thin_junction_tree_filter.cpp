@@ -116,9 +116,7 @@ bool ThinJunctionTreeFilter::update_landmarks(std::span<const LandmarkObservatio
 }
 
 std::size_t ThinJunctionTreeFilter::add_landmark(const InitialLandmark& landmark) {
-  const std::size_t bridge = std::max<std::size_t>(1, options_.max_clique_landmarks / 2);
-  if (cliques_[kRoot].landmarks.size() >= options_.max_clique_landmarks && contractible_in_root({}) < bridge)
-    push_root();
+  make_room_in_root({});
   Clique& root = cliques_[kRoot];
   const Eigen::MatrixXd cross = landmark.gx * root.covariance.topRows<3>();
   Matrix2 own = landmark.gx * root.covariance.topLeftCorner<3, 3>() * landmark.gx.transpose() + landmark.covariance;
@@ -136,13 +134,7 @@ std::size_t ThinJunctionTreeFilter::add_landmark(const InitialLandmark& landmark
 }
 
 void ThinJunctionTreeFilter::remove_landmark(std::size_t index) {
-  // Every clique that holds it, each current before any changes (a drop changes separators).
-  std::vector<std::size_t> holders{home_[index]};
-  for (std::size_t k = 0; k < holders.size(); ++k)
-    for (const std::size_t n : neighbours(holders[k]))
-      if (cliques_[n].holds(index) && std::find(holders.begin(), holders.end(), n) == holders.end())
-        holders.push_back(n);
-  for (const std::size_t c : holders) make_current(c);
+  const std::vector<std::size_t> holders = current_holders(index, home_[index], kNone);
   for (const std::size_t c : holders) drop(c, index);
   for (Clique& c : cliques_)
     for (std::size_t& l : c.landmarks)
@@ -182,12 +174,7 @@ void ThinJunctionTreeFilter::set_duplicate_aside(const LandmarkPair& pair) {
   // the duplicate alone the original takes its rows (the same numbers), so the original keeps the
   // duplicate's links to its neighbours, and no separator holds two copies of one point (a singular
   // covariance). The duplicate stays, until it is removed, as a clique of its own, independent.
-  std::vector<std::size_t> holders{kRoot};
-  for (std::size_t k = 0; k < holders.size(); ++k)
-    for (const std::size_t n : neighbours(holders[k]))
-      if (cliques_[n].holds(pair.duplicate) && std::find(holders.begin(), holders.end(), n) == holders.end())
-        holders.push_back(n);
-  for (const std::size_t c : holders) make_current(c);
+  const std::vector<std::size_t> holders = current_holders(pair.duplicate, kRoot, kNone);
   const Clique& root = cliques_[kRoot];
   const Eigen::Index rd = root.row_of(pair.duplicate);
   const Vector2 mean = root.mean.segment<2>(rd);
@@ -226,9 +213,7 @@ std::size_t ThinJunctionTreeFilter::new_clique() {
 
 void ThinJunctionTreeFilter::admit(std::size_t index, const std::vector<std::size_t>& pinned) {
   if (cliques_[kRoot].holds(index)) return;
-  const std::size_t bridge = std::max<std::size_t>(1, options_.max_clique_landmarks / 2);
-  if (cliques_[kRoot].landmarks.size() >= options_.max_clique_landmarks && contractible_in_root(pinned) < bridge)
-    push_root();
+  make_room_in_root(pinned);
   make_current(home_[index]);
   std::vector<std::size_t> path;  // from the home up to the root
   for (std::size_t a = home_[index]; a != kNone; a = cliques_[a].parent) path.push_back(a);
@@ -293,6 +278,23 @@ void ThinJunctionTreeFilter::push_root() {
   root.children = {l};
   ++pushes_;
   ++version_;
+}
+
+std::vector<std::size_t> ThinJunctionTreeFilter::current_holders(std::size_t index, std::size_t from,
+                                                                 std::size_t excluded) const {
+  std::vector<std::size_t> holders{from};
+  for (std::size_t k = 0; k < holders.size(); ++k)
+    for (const std::size_t n : neighbours(holders[k]))
+      if (n != excluded && cliques_[n].holds(index) && std::find(holders.begin(), holders.end(), n) == holders.end())
+        holders.push_back(n);
+  for (const std::size_t c : holders) make_current(c);
+  return holders;
+}
+
+void ThinJunctionTreeFilter::make_room_in_root(const std::vector<std::size_t>& pinned) {
+  const std::size_t bridge = std::max<std::size_t>(1, options_.max_clique_landmarks / 2);
+  if (cliques_[kRoot].landmarks.size() >= options_.max_clique_landmarks && contractible_in_root(pinned) < bridge)
+    push_root();
 }
 
 std::size_t ThinJunctionTreeFilter::contractible_in_root(const std::vector<std::size_t>& pinned) const {
@@ -386,13 +388,7 @@ void ThinJunctionTreeFilter::drop(std::size_t c, std::size_t index) {
 }
 
 void ThinJunctionTreeFilter::cut(std::size_t index, std::size_t c, std::size_t kept) {
-  std::vector<std::size_t> beyond{c};
-  for (std::size_t k = 0; k < beyond.size(); ++k)
-    for (const std::size_t n : neighbours(beyond[k]))
-      if (n != kept && cliques_[n].holds(index) && std::find(beyond.begin(), beyond.end(), n) == beyond.end())
-        beyond.push_back(n);
-  for (const std::size_t b : beyond) make_current(b);
-  for (const std::size_t b : beyond) drop(b, index);
+  for (const std::size_t b : current_holders(index, c, kept)) drop(b, index);
   home_[index] = kept;
   ++version_;
 }

@@ -177,6 +177,13 @@ class ThinJunctionTreeFilter final : public EkfEstimator {
   /// own.
   static void append(Clique& c, std::size_t index, const Vector2& mean, const Eigen::MatrixXd& cross,
                      const Matrix2& own);
+  /// The cliques holding landmark `index` connected to `from` (which holds it) other than through
+  /// `excluded` (kNone: all of them), each made current: before any changes, as a drop changes
+  /// separators.
+  std::vector<std::size_t> current_holders(std::size_t index, std::size_t from, std::size_t excluded) const;
+  /// Before a landmark enters a full root: pushes the root down if too few of its landmarks
+  /// (`pinned` aside) could be contracted to its child.
+  void make_room_in_root(const std::vector<std::size_t>& pinned);
   /// A copy of the root's landmarks, put between the root and its children.
   void push_root();
   /// How many of the root's landmarks, `pinned` aside, one child alone holds.
