@@ -10,7 +10,7 @@ SLAMKIT := $(BUILD_DIR)/slamkit
 # for the peak memory of end-to-end runs; Python and Chromium for the Python module's tests and the
 # replay page's browser test).
 DEB_PACKAGES := cmake make g++ libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev \
-                nlohmann-json3-dev libcli11-dev libfmt-dev zlib1g-dev time
+                nlohmann-json3-dev libcli11-dev libfmt-dev zlib1g-dev libyaml-cpp-dev time
 # What `make test` needs beyond that (the demo does without them).
 TEST_DEB_PACKAGES := pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib \
                      chromium chromium-driver

@@ -30,6 +30,7 @@
 #include "slamkit/core/version.hpp"
 #include "slamkit/eval/evaluation.hpp"
 #include "slamkit/io/load_dataset.hpp"
+#include "slamkit/io/carmen.hpp"
 #include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/io/sim_log.hpp"
@@ -43,6 +44,7 @@
 #include "slamkit/plot/benchmark_plots.hpp"
 #include "slamkit/plot/replay_html.hpp"
 #include "slamkit/plot/report.hpp"
+#include "slamkit/sim/building.hpp"
 #include "slamkit/sim/simulator.hpp"
 #include "slamkit/sim/world.hpp"
 
@@ -391,6 +393,18 @@ int run_command(int argc, char** argv) {
                    "ranging to beacons) or bearing-only (a camera's azimuth); its noise is the config's sigma_range "
                    "or sigma_bearing")
       ->check(parsed_by(parse_sensor_kind));
+  std::string building_name;
+  auto* building_opt =
+      simulate_cmd
+          ->add_option("--building", building_name,
+                       fmt::format("Simulate a robot with a planar laser in a building instead: {} (--config: "
+                                   "its settings, docs/grid-mapping.md; writes "
+                                   "OUT/PLAN.log, a CARMEN log with its odometry, and OUT/PLAN.reference.log, the "
+                                   "true poses; run it with --data carmen:OUT/PLAN.log)",
+                                   fmt::join(floor_plan_names(), ", ")))
+          ->check(one_of("building", floor_plan_names()));
+  for (const char* name : {"--scenario", "--world", "--family", "--clutter", "--detection-prob", "--no-ids", "--sensor"})
+    building_opt->excludes(simulate_cmd->get_option(name));
   simulate_cmd->add_option("--out", sim_out, "Output folder for the log and ground truth")->required();
 
   // ---- make-world ----
@@ -438,7 +452,8 @@ int run_command(int argc, char** argv) {
   add_named_setting(run_cmd, "--filter", flag_settings, "/filter", parse_filter_kind,
                     "Filter: ekf, ukf, eif (the EKF in information form), seif (the sparse extended information filter), "
                     "eseif (the exactly sparse extended information filter), tjtf (Paskin's thin junction tree filter), "
-                    "fastslam1, fastslam2",
+                    "fastslam1, fastslam2; on laser logs: scan-matching (odometry corrected by matching each scan "
+                    "against the map so far), grid-fastslam (particles with occupancy grids, GMapping's proposal)",
                     defaults.filter);
   add_named_setting(run_cmd, "--assoc", flag_settings, "/association/method", parse_association_method,
                     "Data association: known (ids from the log), nn, jcbb", defaults.association.method);
@@ -446,7 +461,8 @@ int run_command(int argc, char** argv) {
       run_cmd
           ->add_option("--data", data_spec,
                        "Dataset, as KIND:PATH: sim:DIR, victoria-park:DIR, mrclam:DIR:robotN (N 1-5; also DIR:N "
-                       "and DIR/RobotN; a bare DIR is robot 1), course:DIR, plaza:DIR:Plaza1 (range-only). Its files "
+                       "and DIR/RobotN; a bare DIR is robot 1), course:DIR, plaza:DIR:Plaza1 (range-only), carmen:FILE (a laser "
+                       "log, .gz too; config/radish.json for the corrected Radish logs). Its files "
                        "must be regular files, with lines up to 1 MiB, positions within +-2e6 m and at least one "
                        "observation")
           ->check(parsed_by(check_dataset_spec));
@@ -458,10 +474,24 @@ int run_command(int argc, char** argv) {
                              std::to_string(defaults.seed))
       ->check(integer_at_least(0));
   add_setting<int>(run_cmd, "--particles", flag_settings, "/particles",
-                   "FastSLAM: number of particles; a run whose estimated memory (particles x landmarks, and the "
+                   "FastSLAM and grid-fastslam (which starts at 30): number of particles; a run whose estimated memory (particles x landmarks, and the "
                    "history kept) exceeds what this process may use is refused before it starts",
                    std::to_string(defaults.particles))
       ->check(integer_at_least(1));
+  add_setting<double>(run_cmd, "--grid-resolution", flag_settings, "/grid/resolution_m",
+                      "scan-matching and grid-fastslam: the occupancy grid's cell side [m]",
+                      fmt::format("{}", defaults.grid.grid.resolution))
+      ->check(finite_number());
+  add_setting<double>(run_cmd, "--grid-range-cutoff", flag_settings, "/grid/range_cutoff_m",
+                      "scan-matching and grid-fastslam: readings beyond this (and no-returns) mark free space up to "
+                      "it and no obstacle [m]",
+                      fmt::format("{}", defaults.grid.grid.range_cutoff))
+      ->check(finite_number());
+  add_setting<double>(run_cmd, "--grid-sample-fraction", flag_settings, "/grid/proposal_sample_fraction",
+                      "grid-fastslam: share of the proposal's covariance a particle draws its pose from, in [0, 1] "
+                      "(0: the proposal's mean, as GMapping moves a particle to its match)",
+                      fmt::format("{}", defaults.grid.proposal_sample_fraction))
+      ->check(finite_number());
   add_setting<double>(run_cmd, "--pose-sample-fraction", flag_settings, "/pose_sample_fraction",
                       "FastSLAM 2.0: share of the proposal's covariance a particle draws its pose from, in (0, 1]; "
                       "it carries the rest as a Gaussian (1: the textbook filter)",
@@ -811,7 +841,22 @@ int run_command(int argc, char** argv) {
   }
 
   try {
-    if (*simulate_cmd) {
+    if (*simulate_cmd && !building_name.empty()) {
+      BuildingSimConfig config =
+          config_path.empty() ? BuildingSimConfig{}
+                              : building_sim_config_from_json(read_json_file(config_path), config_path);
+      config.seed = sim_seed;
+      if (simulate_cmd->count("--loops")) config.loops = loops;
+      const FloorPlan plan = floor_plan(building_name);
+      const Dataset log = simulate_building(plan, config);
+      std::filesystem::create_directories(sim_out);
+      const std::string log_path = (std::filesystem::path(sim_out) / (plan.name + ".log")).string();
+      write_carmen(log_path, log);
+      std::size_t scans = 0;
+      for (const Event& e : log.events) scans += std::holds_alternative<RangeScanEvent>(e);
+      fmt::print("simulated {} walls, {} controls, {} laser scans ({:.0f} s) -> {}\n", plan.walls.size(),
+                 log.events.size() - scans, scans, log.truth.poses.empty() ? 0.0 : log.truth.poses.back().t, log_path);
+    } else if (*simulate_cmd) {
       const Scenario base = family_name.empty() ? scenario(scenario_name) : world_family(family_name).member(world_seed);
       const World world = world_path.empty() ? base.world : read_world(world_path);
       SimulatorConfig config =
@@ -862,7 +907,8 @@ int run_command(int argc, char** argv) {
                         : "");
     } else if (*run_cmd) {
       const auto warn = [&](const std::string& message) { std::cerr << "slamkit: warning: " << message << "\n"; };
-      const bool particle_filter = filter.filter == FilterKind::kFastSlam1 || filter.filter == FilterKind::kFastSlam2;
+      const bool particle_filter = filter.filter == FilterKind::kFastSlam1 || filter.filter == FilterKind::kFastSlam2 ||
+                                   filter.filter == FilterKind::kGridFastSlam;
       for (const char* name : {"--particles", "--resample", "--resample-when"})
         if (!particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by the EKF and the UKF", name));
       if (filter.filter != FilterKind::kFastSlam2 && run_cmd->count("--pose-sample-fraction") > 0)
@@ -876,7 +922,7 @@ int run_command(int argc, char** argv) {
       for (const char* name : {"--ekf-update", "--ekf-variant"})
         if (particle_filter && run_cmd->count(name) > 0) warn(fmt::format("{} is ignored by FastSLAM", name));
       if (!particle_filter && run_cmd->count("--seed") > 0)
-        warn("--seed is ignored by the EKF and the UKF, which draw no random numbers");
+        warn(fmt::format("--seed is ignored by the {} filter, which draws no random numbers", to_string(filter.filter)));
 
       // Everything needed to repeat the run from any folder: absolute paths, the dataset settings'
       // contents (the file may change or move), every filter setting by name, and which of them the
@@ -916,14 +962,16 @@ int run_command(int argc, char** argv) {
       const Dataset dataset =
           load_dataset(dataset_spec, settings_contents, settings_source.empty() ? settings_path : settings_source);
       stage("dataset read");
-      if (filter.association.method == AssociationMethod::kKnown && !has_landmark_ids(dataset))
-        throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
       add_dataset_provenance(provenance, dataset_spec, dataset);
 
       RunOptions options;
       options.history = history;
       require_run_memory(filter, dataset, options);
       auto slam = make_filter(filter, dataset);
+      check_filter_fits(*slam, dataset);
+      if (!slam->maps_range_scans() && filter.association.method == AssociationMethod::kKnown &&
+          !has_landmark_ids(dataset))
+        throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
       ProgressLine progress;
       if (verbosity != Verbosity::kQuiet && isatty(STDERR_FILENO)) options.observers.push_back(&progress);
       std::optional<ReplayRecorder> recorder;

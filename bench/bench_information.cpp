@@ -257,7 +257,7 @@ void feed(EkfSlam& filter, Event& event, double t) {
         e.t = t;
         if constexpr (std::is_same_v<std::decay_t<decltype(e)>, ControlEvent>)
           filter.predict(e);
-        else
+        else if constexpr (std::is_same_v<std::decay_t<decltype(e)>, ScanEvent>)
           filter.update(e);
       },
       event);
@@ -305,7 +305,7 @@ void drive_sparse(Running& r, Scene& s) {
         [&](const auto& e) {
           if constexpr (std::is_same_v<std::decay_t<decltype(e)>, ControlEvent>) {
             r.filter->predict(e);
-          } else {
+          } else if constexpr (std::is_same_v<std::decay_t<decltype(e)>, ScanEvent>) {
             r.filter->update(e);
             ++r.setup_scans;
           }

@@ -14,6 +14,7 @@
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
+#include "slamkit/io/carmen.hpp"
 #include "slamkit/io/course_log.hpp"
 #include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/run_io.hpp"
@@ -119,6 +120,13 @@ void victoria_park(std::string_view input) {
   const fs::path& dir = fresh_folder();
   write_files(dir, input, {"DRS.txt", "GPS.txt", "LASER.txt.gz"});
   refusing_only_with_input_error([&] { read_victoria_park(dir.string()); });
+}
+
+/// A CARMEN log, then the reference log beside it.
+void carmen(std::string_view input) {
+  const fs::path& dir = fresh_folder();
+  write_files(dir, input, {"log.log", "log.reference.log"});
+  refusing_only_with_input_error([&] { read_carmen((dir / "log.log").string()); });
 }
 
 void world(std::string_view input) {
@@ -306,6 +314,7 @@ constexpr FuzzTarget kTargets[] = {
     {"course_log", course_log},
     {"mrclam", mrclam},
     {"victoria_park", victoria_park},
+    {"carmen", carmen},
     {"world", world},
     {"trajectory", trajectory},
     {"json_settings", json_settings},

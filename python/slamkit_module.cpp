@@ -67,6 +67,27 @@ py::array_t<double> landmarks_array(const std::vector<Landmark>& landmarks) {
 }
 
 /// Shape (n, 2, 2).
+/// A GridMap as (log_odds, observed, origin, resolution), the arrays row 0 at the lowest y.
+py::tuple grid_arrays(const GridMap& g) {
+  const std::vector<py::ssize_t> shape = {g.height, g.width};
+  py::array_t<double> log_odds(shape);
+  py::array_t<bool> observed(shape);
+  auto cells = log_odds.mutable_unchecked<2>();
+  auto seen = observed.mutable_unchecked<2>();
+  for (int j = 0; j < g.height; ++j)
+    for (int i = 0; i < g.width; ++i) {
+      cells(j, i) = g.log_odds[g.index(i, j)];
+      seen(j, i) = g.observed[g.index(i, j)] != 0;
+    }
+  return py::make_tuple(log_odds, observed, Eigen::Vector2d(g.origin), g.resolution);
+}
+
+constexpr const char* kGridDoc =
+    "a grid-mapping filter's occupancy grid (scan-matching, grid-fastslam: the best particle's): (log_odds, "
+    "observed, origin, resolution), log_odds and observed of shape (height, width) with row 0 at the lowest y "
+    "(observed: some beam reached the cell; log_odds 0 elsewhere), origin the lower-left corner [m], resolution "
+    "the cell side [m]; empty arrays for a landmark filter";
+
 py::array_t<double> landmark_covariances(const std::vector<Landmark>& landmarks) {
   py::array_t<double> out({static_cast<py::ssize_t>(landmarks.size()), py::ssize_t{2}, py::ssize_t{2}});
   auto a = out.mutable_unchecked<3>();
@@ -92,7 +113,10 @@ class PyEvent {
   const Event& event() const { return dataset_->events[index_]; }
   std::size_t index() const { return index_; }
   double t() const { return event_time(event()); }
-  const char* kind() const { return std::holds_alternative<ControlEvent>(event()) ? "control" : "scan"; }
+  const char* kind() const {
+    if (std::holds_alternative<ControlEvent>(event())) return "control";
+    return std::holds_alternative<RangeScanEvent>(event()) ? "range_scan" : "scan";
+  }
   py::object dt() const {
     const auto* control = std::get_if<ControlEvent>(&event());
     return control ? py::object(py::float_(control->dt)) : py::object(py::none());
@@ -194,7 +218,7 @@ class Filter {
         config_(filter_config_from_json(to_json(settings), "settings")),
         filter_(make_filter(config_, *dataset_)) {}
 
-  /// Applies the next event; returns "control" or "scan", or None at the end of the dataset.
+  /// Applies the next event; returns "control", "scan" or "range_scan", or None at the end of the dataset.
   py::object step() {
     if (next_ >= dataset_->events.size()) return py::none();
     const std::size_t index = next_++;
@@ -204,7 +228,12 @@ class Filter {
       last_event_ = index;
       return py::str("control");
     }
-    filter_->update(std::get<ScanEvent>(event));
+    if (const auto* range_scan = std::get_if<RangeScanEvent>(&event)) {
+      if (filter_->maps_range_scans()) filter_->update_range_scan(*range_scan);
+      last_event_ = last_scan_ = index;
+      return py::str("range_scan");
+    }
+    if (!filter_->maps_range_scans()) filter_->update(std::get<ScanEvent>(event));
     last_event_ = last_scan_ = index;
     return py::str("scan");
   }
@@ -394,6 +423,7 @@ PYBIND11_MODULE(slamkit, m) {
                              "the controls integrated without observations, shape (n, 4): rows t, x, y, theta")
       .def_property_readonly("map", [](const PyRun& r) { return landmarks_array(r.result.map); },
                              "the final map, shape (n, 3): rows id, x [m], y [m]")
+      .def_property_readonly("grid", [](const PyRun& r) { return grid_arrays(r.result.grid); }, kGridDoc)
       .def_property_readonly("map_covariances", [](const PyRun& r) { return landmark_covariances(r.result.map); },
                              "each map landmark's position covariance, shape (n, 2, 2) [m^2], in map's row order")
       .def_property_readonly("statistics", [](const PyRun& r) { return r.result.statistics; },
@@ -415,7 +445,7 @@ PYBIND11_MODULE(slamkit, m) {
       .def(
           "write_replay",
           [](const PyRun& r, const std::string& path) {
-            const Metrics metrics = evaluate_run(r.result, r.dataset.data->truth);
+            const Metrics metrics = evaluate_run(r.result, *r.dataset.data);
             plot::write_replay_html(path, replay_recording(recording_of(r), r.result, *r.dataset.data, metrics));
           },
           py::arg("path"),
@@ -460,6 +490,7 @@ PYBIND11_MODULE(slamkit, m) {
       .def_property_readonly("map", [](const Filter& f) { return landmarks_array(f.filter().landmarks()); },
                              "current map of confirmed landmarks, shape (n, 3): rows id, x [m], y [m] (FastSLAM: the "
                              "best particle's)")
+      .def_property_readonly("grid", [](const Filter& f) { return grid_arrays(f.filter().grid_map()); }, kGridDoc)
       .def_property_readonly("map_covariances",
                              [](const Filter& f) { return landmark_covariances(f.filter().landmarks()); },
                              "each map landmark's position covariance, shape (n, 2, 2) [m^2], in map's row order")
@@ -488,7 +519,7 @@ PYBIND11_MODULE(slamkit, m) {
       "evaluate",
       [](const PyRun& run, const PyDataset* dataset) {
         const Dataset& truth_of = dataset ? *dataset->data : *run.dataset.data;
-        return to_python(to_json(evaluate_run(run.result, truth_of.truth)));
+        return to_python(to_json(evaluate_run(run.result, truth_of)));
       },
       py::arg("run").none(false), py::arg("dataset") = py::none(),
       "The evaluation of `run` against its dataset's truth (or `dataset`'s), as metrics.json holds it, as a dict: "

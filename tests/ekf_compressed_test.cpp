@@ -23,7 +23,7 @@ namespace {
 
 constexpr double kTolerance = 1e-8;
 
-struct Differences {
+struct CompressedDifferences {
   double state = 0.0;
   double covariance = 0.0;
   std::size_t checks = 0;
@@ -97,13 +97,13 @@ struct KnownIdentities {
 
 /// Runs the full and the compressed EKF side by side over `data`, comparing the whole state and
 /// covariance every `check_every` scans and at the end, and every scan's association decisions.
-Differences compare_variants(const Dataset& data, AssociationMethod method, std::size_t check_every,
+CompressedDifferences compare_variants(const Dataset& data, AssociationMethod method, std::size_t check_every,
                              EkfUpdate update = EkfUpdate::kJoint) {
   VariantPair pair(data, method, update);
   EkfSlam& full = pair.full();
   EkfSlam& compressed = pair.compressed();
 
-  Differences diff;
+  CompressedDifferences diff;
   auto compare = [&] {
     const EkfEstimator& a = full.estimator();
     const EkfEstimator& b = compressed.estimator();
@@ -135,7 +135,7 @@ std::string scientific(double v) {
   return out.str();
 }
 
-void expect_equivalent(const Differences& diff) {
+void expect_equivalent(const CompressedDifferences& diff) {
   EXPECT_LT(diff.state, kTolerance);
   EXPECT_LT(diff.covariance, kTolerance);
   EXPECT_EQ(diff.decisions_differing, 0u);
@@ -148,7 +148,7 @@ void expect_equivalent(const Differences& diff) {
 }  // namespace
 
 TEST(EkfCompressed, EqualsFullEkfOnDefaultWorld) {
-  const Differences diff =
+  const CompressedDifferences diff =
       compare_variants(simulate(default_world(), SimulatorConfig{}), AssociationMethod::kKnown, 200);
   expect_equivalent(diff);
   EXPECT_GT(diff.checks, 3u);
@@ -156,7 +156,7 @@ TEST(EkfCompressed, EqualsFullEkfOnDefaultWorld) {
 }
 
 TEST(EkfCompressed, EqualsFullEkfWithSequentialUpdates) {
-  const Differences diff = compare_variants(simulate(default_world(), SimulatorConfig{}), AssociationMethod::kKnown,
+  const CompressedDifferences diff = compare_variants(simulate(default_world(), SimulatorConfig{}), AssociationMethod::kKnown,
                                             200, EkfUpdate::kSequential);
   expect_equivalent(diff);
   EXPECT_GT(diff.flushes, 2.0);
@@ -172,7 +172,7 @@ TEST(EkfCompressed, EqualsFullEkfOnLargeWorldAcrossManyAreas) {
   SimulatorConfig sim;
   sim.loops = 1;
   sim.max_range = 15.0;
-  const Differences diff = compare_variants(simulate(generate_world(options), sim), AssociationMethod::kKnown, 200);
+  const CompressedDifferences diff = compare_variants(simulate(generate_world(options), sim), AssociationMethod::kKnown, 200);
   expect_equivalent(diff);
   EXPECT_GT(diff.landmarks, 500u);
   EXPECT_GT(diff.flushes, 30.0);
@@ -184,7 +184,7 @@ TEST(EkfCompressed, EqualsFullEkfOnLargeWorldAcrossManyAreas) {
 TEST(EkfCompressed, SameDecisionsAndEstimateWithNearestNeighbourAssociation) {
   SimulatorConfig sim;
   sim.provide_ids = false;
-  const Differences diff =
+  const CompressedDifferences diff =
       compare_variants(simulate(default_world(), sim), AssociationMethod::kNearestNeighbour, 200);
   expect_equivalent(diff);
   EXPECT_GT(diff.flushes, 2.0);

@@ -39,18 +39,21 @@ TEST(DatasetSpec, KnownFormsPassWithoutTouchingTheFileSystem) {
 TEST(DatasetSpec, AMisspeltKindIsAnsweredWithTheNearest) {
   EXPECT_EQ(spec_error("victoria_park:/x"),
             "unknown dataset kind 'victoria_park' (did you mean 'victoria-park'?); expected one of: sim, "
-            "victoria-park, mrclam, course, plaza");
+            "victoria-park, mrclam, course, plaza, carmen");
   EXPECT_EQ(spec_error("tape:/x"),
-            "unknown dataset kind 'tape'; expected one of: sim, victoria-park, mrclam, course, plaza");
+            "unknown dataset kind 'tape'; expected one of: sim, victoria-park, mrclam, course, plaza, carmen");
   EXPECT_EQ(spec_error("/data/log"),
             "'/data/log' is not a dataset spec; expected KIND:PATH with KIND one of: sim, victoria-park, mrclam, "
-            "course, plaza");
+            "course, plaza, carmen");
   EXPECT_EQ(spec_error("mrclm"),
             "'mrclm' is not a dataset spec; expected KIND:PATH with KIND one of: sim, victoria-park, mrclam, course, "
-            "plaza (did you mean 'mrclam'?)");
+            "plaza, carmen (did you mean 'mrclam'?)");
   EXPECT_EQ(spec_error("plaz:/x"),
             "unknown dataset kind 'plaz' (did you mean 'plaza'?); expected one of: sim, victoria-park, mrclam, course, "
-            "plaza");
+            "plaza, carmen");
+  EXPECT_EQ(spec_error("carmn:/x"),
+            "unknown dataset kind 'carmn' (did you mean 'carmen'?); expected one of: sim, victoria-park, mrclam, "
+            "course, plaza, carmen");
   EXPECT_EQ(spec_error("sim:"), "expected a path after 'sim:'");
 }
 

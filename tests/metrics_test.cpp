@@ -455,3 +455,48 @@ TEST(SummarizeNees, RejectsInvalidInput) {
   EXPECT_THROW(summarize_nees({1.0}, 0), std::invalid_argument);
   EXPECT_THROW(summarize_nees({1.0}, 3, 1.0), std::invalid_argument);
 }
+
+namespace {
+
+/// Pairs along a straight drive of `n` steps of `step` metres, the estimate's k-th motion off by
+/// `extra` metres along the way and `turn` radians.
+std::vector<PosePair> straight_drive(int n, double step, double extra, double turn) {
+  std::vector<PosePair> pairs;
+  Pose2 estimate = Pose2::Zero();
+  for (int k = 0; k <= n; ++k) {
+    pairs.push_back({static_cast<double>(k), estimate, Pose2(step * k, 0.0, 0.0), k});
+    estimate += Pose2((step + extra) * std::cos(estimate[2]), (step + extra) * std::sin(estimate[2]), turn);
+  }
+  return pairs;
+}
+
+}  // namespace
+
+TEST(RelativePoseError, IsTheMotionErrorBetweenPairsHalfAMetreApart) {
+  // Steps of 0.25 m: pairs are every second sample (0.5 m). Each estimated step is 0.01 m long and
+  // turns 0.002 rad more than the truth's, so over a pair the translation error is about 0.02 m
+  // and the rotation error 0.004 rad, whatever the estimate's accumulated heading error.
+  const std::optional<RelativePoseError> r = relative_pose_error(straight_drive(40, 0.25, 0.01, 0.002));
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->pairs, 20u);
+  EXPECT_NEAR(r->translation_mean_m, 0.02, 1e-3);
+  EXPECT_NEAR(r->rotation_mean_rad, 0.004, 1e-9);
+  EXPECT_NEAR(r->rotation_std_rad, 0.0, 1e-9);
+}
+
+TEST(RelativePoseError, IsZeroForAnEstimateOffByOneRigidMotion) {
+  std::vector<PosePair> pairs = straight_drive(20, 0.5, 0.0, 0.0);
+  for (PosePair& p : pairs) {
+    const double c = std::cos(0.7), s = std::sin(0.7);
+    p.estimate = Pose2(c * p.truth.x() - s * p.truth.y() + 3.0, s * p.truth.x() + c * p.truth.y() - 1.0, 0.7);
+  }
+  const std::optional<RelativePoseError> r = relative_pose_error(pairs);
+  ASSERT_TRUE(r.has_value());
+  EXPECT_NEAR(r->translation_mean_m, 0.0, 1e-12);
+  EXPECT_NEAR(r->rotation_mean_rad, 0.0, 1e-12);
+}
+
+TEST(RelativePoseError, NeedsTheTruthToMove) {
+  EXPECT_FALSE(relative_pose_error(straight_drive(10, 0.01, 0.0, 0.0)).has_value());
+  EXPECT_FALSE(relative_pose_error({}).has_value());
+}

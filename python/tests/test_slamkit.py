@@ -298,3 +298,23 @@ def test_a_run_saved_from_python_is_a_run_folder_the_cli_evaluates_and_repeats(s
     assert not unrecorded.recorded and run.recorded
     with pytest.raises(ValueError, match="replay=True"):
         unrecorded.write_replay(str(tmp_path / "none.html"))
+
+
+def test_a_grid_filter_maps_a_laser_log_and_scores_its_map_as_the_cli_does(tmp_path):
+    subprocess.run([CLI, "simulate", "--building", "office", "--loops", "1", "--seed", "3", "--out", str(tmp_path)],
+                   check=True, capture_output=True, env=CLI_ENV)
+    spec = f"carmen:{tmp_path / 'office.log'}"
+    subprocess.run([CLI, "run", "--filter", "scan-matching", "--data", spec, "--out", str(tmp_path / "sm"), "--quiet"],
+                   check=True, capture_output=True, env=CLI_ENV)
+    with open(tmp_path / "sm" / "metrics.json") as f:
+        expected = json.load(f)
+    dataset = slamkit.load_dataset(spec)
+    run = slamkit.run(dataset, {"filter": "scan-matching"})
+    got = slamkit.evaluate(run, dataset)
+    assert {k: v for k, v in got.items() if k not in IGNORED} == \
+        {k: v for k, v in expected.items() if k not in IGNORED}
+    assert got["grid_map_precision"] > 0.9
+    log_odds, observed, origin, resolution = run.grid
+    assert log_odds.shape == observed.shape and log_odds.ndim == 2 and observed.any()
+    assert resolution == 0.05 and origin.shape == (2,)
+    assert (log_odds[observed] > 0).any() and (log_odds[~observed] == 0).all()

@@ -8,6 +8,7 @@
 #include <unordered_set>
 #include <nlohmann/json.hpp>
 
+#include "slamkit/core/angles.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/version.hpp"
 #include "slamkit/core/error.hpp"
@@ -197,6 +198,7 @@ Metrics evaluate_run(const RunResult& run, const GroundTruth& truth, const Evalu
   // The map and the pictures go with the trajectory written as the estimate.
   const auto pairs = match(run.trajectory);
   m.matched_poses = pairs.size();
+  m.relative_error = eval::relative_pose_error(pairs);
   if (pairs.size() >= 2) {
     const eval::AteResult ate = eval::absolute_trajectory_error(pairs);
     if (run.smoothed) m.smoothed_ate_rmse_m = ate.rmse;
@@ -276,6 +278,18 @@ nlohmann::json to_json(const Metrics& m) {
     j["nees_pose_in_95_fraction"] = nullptr;
   }
   if (m.smoothed) j["smoothed_ate_rmse_m"] = optional_json(m.smoothed_ate_rmse_m);
+  if (const std::optional<eval::RelativePoseError>& r = m.relative_error) {
+    j["relative_translation_error_m"] = r->translation_mean_m;
+    j["relative_translation_error_std_m"] = r->translation_std_m;
+    j["relative_rotation_error_deg"] = rad2deg(r->rotation_mean_rad);
+    j["relative_rotation_error_std_deg"] = rad2deg(r->rotation_std_rad);
+    j["relative_error_pairs"] = r->pairs;
+  }
+  if (m.grid_map_agreement) {
+    j["grid_map_precision"] = optional_json(m.grid_map_precision);
+    j["grid_map_recall"] = optional_json(m.grid_map_recall);
+    j["grid_map_agreement"] = optional_json(m.grid_map_agreement);
+  }
   // By the filter, not by the smoothed trajectory, which a run without full history does not keep.
   if (pose_nees_of_particle_cloud(m.filter)) j["nees_pose_note"] = std::string(kParticleCloudNeesNote);
   j["history"] = m.history;
@@ -316,6 +330,16 @@ nlohmann::json to_json(const Metrics& m) {
        "samples) or none (no trajectory metrics)"},
       {"final_position_error_m", "position error at the last matched truth sample, same alignment"},
       {"map_rmse_m", "landmark position RMSE over landmarks paired with the truth, after map_alignment"},
+      {"relative_translation_error_m",
+       fmt::format("Kuemmerle et al. 2009's relative error of the trajectory written (smoothed where there is one): "
+                   "for consecutive pose pairs along the truth ({:g} m or {:g} rad apart), the mean translation "
+                   "(and relative_rotation_error_deg, rotation) of the estimate's motion between them relative to "
+                   "the truth's; no alignment",
+                   eval::kRelativePairDistance, eval::kRelativePairRotation)},
+      {"grid_map_precision",
+       "occupancy grid runs: share of the map's occupied cells within a cell of an occupied cell of the map the "
+       "dataset's scans draw from the true poses (doubled walls lower it); grid_map_recall the converse; "
+       "grid_map_agreement the share of cells observed in both that agree (occupied, free or unknown)"},
       {"map_alignment",
        "trajectory: the trajectory's alignment; landmarks: with no trajectory truth, the SE(2) least-squares "
        "alignment of the paired landmarks onto the true ones (the map's shape only)"},
@@ -358,6 +382,12 @@ std::string headline(const Metrics& m) {
                     m.map_landmarks_paired));
   else if (m.map_rmse_m)
     add(fmt::format("map RMSE {:.3g} m", *m.map_rmse_m));
+  if (m.grid_map_agreement && m.relative_error)
+    add(fmt::format("relative error {:.3g} m, {:.2g} deg", m.relative_error->translation_mean_m,
+                    rad2deg(m.relative_error->rotation_mean_rad)));
+  if (m.grid_map_precision && m.grid_map_recall)
+    add(fmt::format("grid map precision {:.0f}%, recall {:.0f}%", 100.0 * *m.grid_map_precision,
+                    100.0 * *m.grid_map_recall));
   if (m.association && m.association_method != "known")
     add(fmt::format("{} association: {} correct, {} wrong", m.association_method, m.association->correct,
                     m.association->wrong));

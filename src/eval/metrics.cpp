@@ -220,4 +220,51 @@ NeesSummary summarize_nees(const std::vector<double>& nees, int dof, double conf
   return s;
 }
 
+namespace {
+
+/// a^-1 b: pose b seen from pose a.
+Pose2 between(const Pose2& a, const Pose2& b) {
+  const double c = std::cos(a[2]), s = std::sin(a[2]);
+  const Vector2 d = b.head<2>() - a.head<2>();
+  return {c * d.x() + s * d.y(), -s * d.x() + c * d.y(), wrap_angle(b[2] - a[2])};
+}
+
+struct MeanAndStd {
+  double sum = 0.0, squares = 0.0;
+  void add(double v) {
+    sum += v;
+    squares += v * v;
+  }
+  double mean(std::size_t n) const { return sum / static_cast<double>(n); }
+  double std(std::size_t n) const {
+    const double m = mean(n);
+    return std::sqrt(std::max(0.0, squares / static_cast<double>(n) - m * m));
+  }
+};
+
+}  // namespace
+
+std::optional<RelativePoseError> relative_pose_error(const std::vector<PosePair>& pairs) {
+  if (pairs.empty()) return std::nullopt;
+  RelativePoseError out;
+  MeanAndStd translation, rotation;
+  std::size_t from = 0;
+  for (std::size_t to = 1; to < pairs.size(); ++to) {
+    const Pose2 truth_motion = between(pairs[from].truth, pairs[to].truth);
+    if (truth_motion.head<2>().norm() < kRelativePairDistance && std::abs(truth_motion[2]) < kRelativePairRotation)
+      continue;
+    const Pose2 error = between(truth_motion, between(pairs[from].estimate, pairs[to].estimate));
+    translation.add(error.head<2>().norm());
+    rotation.add(std::abs(error[2]));
+    ++out.pairs;
+    from = to;
+  }
+  if (out.pairs == 0) return std::nullopt;
+  out.translation_mean_m = translation.mean(out.pairs);
+  out.translation_std_m = translation.std(out.pairs);
+  out.rotation_mean_rad = rotation.mean(out.pairs);
+  out.rotation_std_rad = rotation.std(out.pairs);
+  return out;
+}
+
 }  // namespace slamkit::eval

@@ -12,6 +12,7 @@
 
 #include "fastslam_impl.hpp"
 #include "slamkit/core/angles.hpp"
+#include "slamkit/core/random_draws.hpp"
 
 namespace slamkit {
 
@@ -28,13 +29,6 @@ constexpr std::size_t kUpdateGrain = 4;
 // The candidate grid drops its stale entries around the vehicle this often [scans]; they cost only
 // filtering in the meantime.
 constexpr std::size_t kGridPruneScans = 5;
-
-std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
 
 /// The first of `origins` (pairs of id and origin, sorted by id) whose id is not below `id`.
 template <class Origins>

@@ -7,26 +7,13 @@
 
 #include "fastslam_impl.hpp"
 #include "slamkit/core/angles.hpp"
+#include "slamkit/core/random_draws.hpp"
 
 namespace slamkit {
 
 using namespace fastslam_detail;
 
 namespace {
-
-/// A draw from N(mean, cov) for a positive semi-definite cov: the motion noise of a two-entry
-/// control makes a rank-2 pose covariance, which LDLT factors where LLT would fail.
-Pose2 sample_gaussian(const Pose2& mean, const Matrix3& cov, std::mt19937_64& rng) {
-  const Eigen::LDLT<Matrix3> ldlt(cov);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  Eigen::Vector3d e;
-  for (int i = 0; i < 3; ++i) e[i] = normal(rng);
-  const Eigen::Vector3d scaled = ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().cwiseProduct(e);
-  const Eigen::Vector3d correlated = ldlt.matrixL() * scaled;
-  Pose2 x = mean + ldlt.transpositionsP().transpose() * correlated;
-  x[2] = wrap_angle(x[2]);
-  return x;
-}
 
 /// A predicted measurement read through a range calibration c = (offset b, scale error s): its range
 /// row, a distance d, becomes (1 + s) d + b, that row's Jacobians scale with it, and hc, the

@@ -16,6 +16,7 @@
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/names.hpp"
+#include "slamkit/io/carmen.hpp"
 #include "slamkit/io/course_log.hpp"
 #include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/plaza.hpp"
@@ -117,6 +118,10 @@ Dataset read_course(const std::string& path, const nlohmann::json* settings, con
   return read_course_log(path, settings ? course_options_from_json(*settings, source) : CourseOptions{});
 }
 
+Dataset read_carmen_log(const std::string& path, const nlohmann::json* settings, const std::string& source) {
+  return read_carmen(path, settings ? carmen_options_from_json(*settings, source) : CarmenOptions{});
+}
+
 // Every reader slamkit has, by the kind that selects it in a "kind:PATH" spec. Victoria Park has no
 // landmark identities, so every filter needs an association method there; the UKF's additive noise
 // and FastSLAM 2.0's pose sample fraction were chosen on it (docs/choosing.md has the numbers).
@@ -134,6 +139,7 @@ constexpr DatasetKind kKinds[] = {
     {"mrclam", &read_mrclam_robot, "mrclam/MRCLAM_Dataset6", ""},
     {"course", &read_course, "", ""},
     {"plaza", &read_plaza_run, "plaza_range_only", ""},
+    {"carmen", &read_carmen_log, "", ""},
 };
 
 std::vector<std::string> kind_names() {

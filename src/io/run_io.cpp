@@ -13,6 +13,8 @@
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
+#include "slamkit/grid/grid_snapshot.hpp"
+#include "slamkit/grid/map_files.hpp"
 #include "slamkit/io/trajectory_io.hpp"
 #include "line_writer.hpp"
 
@@ -194,6 +196,8 @@ void write_run_files(const std::string& dir, const RunResult& run) {
   write_pose_covariances(path_in(dir, "pose_covariance.txt"), times, run.pose_covariances);
   write_tum(path_in(dir, "dead_reckoning.tum"), run.dead_reckoning);
   write_map(path_in(dir, "map.txt"), run.map);
+  if (!run.grid.empty())
+    write_map_server(from_grid_map(run.grid), path_in(dir, "map.pgm"), path_in(dir, "map.yaml"));
   write_landmark_std(path_in(dir, "landmark_std.txt"), run.landmark_std);
   write_associations(path_in(dir, "associations.txt"), run.scan_times, run.associations);
   if (!run.landmark_origins.empty()) write_landmark_origins(path_in(dir, "landmark_origins.txt"), run.landmark_origins);
@@ -280,6 +284,8 @@ RunResult read_run(const std::string& dir) {
   run.pose_covariances = std::move(covs.covariance);
   run.dead_reckoning = read_tum(path_in(dir, "dead_reckoning.tum"));
   run.map = read_map(path_in(dir, "map.txt"));
+  // The grid as the map server files hold it: occupied, free or unknown per cell.
+  if (fs::exists(path_in(dir, "map.yaml"))) run.grid = to_grid_map(read_map_server(path_in(dir, "map.yaml")));
   run.landmark_std = read_landmark_std(path_in(dir, "landmark_std.txt"));
   read_associations(path_in(dir, "associations.txt"), run);
   if (fs::exists(path_in(dir, "landmark_origins.txt")))

@@ -101,6 +101,8 @@ void write_events(const fs::path& dir, const Dataset& dataset, const Observation
       append(events, "control {:.12g} {:.12g} {:.12g} {:.12g}\n", c->t, c->dt, c->u[0], c->u[1]);
       continue;
     }
+    if (std::holds_alternative<RangeScanEvent>(event))
+      throw std::invalid_argument("write_sim_log: a simulated log holds landmark scans; range scans go in a CARMEN log");
     const auto& scan = std::get<ScanEvent>(event);
     if (with_truth &&
         (scan_index >= true_ids.size() || true_ids[scan_index].size() != scan.observations.size()))

@@ -12,6 +12,8 @@
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/names.hpp"
 #include "slamkit/filters/fastslam.hpp"
+#include "slamkit/gridslam/grid_fastslam.hpp"
+#include "slamkit/gridslam/scan_matching_filter.hpp"
 
 namespace slamkit {
 namespace {
@@ -25,7 +27,9 @@ constexpr std::pair<FilterKind, const char*> kFilterNames[] = {
     {FilterKind::kEseif, "eseif"},
     {FilterKind::kTjtf, "tjtf"},
     {FilterKind::kFastSlam1, "fastslam1"},
-    {FilterKind::kFastSlam2, "fastslam2"}};
+    {FilterKind::kFastSlam2, "fastslam2"},
+    {FilterKind::kScanMatching, "scan-matching"},
+    {FilterKind::kGridFastSlam, "grid-fastslam"}};
 constexpr std::pair<EkfUpdate, const char*> kEkfUpdateNames[] = {
     {EkfUpdate::kJoint, "joint"}, {EkfUpdate::kSequential, "sequential"}, {EkfUpdate::kIterated, "iterated"}};
 // The iterated update converges in two or three linearisations except at a loop closure after a
@@ -63,6 +67,34 @@ const OptionKey<Delayed> kDelayedInitKeys[] = {
 void read_delayed_init(const nlohmann::json& json, const std::string& source, Delayed& options) {
   option_detail::read_keys<Delayed>(json, source, "'delayed_init'", kDelayedInitKeys, options);
 }
+
+// The grid filters' settings, run.json's settings.grid.
+using Grid = GridSlamOptions;
+const OptionKey<Grid> kGridKeys[] = {
+    {"resolution_m", RealOption<Grid>{[](Grid& o) -> double& { return o.grid.resolution; }, option_ranges::kFinite}},
+    {"range_cutoff_m", RealOption<Grid>{[](Grid& o) -> double& { return o.grid.range_cutoff; }, option_ranges::kFinite}},
+    {"match_sigma_m", RealOption<Grid>{[](Grid& o) -> double& { return o.matcher.sigma; }, option_ranges::kFinite}},
+    {"match_search_cells", IntegerOption<Grid, int>{[](Grid& o) -> int& { return o.matcher.search_cells; }}},
+    {"match_beam_stride", IntegerOption<Grid, int>{[](Grid& o) -> int& { return o.matcher.beam_stride; }}},
+    {"match_max_range_m",
+     RealOption<Grid>{[](Grid& o) -> double& { return o.matcher.max_range; }, option_ranges::kFinite}},
+    {"likelihood_temperature",
+     RealOption<Grid>{[](Grid& o) -> double& { return o.likelihood_temperature; }, option_ranges::kFinite}},
+    {"min_matched_fraction",
+     RealOption<Grid>{[](Grid& o) -> double& { return o.min_matched_fraction; }, option_ranges::kFinite}},
+    {"proposal_spread_m",
+     RealOption<Grid>{[](Grid& o) -> double& { return o.proposal_spread_m; }, option_ranges::kFinite}},
+    {"proposal_sample_fraction",
+     RealOption<Grid>{[](Grid& o) -> double& { return o.proposal_sample_fraction; }, option_ranges::kFinite}},
+    {"proposal_spread_deg", RealOption<Grid>{[](Grid& o) -> double& { return o.proposal_spread_rad; },
+                                              option_ranges::kFinite, Unit::kDegrees}},
+};
+
+void read_grid_settings(const nlohmann::json& json, const std::string& source, Grid& options) {
+  option_detail::read_keys<Grid>(json, source, "'grid'", kGridKeys, options);
+}
+
+bool is_grid_filter(FilterKind kind) { return kind == FilterKind::kScanMatching || kind == FilterKind::kGridFastSlam; }
 
 // The range calibration's prior, run.json's settings.range_calibration (null: not estimated).
 using Calibration = RangeCalibrationPrior;
@@ -190,6 +222,12 @@ void validate(const FilterConfig& config) {
   if (config.filter != FilterKind::kTjtf && config.tjtf.max_clique_landmarks != TjtfOptions{}.max_clique_landmarks)
     throw std::invalid_argument(
         fmt::format("tjtf_max_clique_landmarks applies to the filter 'tjtf', not '{}'", to_string(config.filter)));
+  validate(config.grid);
+  if (!is_grid_filter(config.filter) &&
+      options_to_json<Grid>(config.grid, kGridKeys) != options_to_json<Grid>(GridSlamOptions{}, kGridKeys))
+    throw std::invalid_argument(fmt::format("the grid settings apply to the filters 'scan-matching' and "
+                                            "'grid-fastslam', not '{}'",
+                                            to_string(config.filter)));
   validate(config.delayed_init);
   validate(config.inverse_distance);
   if (config.landmark_init == LandmarkInit::kInverseDistance &&
@@ -232,6 +270,11 @@ void validate(const FilterConfig& config) {
 
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset) {
   validate(config);
+  if (!is_grid_filter(config.filter) && !dataset.observation)
+    throw InputError(dataset.spec, 0,
+                     fmt::format("this dataset holds laser scans and no landmark observations, which the {} filter "
+                                 "maps with: expected --filter scan-matching or grid-fastslam",
+                                 to_string(config.filter)));
   switch (config.filter) {
     case FilterKind::kEkf:
     case FilterKind::kUkf:
@@ -282,6 +325,18 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       fs.likelihood = config.likelihood;
       return std::make_unique<FastSlam>(dataset.motion, dataset.observation, fs);
     }
+    case FilterKind::kScanMatching:
+      return std::make_unique<ScanMatchingFilter>(dataset.motion, dataset.initial_pose, config.grid);
+    case FilterKind::kGridFastSlam: {
+      GridFastSlamConfig grid;
+      grid.slam = config.grid;
+      grid.particles = config.particles;
+      grid.seed = config.seed;
+      grid.resample = config.resample;
+      grid.resample_when = config.resample_when;
+      grid.threads = config.threads;
+      return std::make_unique<GridFastSlam>(dataset.motion, dataset.initial_pose, grid);
+    }
   }
   throw std::invalid_argument("make_filter: unknown filter kind");
 }
@@ -309,6 +364,7 @@ nlohmann::json to_json(const FilterConfig& config) {
                                     : nlohmann::json(nullptr)},
           {"likelihood", to_string(config.likelihood.kind)},
           {"likelihood_dof", config.likelihood.dof},
+          {"grid", options_to_json<Grid>(config.grid, kGridKeys)},
           {"particles", config.particles},
           {"pose_sample_fraction", config.pose_sample_fraction},
           {"resample", to_string(config.resample)},
@@ -376,6 +432,8 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
         config.landmark_init = parse_landmark_init(name());
       else if (key == "delayed_init")
         read_delayed_init(value, source, config.delayed_init);
+      else if (key == "grid")
+        read_grid_settings(value, source, config.grid);
       else if (key == "inverse_distance_min_m") {
         if (!value.is_number())
           throw InputError(source, 0, fmt::format("'{}' must be a number, found {}", key, value.dump()));
@@ -425,6 +483,7 @@ void read_filter_settings(const nlohmann::json& json, const std::string& source,
                                                "range_calibration",
                                                "likelihood",
                                                "likelihood_dof",
+                                               "grid",
                                                "particles",
                                                "pose_sample_fraction",
                                                "resample",

@@ -7,6 +7,9 @@
 
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/json_options.hpp"
+#include "slamkit/grid/grid_snapshot.hpp"
+#include "slamkit/grid/map_comparison.hpp"
+#include "slamkit/grid/reference_map.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/io/trajectory_io.hpp"
 #include "slamkit/plot/replay_html.hpp"
@@ -25,6 +28,28 @@ void add_dataset_provenance(nlohmann::json& provenance, const std::string& absol
         fmt::format("{}.{:09}", dataset.time_origin_s, std::llround(dataset.time_origin_fraction_s * 1e9));
 }
 
+namespace {
+
+/// The grid map against the one the dataset's scans draw from the true poses, at the map's resolution.
+void score_grid_map(const RunResult& run, const Dataset& dataset, Metrics& metrics) {
+  GridOptions options;
+  options.resolution = run.grid.resolution;
+  const std::optional<OccupancyGrid> reference = reference_map(dataset, options);
+  if (!reference) return;
+  const MapAgreement agreement = compare_maps(from_grid_map(run.grid, options), *reference);
+  metrics.grid_map_precision = agreement.precision;
+  metrics.grid_map_recall = agreement.recall;
+  metrics.grid_map_agreement = agreement.cell_agreement;
+}
+
+}  // namespace
+
+Metrics evaluate_run(const RunResult& run, const Dataset& dataset, const EvaluationOptions& options) {
+  Metrics metrics = evaluate_run(run, dataset.truth, options);
+  if (!run.grid.empty()) score_grid_map(run, dataset, metrics);
+  return metrics;
+}
+
 Metrics write_evaluation(const std::string& dir, const RunResult& run, const Dataset& dataset,
                          const EvaluationOptions& options) {
   // The truth in TUM format beside the estimate (same times), so tools such as evo compare them as
@@ -34,7 +59,7 @@ Metrics write_evaluation(const std::string& dir, const RunResult& run, const Dat
     fs::remove(truth_path);
   else
     write_tum(truth_path, dataset.truth.poses);
-  const Metrics metrics = evaluate_run(run, dataset.truth, options);
+  const Metrics metrics = evaluate_run(run, dataset, options);
   write_metrics(dir, metrics);
   write_run_plots(dir, run, dataset.truth, metrics);
   return metrics;

@@ -16,7 +16,9 @@
 namespace slamkit {
 namespace {
 
-bool particle_filter(FilterKind kind) { return kind == FilterKind::kFastSlam1 || kind == FilterKind::kFastSlam2; }
+bool particle_filter(FilterKind kind) {
+  return kind == FilterKind::kFastSlam1 || kind == FilterKind::kFastSlam2 || kind == FilterKind::kGridFastSlam;
+}
 
 std::size_t expected_landmarks(const Dataset& dataset) {
   std::unordered_set<int> ids;
@@ -40,6 +42,11 @@ double filter_bytes(const FilterConfig& config, std::size_t landmarks) {
     case FilterKind::kSeif: return SparseInformationFilter::memory_estimate(landmarks, config.seif);
     case FilterKind::kEseif: return SparseInformationFilter::memory_estimate(landmarks, config.eseif);
     case FilterKind::kTjtf: return ThinJunctionTreeFilter::memory_estimate(landmarks, config.tjtf);
+    // A grid holds the tiles its scans touched, and particles share the tiles their maps have in
+    // common: what that comes to depends on the building and the route, not on anything known before
+    // the run, so it is not estimated (grid_bytes_per_particle reports it afterwards).
+    case FilterKind::kScanMatching:
+    case FilterKind::kGridFastSlam: return 0.0;
     default: return EkfSlam::memory_estimate(landmarks);
   }
 }
@@ -81,7 +88,9 @@ RunMemoryEstimate estimate_run_memory(const FilterConfig& config, const Dataset&
 void require_run_memory(const FilterConfig& config, const Dataset& dataset, const RunOptions& options) {
   const RunMemoryEstimate estimate = estimate_run_memory(config, dataset, options);
   const std::string filter =
-      particle_filter(config.filter)
+      config.filter == FilterKind::kGridFastSlam
+          ? fmt::format("{} with {} particles (--particles)", to_string(config.filter), config.particles)
+      : particle_filter(config.filter)
           ? fmt::format("{} with {} particles (--particles) and maps of about {} landmarks ({:.3g} GiB)",
                         to_string(config.filter), config.particles, estimate.landmarks, estimate.filter_bytes / kGiB)
           : fmt::format("{} with a map of about {} landmarks ({:.3g} GiB for its {})", to_string(config.filter),

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -145,6 +146,12 @@ void check_events(const Dataset& dataset) {
       for (Eigen::Index k = 0; k < control->u.size(); ++k)
         if (!within(control->u(k), kMaxAbsValue))
           refuse(fmt::format("control values within +-{:g}, found {}", kMaxAbsValue, control->u(k)));
+    } else if (const auto* range_scan = std::get_if<RangeScanEvent>(&event)) {
+      if (!std::isfinite(range_scan->angle_min) || !std::isfinite(range_scan->angle_increment) ||
+          !(range_scan->max_range > 0.0 && range_scan->max_range <= kMaxAbsValue))
+        refuse(fmt::format("a range scan with a finite beam geometry and a max range from 0 to {:g} m", kMaxAbsValue));
+      if (!within_coordinates(range_scan->sensor_offset.head<2>()) || !std::isfinite(range_scan->sensor_offset.z()))
+        refuse("a range scan whose sensor offset is finite");
     } else {
       for (const Observation& o : std::get<ScanEvent>(event).observations) {
         if (o.z.size() != measurement_dim)
@@ -172,8 +179,27 @@ void record_origins(const SlamFilter& filter, RunResult& result) {
 
 }  // namespace
 
+void check_filter_fits(const SlamFilter& filter, const Dataset& dataset) {
+  const auto holds = [&](auto kind) {
+    using Kind = decltype(kind);
+    return std::any_of(dataset.events.begin(), dataset.events.end(),
+                       [](const Event& e) { return std::holds_alternative<Kind>(e); });
+  };
+  if (filter.maps_range_scans() && !holds(RangeScanEvent{}))
+    throw InputError(dataset.spec, 0,
+                     fmt::format("the {} filter maps with laser scans, and this dataset holds none: expected a laser "
+                                 "log (carmen:FILE, or a simulated building)",
+                                 filter.name()));
+  if (!filter.maps_range_scans() && !holds(ScanEvent{}) && holds(RangeScanEvent{}))
+    throw InputError(dataset.spec, 0,
+                     fmt::format("this dataset holds laser scans and no landmark observations, which the {} filter "
+                                 "maps with: expected --filter scan-matching or grid-fastslam",
+                                 filter.name()));
+}
+
 RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOptions& options) {
   check_events(dataset);
+  check_filter_fits(filter, dataset);
   RunResult result;
   result.filter = filter.name();
   result.dataset = dataset.spec;
@@ -230,8 +256,21 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
       filter.predict(*control);
       if (!record(control->t)) break;
       ++result.steps;
+    } else if (const auto* range_scan = std::get_if<RangeScanEvent>(&event)) {
+      if (!filter.maps_range_scans()) continue;
+      filter.update_range_scan(*range_scan);
+      if (!record(range_scan->t)) break;
+      ++result.scans;
+      // A range scan pairs nothing; its empty record keeps one record per scan for the readers.
+      if (options.history == History::kFull) {
+        result.scan_times.push_back(range_scan->t);
+        result.associations.emplace_back();
+      }
+      for (RunObserver* observer : options.observers)
+        observer->on_range_scan(filter, *range_scan, events_done, dataset.events.size());
     } else {
       const auto& scan = std::get<ScanEvent>(event);
+      if (filter.maps_range_scans()) continue;
       filter.update(scan);
       if (!record(scan.t)) break;
       ++result.scans;
@@ -265,6 +304,7 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
   }
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
   result.map = filter.landmarks();
+  result.grid = filter.grid_map();
   if (result.diverged_at_s)
     std::erase_if(result.map, [](const Landmark& lm) { return !lm.position.allFinite() || !lm.covariance.allFinite(); });
   // A particle filter's smoothed trajectory is a whole path: only a run that keeps everything takes it.

@@ -57,6 +57,7 @@ LayeredSettings layer_settings(const SettingsSources& sources) {
   FilterConfig& config = result.config;
   if (const auto filter = sources.explicit_settings.find("filter"); filter != sources.explicit_settings.end())
     read_filter_settings({{"filter", *filter}}, sources.explicit_source, config);
+  if (config.filter == FilterKind::kGridFastSlam) config.particles = kGridFastSlamParticles;
   const nlohmann::json recommendation =
       recommendation_for(config.filter, sources.recommended, sources.recommended_source);
   read_filter_settings(recommendation, sources.recommended_source, config);

@@ -128,6 +128,11 @@ void Figure::add_line(std::span<const Vector2> points, const LineStyle& style, s
   add_to_legend(std::move(label), style);
 }
 
+void Figure::add_image(std::string png, const Vector2& lower_left, const Vector2& size) {
+  if (png.empty() || !finite(lower_left) || !finite(size) || !(size.x() > 0 && size.y() > 0)) return;
+  items_.push_back(Image{std::move(png), lower_left, size});
+}
+
 void Figure::add_markers(std::span<const Vector2> points, const MarkerStyle& style, std::string label) {
   if (std::none_of(points.begin(), points.end(), finite)) return;
   items_.push_back(Markers{{points.begin(), points.end()}, style});
@@ -205,6 +210,9 @@ Frame Figure::frame() const {
     } else if (const auto* ellipse = std::get_if<Ellipse>(&item)) {
       // Only the centre: one diverged landmark's huge ellipse would otherwise shrink the whole map.
       add_point(ellipse->centre);
+    } else if (const auto* image = std::get_if<Image>(&item)) {
+      add_point(image->lower_left);
+      add_point(image->lower_left + image->size);
     }
   }
   auto [x0, x1] = x_limits_.set ? std::pair(x_limits_.lo, x_limits_.hi) : padded(xs, 0.0, 1.0, false);
@@ -317,6 +325,13 @@ void Figure::write_data(std::string& out, const Frame& f, std::string_view clip_
     } else if (const auto* ellipse = std::get_if<Ellipse>(&item)) {
       const std::string d = polyline_path(ellipse_points(ellipse->centre, ellipse->major, ellipse->minor, f));
       if (!d.empty()) emit(ellipse_attributes(ellipse->style), path(d));
+    } else if (const auto* image = std::get_if<Image>(&item)) {
+      const Vector2 a = f.to_pixel(Vector2(image->lower_left.x(), image->lower_left.y() + image->size.y()));
+      const Vector2 b = f.to_pixel(Vector2(image->lower_left.x() + image->size.x(), image->lower_left.y()));
+      if (finite(a) && finite(b))
+        emit("", fmt::format("<image x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" preserveAspectRatio=\"none\" "
+                             "style=\"image-rendering:pixelated\" href=\"data:image/png;base64,{}\"/>",
+                             px(a.x()), px(a.y()), px(b.x() - a.x()), px(b.y() - a.y()), base64(image->png)));
     } else if (const auto* text = std::get_if<Text>(&item)) {
       const Vector2 q = f.to_pixel(text->at);
       const TextStyle& s = text->style;

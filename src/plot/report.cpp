@@ -16,6 +16,8 @@
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/chi_square.hpp"
 #include "slamkit/core/error.hpp"
+#include "slamkit/grid/grid_snapshot.hpp"
+#include "slamkit/grid/map_files.hpp"
 #include "slamkit/plot/information_matrix_svg.hpp"
 #include "slamkit/plot/svg_plot.hpp"
 
@@ -39,6 +41,8 @@ std::string filter_title(const std::string& filter) {
   if (filter == "tjtf") return "TJTF-SLAM";
   if (filter == "fastslam1") return "FastSLAM 1.0";
   if (filter == "fastslam2") return "FastSLAM 2.0";
+  if (filter == "scan-matching") return "Scan matching";
+  if (filter == "grid-fastslam") return "Grid FastSLAM";
   return filter;
 }
 
@@ -155,8 +159,9 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
   plot::MapPlotData map;
   map.title = title;
   map.subtitle = subtitle;
-  // Without truth there is nothing to align to: the estimate is drawn in its own frame.
-  const bool aligned = metrics.ate_rmse_m.has_value();
+  // Without truth there is nothing to align to: the estimate is drawn in its own frame. Nor is a grid
+  // map's: the picture is drawn in the map's frame, which the truth shares through the start pose.
+  const bool aligned = metrics.ate_rmse_m.has_value() && run.grid.empty();
   const eval::Se2Transform align = aligned ? metrics.alignment : eval::Se2Transform{};
   map.estimated_trajectory = positions(run.trajectory, align);
   map.dead_reckoning = positions(run.dead_reckoning, aligned ? metrics.dead_reckoning_alignment : align);
@@ -168,6 +173,12 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
     lm.position = align.apply(lm.position);
     lm.covariance = rotation * lm.covariance * rotation.transpose();
     map.estimated_landmarks.push_back(lm);
+  }
+  if (!run.grid.empty()) {
+    const GridImage image = grid_png(from_grid_map(run.grid));
+    map.grid_png = image.png;
+    map.grid_lower_left = Vector2(image.origin_x, image.origin_y);
+    map.grid_size = Vector2(image.width_m, image.height_m);
   }
   const std::string map_path = (fs::path(dir) / "map.svg").string();
   draw_figure(map_path, [&] {
@@ -204,7 +215,10 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
     series.std_y.push_back(s.std_y);
   }
   const std::string std_path = (fs::path(dir) / "landmark_std.svg").string();
-  draw_figure(std_path, [&] { plot::write_landmark_std_svg(std_path, std_plot); });
+  if (run.grid.empty())
+    draw_figure(std_path, [&] { plot::write_landmark_std_svg(std_path, std_plot); });
+  else
+    fs::remove(std_path);
 
   if (metrics.nees_pose && !metrics.nees_pose_series.empty()) {
     plot::NeesPlotData nees;

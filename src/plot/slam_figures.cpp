@@ -20,8 +20,9 @@ Figure map_figure(const MapPlotData& data) {
   fig.set_y_label("y [m]");
   fig.set_equal_aspect(true);
 
-  // Drawing order, bottom to top: reference data first so the estimate stays visible over it, true
+  // Drawing order, bottom to top: the grid map, reference data so the estimate stays visible over it, true
   // landmarks last because a thin '+' does not hide the estimate's dot under it.
+  fig.add_image(data.grid_png, data.grid_lower_left, data.grid_size);
   fig.add_line(data.dead_reckoning, {palette::kGrey, 1.3, Dash::kDashed}, "dead reckoning");
   fig.add_markers(data.reference_points, {Marker::kCircle, palette::kGreen, 3.0, 1.0, true, 0.6},
                   "reference fixes");

@@ -19,7 +19,7 @@
 #include "slamkit/core/memory_budget.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
-#include "uniform.hpp"
+#include "slamkit/core/random_draws.hpp"
 
 namespace slamkit {
 namespace {
@@ -106,33 +106,7 @@ void check_periods(const SimulatorConfig& c, const std::string& source) {
 
 // Every sample is made from the engine's raw output by the transforms below: the standard library's
 // distributions (and std::shuffle) differ between implementations, and a seed must give the same
-// dataset with all of them.
-
-using sim_detail::uniform01;
-
-// Standard normal samples by Box-Muller.
-class Gaussian {
- public:
-  explicit Gaussian(std::uint64_t seed) : rng_(seed) {}
-
-  double operator()() {
-    if (has_spare_) {
-      has_spare_ = false;
-      return spare_;
-    }
-    // 1 - u lies in (0, 1], so the logarithm is finite.
-    const double u1 = 1.0 - uniform01(rng_), u2 = uniform01(rng_);
-    const double r = std::sqrt(-2.0 * std::log(u1));
-    spare_ = r * std::sin(2.0 * kPi * u2);
-    has_spare_ = true;
-    return r * std::cos(2.0 * kPi * u2);
-  }
-
- private:
-  std::mt19937_64 rng_;
-  double spare_ = 0.0;
-  bool has_spare_ = false;
-};
+// dataset with all of them (core/random_draws.hpp).
 
 // Poisson-distributed count: the arrivals of a unit-rate Poisson process within [0, mean]. Unlike
 // the textbook product of uniforms against exp(-mean) it does not underflow for large means.
@@ -359,8 +333,8 @@ Dataset simulate(const World& world, const SimulatorConfig& config) {
   // leaves the control noise of a seed unchanged, and changing the detection settings leaves both
   // noises unchanged. Every landmark in view draws its measurement noise, detected or not, so that
   // the detections of a lower detection probability are a subset of those of a higher one.
-  Gaussian control_noise(config.seed);
-  Gaussian sensor_noise(config.seed ^ 0x9e3779b97f4a7c15ULL);
+  PortableGaussian control_noise(config.seed);
+  PortableGaussian sensor_noise(config.seed ^ 0x9e3779b97f4a7c15ULL);
   std::mt19937_64 detection_rng(config.seed ^ 0xbf58476d1ce4e5b9ULL);
   std::mt19937_64 clutter_rng(config.seed ^ 0x94d049bb133111ebULL);
   // Drawn only where ranges have outliers, so that the other streams stay those of the same seed

@@ -21,12 +21,10 @@
 #include "slamkit/core/coordinates.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/text_reader.hpp"
-#include "uniform.hpp"
+#include "slamkit/core/random_draws.hpp"
 
 namespace slamkit {
 namespace {
-
-using sim_detail::uniform01;
 
 // The route of a generated world: a rounded rectangle, lower straight centred on the origin, driven
 // counter-clockwise from (0, 0).

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "slamkit/core/association_record.hpp"
+#include "slamkit/core/grid_map.hpp"
 #include "slamkit/core/information_matrix.hpp"
 #include "slamkit/core/types.hpp"
 
@@ -45,6 +46,8 @@ struct RunResult {
   std::vector<InformationMatrixPanel> information;
   std::vector<StampedPose> dead_reckoning;
   std::vector<Landmark> map;
+  /// The occupancy grid of a filter that maps range scans; empty for the landmark filters.
+  GridMap grid;
   std::vector<LandmarkStdSample> landmark_std;
   /// Per scan, in stream order, what the filter did with each observation.
   std::vector<double> scan_times;

@@ -2,6 +2,7 @@
 // Basic value types shared by every module: poses, controls, observations and the timestamped
 // events a dataset reader yields and a filter consumes.
 #include <Eigen/Core>
+#include <cstddef>
 #include <numbers>
 #include <variant>
 #include <vector>
@@ -53,7 +54,23 @@ struct ScanEvent {
   std::vector<Observation> observations;
 };
 
-using Event = std::variant<ControlEvent, ScanEvent>;
+/// One sweep of a planar range finder (a laser scanner): ranges at evenly spaced bearings, kept whole
+/// for the filters that map with them (occupancy grids, scan matching) rather than reduced to
+/// landmarks.
+struct RangeScanEvent {
+  double t = 0.0;
+  /// Where the sensor sits on the vehicle (x forward, y left [m], heading [rad]).
+  Pose2 sensor_offset = Pose2::Zero();
+  double angle_min = 0.0;        // bearing of the first beam in the sensor frame [rad]
+  double angle_increment = 0.0;  // between consecutive beams [rad]
+  /// A reading at or beyond this is no return: free space up to a cut-off, not an obstacle [m].
+  double max_range = 0.0;
+  std::vector<float> ranges;  // [m]
+
+  double bearing(std::size_t beam) const { return angle_min + angle_increment * static_cast<double>(beam); }
+};
+
+using Event = std::variant<ControlEvent, ScanEvent, RangeScanEvent>;
 
 inline double event_time(const Event& e) {
   return std::visit([](const auto& event) { return event.t; }, e);

@@ -75,6 +75,11 @@ struct Metrics {
   std::optional<double> dead_reckoning_ate_rmse_m, dead_reckoning_final_position_error_m;
   std::optional<double> map_rmse_m;
   std::size_t map_landmarks_paired = 0;
+  /// Kuemmerle et al.'s relative error of the run's trajectory (eval::relative_pose_error).
+  std::optional<eval::RelativePoseError> relative_error;
+  /// An occupancy grid run's map against the map the dataset's scans draw from the true poses
+  /// (grid/map_comparison.hpp): filled in by the pipeline, which has the scans.
+  std::optional<double> grid_map_precision, grid_map_recall, grid_map_agreement;
   std::optional<eval::NeesSummary> nees_pose;
   /// (t, pose NEES) at every step nees_pose summarises, for the NEES-over-time pictures.
   std::vector<Vector2> nees_pose_series;

@@ -78,6 +78,26 @@ struct AteResult {
 /// the arbitrary choice of frame removed. Throws std::invalid_argument if there are no pairs.
 AteResult absolute_trajectory_error(const std::vector<PosePair>& pairs);
 
+struct RelativePoseError {
+  std::size_t pairs = 0;
+  double translation_mean_m = 0.0, translation_std_m = 0.0;
+  double rotation_mean_rad = 0.0, rotation_std_rad = 0.0;
+};
+
+/// Where the relative error takes its pose pairs: a truth sample starts a new pair once the truth has
+/// moved this far or turned this much since the last one. These are the Radish logs' own scan
+/// spacings, so on them the pairs are the consecutive scans, as in the benchmark's relations.
+inline constexpr double kRelativePairDistance = 0.5;  // m
+inline constexpr double kRelativePairRotation = 0.5;  // rad
+
+/// The relative error of Kuemmerle et al. 2009 ("On measuring the accuracy of SLAM algorithms"):
+/// for consecutive pose pairs (i, j) along the truth (spaced as above), the motion the estimate makes
+/// from i to j, d_est = est_i^-1 est_j, against the truth's, d_ref = ref_i^-1 ref_j; the error is
+/// e = d_ref^-1 d_est, its translation |e_xy| and rotation |e_theta| averaged (with their standard
+/// deviations) over the pairs. Needs no alignment: it scores the local shape of the trajectory, which
+/// an error made once (a wrong turn far back) does not dominate. Empty with fewer than one pair.
+std::optional<RelativePoseError> relative_pose_error(const std::vector<PosePair>& pairs);
+
 struct MapError {
   /// Position RMSE over the paired landmarks; empty when no landmark could be paired.
   std::optional<double> rmse;

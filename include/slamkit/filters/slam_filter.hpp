@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "slamkit/core/association_record.hpp"
+#include "slamkit/core/grid_map.hpp"
 #include "slamkit/core/information_matrix.hpp"
 #include "slamkit/core/types.hpp"
 
@@ -23,6 +24,12 @@ class SlamFilter {
   virtual void predict(const ControlEvent& control) = 0;
   /// Measurement update with every observation of one scan; adds newly seen landmarks.
   virtual void update(const ScanEvent& scan) = 0;
+  /// Whether the filter maps with whole range scans (occupancy grids, scan matching). The runner
+  /// gives those filters the dataset's RangeScanEvents and the others its landmark scans, and refuses
+  /// before running a dataset that holds nothing the filter can use.
+  virtual bool maps_range_scans() const { return false; }
+  /// Measurement update with one range scan; called only where maps_range_scans() says so.
+  virtual void update_range_scan(const RangeScanEvent& /*scan*/) {}
 
   virtual Pose2 pose() const = 0;
   virtual Matrix3 pose_covariance() const = 0;
@@ -53,6 +60,9 @@ class SlamFilter {
   virtual std::vector<LandmarkHypothesis> landmark_hypotheses() const { return {}; }
   /// Filter-specific figures for metrics.json, e.g. {"particles": 100, "ess_mean": 61.2}.
   virtual std::map<std::string, double> statistics() const { return {}; }
+  /// The occupancy grid map of a filter that maps range scans (the best particle's, for a particle
+  /// filter); empty for the others.
+  virtual GridMap grid_map() const { return {}; }
   /// The information matrix of a filter in information form (EIF, SEIF), as its picture shows it;
   /// empty for the others.
   virtual std::vector<InformationMatrixPanel> information_panels() const { return {}; }

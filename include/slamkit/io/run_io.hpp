@@ -4,6 +4,7 @@
 //   pose_covariance.txt  `t c_xx c_xy c_xt c_yy c_yt c_tt`, one per trajectory sample
 //   dead_reckoning.tum   the controls integrated without any observation, for contrast
 //   map.txt              final map `id x y c_xx c_xy c_yy`
+//   map.pgm, map.yaml    a grid-mapping filter's occupancy grid, in ROS map_server's convention
 //   landmark_std.txt     `t id std_x std_y`: landmark standard deviations over time (Figure 3)
 //   associations.txt     `scan t observation decision landmark_id`, every observation's decision
 //   landmark_origins.txt `landmark_id scan observation`: where the filter reports it (particle

@@ -16,10 +16,11 @@
 #include "slamkit/filters/fastslam.hpp"
 #include "slamkit/filters/resampling.hpp"
 #include "slamkit/filters/slam_filter.hpp"
+#include "slamkit/gridslam/scan_match_proposal.hpp"
 
 namespace slamkit {
 
-enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2, kEif, kSeif, kEseif, kTjtf };
+enum class FilterKind { kEkf, kUkf, kFastSlam1, kFastSlam2, kEif, kSeif, kEseif, kTjtf, kScanMatching, kGridFastSlam };
 
 /// How the EKF applies a scan's paired observations.
 enum class EkfUpdate {
@@ -61,7 +62,10 @@ struct FilterConfig {
   std::optional<RangeCalibrationPrior> range_calibration;
   // Every filter: the measurement noise's shape (models/measurement_likelihood.hpp).
   MeasurementLikelihood likelihood;
-  // Particle filters only.
+  // The grid filters (scan-matching, grid-fastslam) only: run.json's settings.grid.
+  GridSlamOptions grid;
+  // Particle filters only. The settings layers (pipeline/settings.hpp) start grid-fastslam at
+  // kGridFastSlamParticles, GMapping's default.
   int particles = 100;
   double pose_sample_fraction = FastSlamConfig{}.pose_sample_fraction;  // FastSLAM 2.0 only
   ResampleMethod resample = ResampleMethod::kSystematic;
@@ -69,7 +73,10 @@ struct FilterConfig {
   unsigned threads = 0;          // 0: all cores
 };
 
-/// "ekf", "ukf", "eif", "seif", "eseif", "tjtf", "fastslam1" or "fastslam2"; throws std::invalid_argument naming the accepted values.
+inline constexpr int kGridFastSlamParticles = 30;
+
+/// "ekf", "ukf", "eif", "seif", "eseif", "tjtf", "fastslam1", "fastslam2", "scan-matching" or
+/// "grid-fastslam"; throws std::invalid_argument naming the accepted values.
 FilterKind parse_filter_kind(const std::string& name);
 std::string to_string(FilterKind kind);
 /// "joint", "sequential" or "iterated"; throws std::invalid_argument naming the accepted values.
@@ -108,6 +115,8 @@ FilterConfig filter_config_from_json(const nlohmann::json& json, const std::stri
 void read_filter_settings(const nlohmann::json& json, const std::string& source, FilterConfig& config);
 
 /// Calls validate(config) and builds the filter for the dataset's models, sensor limits and start.
+/// Throws InputError naming the dataset when a landmark filter is asked for on a dataset without an
+/// observation model (a laser log).
 std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Dataset& dataset);
 
 }  // namespace slamkit

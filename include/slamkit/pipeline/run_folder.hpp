@@ -20,6 +20,10 @@ namespace slamkit {
 /// `absolute_spec` is absolute_dataset_spec() of the spec the dataset was loaded from.
 void add_dataset_provenance(nlohmann::json& provenance, const std::string& absolute_spec, const Dataset& dataset);
 
+/// evaluate_run against the dataset's truth, and for a grid map the map score against the map the
+/// dataset's scans draw from the true poses (Metrics::grid_map_precision, ...), which needs the scans.
+Metrics evaluate_run(const RunResult& run, const Dataset& dataset, const EvaluationOptions& options = {});
+
 /// Evaluates `run` against `dataset`'s truth and writes truth.tum (removed where there is no truth
 /// trajectory), metrics.json and the pictures into `dir`: what `slamkit evaluate` rewrites.
 Metrics write_evaluation(const std::string& dir, const RunResult& run, const Dataset& dataset,

@@ -22,6 +22,9 @@ class RunObserver {
   /// `scan` has just been applied; `events_done` of the dataset's `events_total` are processed.
   virtual void on_scan(const SlamFilter& filter, const ScanEvent& scan, std::size_t events_done,
                        std::size_t events_total) = 0;
+  /// The same for a range scan, for the filters that map with them.
+  virtual void on_range_scan(const SlamFilter& /*filter*/, const RangeScanEvent& /*scan*/,
+                             std::size_t /*events_done*/, std::size_t /*events_total*/) {}
 };
 
 /// What a run keeps of its course, beyond the final map and estimate.
@@ -56,6 +59,10 @@ struct RunOptions {
 /// (SlamFilter::forget_smoothed_trajectory), which such a run never reads. Throws InputError, before
 /// running, for an event stream check_events refuses.
 RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOptions& options = {});
+
+/// Throws InputError naming the dataset when it holds nothing `filter` maps with: no range scans for
+/// a filter that maps range scans, or range scans only for one that maps landmarks.
+void check_filter_fits(const SlamFilter& filter, const Dataset& dataset);
 
 /// Throws InputError naming the dataset for an initial pose beyond kMaxAbsCoordinate (core/coordinates.hpp)
 /// or with a heading that is not finite, and the first event no filter can be fed: a time that is not

@@ -140,6 +140,10 @@ class Figure {
   bool add_ellipse(const Vector2& centre, const Matrix2& cov, double n_sigma, const EllipseStyle& style,
                    std::string label = {});
   void add_text(const Vector2& at, std::string text, const TextStyle& style = {});
+  /// A raster image (PNG bytes, embedded in the SVG) stretched over the data rectangle from
+  /// `lower_left` spanning `size`; its first row is drawn at the top. Drawn in order like the rest, so
+  /// add it first to have the data over it.
+  void add_image(std::string png, const Vector2& lower_left, const Vector2& size);
 
   /// Legend entries that explain a style rather than name one item, e.g. "one line per landmark".
   void add_legend_entry(std::string label, const LineStyle& style);
@@ -180,7 +184,11 @@ class Figure {
     std::string text;
     TextStyle style;
   };
-  using Item = std::variant<Line, Markers, Ellipse, Text>;
+  struct Image {
+    std::string png;
+    Vector2 lower_left, size;
+  };
+  using Item = std::variant<Line, Markers, Ellipse, Text, Image>;
   using LegendSample = std::variant<LineStyle, MarkerStyle, EllipseStyle>;
   struct LegendEntry {
     std::string label;
@@ -236,6 +244,11 @@ struct MapPlotData {
   std::vector<Landmark> true_landmarks;
   std::vector<Landmark> estimated_landmarks;
   double ellipse_sigma = 2.0;  // contour drawn around each estimated landmark
+  /// An occupancy grid map under everything else (PNG bytes over the rectangle from grid_lower_left
+  /// spanning grid_size [m]); empty for landmark maps.
+  std::string grid_png;
+  Vector2 grid_lower_left = Vector2::Zero();
+  Vector2 grid_size = Vector2::Zero();
 };
 
 /// The map: equal aspect, metres on both axes; empty series are left out of the legend.

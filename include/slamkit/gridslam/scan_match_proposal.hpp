@@ -1,0 +1,64 @@
+#pragma once
+// The improved proposal of grid-based FastSLAM (Grisetti, Stachniss and Burgard, "Improved
+// techniques for grid mapping with Rao-Blackwellized particle filters", IEEE T-RO 23(1), 2007): a
+// particle's pose after a scan is drawn from p(x | m, z, x', u) ~ p(z | m, x) p(x | x', u), which a
+// laser makes far narrower than the odometry's prior. The scan matcher finds the peak of the scan's
+// likelihood from the odometry's prediction; the product is evaluated at a fixed pattern of poses
+// around the peak, and its weighted mean and covariance are the Gaussian the pose is drawn from. The
+// sum of the product over the pattern (the proposal's normalising constant) is the particle's weight
+// factor. Where the match cannot be trusted (too few beams found an obstacle, as in a corridor's
+// open end or before there is a map), the odometry's prior is the proposal and the likelihood at the
+// drawn pose the weight factor. The scan-matching filter uses the same Gaussian with one particle.
+#include <random>
+
+#include "slamkit/core/types.hpp"
+#include "slamkit/grid/occupancy_grid.hpp"
+#include "slamkit/grid/scan_matcher.hpp"
+
+namespace slamkit {
+
+/// The settings the scan-matching filter and grid FastSLAM share.
+struct GridSlamOptions {
+  GridOptions grid;
+  ScanMatcherOptions matcher;
+  /// The log-likelihood of a scan is divided by this before it meets the odometry's prior: beams of
+  /// one scan are not independent (a map error or an unmapped object moves many together), so their
+  /// product would be far too sure of itself. GMapping divides by 3 for the same reason.
+  double likelihood_temperature = 3.0;
+  /// A match is trusted when at least this share of the beams used found an obstacle near its end.
+  double min_matched_fraction = 0.3;
+  /// The pattern the proposal is evaluated on: the peak and the poses +-these along x, y and heading
+  /// (27 poses).
+  double proposal_spread_m = 0.02;
+  double proposal_spread_rad = 0.01;
+  /// A particle draws its pose from N(mean, f covariance) of the proposal: f = 1 is the textbook
+  /// proposal, f = 0 takes its mean (GMapping's implementation moves a particle to its match).
+  double proposal_sample_fraction = 1.0;
+};
+
+/// Throws std::invalid_argument, one line naming the setting (as run.json's settings.grid names it)
+/// and its range, for settings no grid filter could run with.
+void validate(const GridSlamOptions& options);
+
+struct PoseProposal {
+  Pose2 mean = Pose2::Zero();
+  Matrix3 covariance = Matrix3::Zero();
+  /// log of the weight factor: the proposal's normalising constant, or the likelihood at the draw.
+  double log_weight = 0.0;
+  bool matched = false;  // the scan matcher's peak was trusted
+};
+
+/// The proposal for a pose predicted by odometry as N(prior_mean, prior_covariance), given the map
+/// so far. With `rng` the pose is drawn from N(mean, f covariance), f = proposal_sample_fraction:
+/// `mean` then holds the draw and `covariance` the (1 - f) covariance the particle carries about it,
+/// as FastSLAM 2.0's pose_sample_fraction does. Without, they are the proposal's own.
+PoseProposal scan_match_proposal(const ScanMatcher& matcher, const OccupancyGrid& map, const RangeScanEvent& scan,
+                                 const Pose2& prior_mean, const Matrix3& prior_covariance,
+                                 const GridSlamOptions& options, std::mt19937_64* rng);
+
+/// Adds the motion over one control to a pose prediction N(mean, covariance): the odometry's prior
+/// between scans.
+class MotionModel;
+void predict_pose(const MotionModel& motion, const ControlEvent& control, Pose2& mean, Matrix3& covariance);
+
+}  // namespace slamkit
