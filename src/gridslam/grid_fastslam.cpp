@@ -101,11 +101,11 @@ struct GridFastSlam::Impl {
   }
 
   void resample() {
-    resample_scratch_parents.clear();
-    slamkit::resample(config.resample, weights, resample_rng, scratch, resample_scratch_parents);
+    parents.clear();
+    slamkit::resample(config.resample, weights, resample_rng, scratch, parents);
     std::vector<Particle> drawn;
     drawn.reserve(particles.size());
-    for (std::size_t parent : resample_scratch_parents) drawn.push_back(particles[parent]);
+    for (std::size_t parent : parents) drawn.push_back(particles[parent]);
     particles = std::move(drawn);
     for (Particle& p : particles) p.log_weight = 0.0;
     weights.assign(particles.size(), 1.0 / static_cast<double>(particles.size()));
@@ -123,7 +123,7 @@ struct GridFastSlam::Impl {
   std::vector<double> weights, log_weights;
   std::mt19937_64 resample_rng;
   ResampleScratch scratch;
-  std::vector<std::size_t> resample_scratch_parents;
+  std::vector<std::size_t> parents;
   bool keep_paths = true;
   double last_path_t = NAN;
   std::size_t scans = 0, resamples = 0, collapses = 0, unmatched = 0;

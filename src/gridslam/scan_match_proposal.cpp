@@ -98,7 +98,7 @@ PoseProposal scan_match_proposal(const ScanMatcher& matcher, const OccupancyGrid
   }
 
   const Eigen::LDLT<Matrix3> prior(regularised(prior_covariance));
-  const double prior_log_norm = -0.5 * prior.vectorD().array().log().sum();
+  const double prior_log_norm = -0.5 * prior.vectorD().array().log().sum() - 1.5 * std::log(2.0 * kPi);
   const Eigen::Vector3d spread(options.proposal_spread_m, options.proposal_spread_m, options.proposal_spread_rad);
   std::array<Eigen::Vector3d, kPatternPoses> offsets;
   std::array<double, kPatternPoses> log_terms;
@@ -111,11 +111,17 @@ PoseProposal scan_match_proposal(const ScanMatcher& matcher, const OccupancyGrid
     log_terms[k] = matcher.evaluate(map, pose, scan).log_likelihood / temperature -
                    0.5 * from_prior.dot(prior.solve(from_prior)) + prior_log_norm;
   }
-  proposal.log_weight = log_sum_exp(log_terms);
+  // The weight factor is p(z | m, x', u), the integral of the product over the pose: the pattern's
+  // sum times the volume each of its poses stands for. The volume matters where some particles of
+  // a scan are matched and others are not (their factor, the likelihood at a draw from the prior,
+  // estimates the same integral): without it a matched particle would gain the prior's density,
+  // some 13 nats on a Radish log's scan, over one that is not, whatever its map.
+  const double log_sum = log_sum_exp(log_terms);
+  proposal.log_weight = log_sum + std::log(spread.prod());
   Eigen::Vector3d mean_offset = Eigen::Vector3d::Zero();
   Matrix3 second_moment = Matrix3::Zero();
   for (int k = 0; k < kPatternPoses; ++k) {
-    const double w = std::exp(log_terms[k] - proposal.log_weight);
+    const double w = std::exp(log_terms[k] - log_sum);
     mean_offset += w * offsets[k];
     second_moment += w * offsets[k] * offsets[k].transpose();
   }

@@ -17,6 +17,8 @@
 
 namespace slamkit {
 
+class MotionModel;
+
 /// The settings the scan-matching filter and grid FastSLAM share.
 struct GridSlamOptions {
   GridOptions grid;
@@ -58,7 +60,6 @@ PoseProposal scan_match_proposal(const ScanMatcher& matcher, const OccupancyGrid
 
 /// Adds the motion over one control to a pose prediction N(mean, covariance): the odometry's prior
 /// between scans.
-class MotionModel;
 void predict_pose(const MotionModel& motion, const ControlEvent& control, Pose2& mean, Matrix3& covariance);
 
 }  // namespace slamkit
