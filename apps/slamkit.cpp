@@ -238,9 +238,11 @@ enum class Verbosity { kQuiet, kNormal, kVerbose };
 void print_outputs(const std::string& dir, const Metrics& metrics, Verbosity verbosity) {
   if (verbosity == Verbosity::kQuiet) return;
   fmt::print("{}\n", headline(metrics));
-  std::string files = "metrics.json, map.svg, landmark_std.svg";
-  // These need a truth of the right kind (with headings; any truth for truth.tum).
-  for (const char* optional : {"nees.svg", "pose_error.svg", "information.svg", "truth.tum"})
+  std::string files = "metrics.json, map.svg";
+  // These need a landmark map, a truth of the right kind (with headings; any truth for truth.tum), an
+  // information filter or a grid map.
+  for (const char* optional :
+       {"landmark_std.svg", "nees.svg", "pose_error.svg", "information.svg", "truth.tum", "map.pgm", "map.yaml"})
     if (fs::exists(fs::path(dir) / optional)) files += fmt::format(", {}", optional);
   fmt::print("results in {}/: {}, trajectory.tum, map.txt\n", dir, files);
 }
