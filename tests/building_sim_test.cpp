@@ -136,7 +136,7 @@ TEST(BuildingFloorPlan, ByNameAndUnknownNamesListTheKnownOnes) {
 }
 
 TEST(BuildingFloorPlan, SizesAndRoutes) {
-  const auto extent = [](const FloorPlan& plan) {
+  const auto extent = [](const FloorPlan& plan) -> Vector2 {  // not an expression of its locals
     Vector2 lo = plan.walls.front().a, hi = lo;
     for (const WallSegment& w : plan.walls) {
       lo = lo.cwiseMin(w.a).cwiseMin(w.b);

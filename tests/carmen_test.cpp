@@ -169,7 +169,8 @@ TEST(CarmenReader, OddBeamCountsEndOnBothSidesAndTheFovParamIsHonoured) {
   const std::string five = carmen_flaser({1, 1, 1, 1, 1}, Pose2::Zero(), Pose2::Zero(), "1");
   test_data::write_text(path, five + "PARAM laser_front_laser_fov 100 1 host 1\n" + five +
                                   "PARAM laser_front_laser_fov 1.5 1 host 1\n" + five);
-  const auto scans = carmen_scans(read_carmen(path));  // ties: numbered, all kept
+  const Dataset d = read_carmen(path);
+  const auto scans = carmen_scans(d);  // ties: numbered, all kept
   ASSERT_EQ(scans.size(), 3u);
   EXPECT_DOUBLE_EQ(scans[0]->angle_min, -kPi / 2);
   EXPECT_DOUBLE_EQ(scans[0]->bearing(4), kPi / 2);
