@@ -13,6 +13,7 @@
 #include "fastslam_impl.hpp"
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/random_draws.hpp"
+#include "slamkit/filters/particle_moments.hpp"
 
 namespace slamkit {
 
@@ -456,28 +457,14 @@ void FastSlam::update(const ScanEvent& scan) {
 
 Pose2 FastSlam::pose() const {
   const Impl& s = *impl_;
-  Pose2 mean = Pose2::Zero();
-  double sin_sum = 0.0, cos_sum = 0.0;
-  for (std::size_t i = 0; i < s.particles.size(); ++i) {
-    const Pose2& x = s.particles[i].pose;
-    mean.head<2>() += s.weights[i] * x.head<2>();
-    sin_sum += s.weights[i] * std::sin(x[2]);
-    cos_sum += s.weights[i] * std::cos(x[2]);
-  }
-  mean[2] = std::atan2(sin_sum, cos_sum);
-  return mean;
+  return weighted_mean_pose(s.weights, [&](std::size_t i) -> const Pose2& { return s.particles[i].pose; });
 }
 
 Matrix3 FastSlam::pose_covariance() const {
   const Impl& s = *impl_;
-  const Pose2 mean = pose();
-  Matrix3 cov = Matrix3::Zero();
-  for (std::size_t i = 0; i < s.particles.size(); ++i) {
-    Eigen::Vector3d d = s.particles[i].pose - mean;
-    d[2] = wrap_angle(d[2]);
-    cov += s.weights[i] * (d * d.transpose() + s.particles[i].pose_cov);
-  }
-  return cov;
+  return mixture_covariance(
+      s.weights, pose(), [&](std::size_t i) -> const Pose2& { return s.particles[i].pose; },
+      [&](std::size_t i) -> const Matrix3& { return s.particles[i].pose_cov; });
 }
 
 std::size_t FastSlam::num_landmarks() const {

@@ -7,6 +7,7 @@
 
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/random_draws.hpp"
+#include "slamkit/filters/particle_moments.hpp"
 #include "slamkit/filters/particle_path.hpp"
 #include "slamkit/filters/worker_pool.hpp"
 #include "slamkit/grid/grid_snapshot.hpp"
@@ -147,26 +148,14 @@ void GridFastSlam::update_range_scan(const RangeScanEvent& scan) { impl_->scan(s
 
 Pose2 GridFastSlam::pose() const {
   const Impl& s = *impl_;
-  Pose2 mean = Pose2::Zero();
-  double c = 0.0, si = 0.0;
-  for (std::size_t i = 0; i < s.particles.size(); ++i) {
-    mean.head<2>() += s.weights[i] * s.particles[i].pose.head<2>();
-    c += s.weights[i] * std::cos(s.particles[i].pose[2]);
-    si += s.weights[i] * std::sin(s.particles[i].pose[2]);
-  }
-  mean[2] = std::atan2(si, c);
-  return mean;
+  return weighted_mean_pose(s.weights, [&](std::size_t i) -> const Pose2& { return s.particles[i].pose; });
 }
 
 Matrix3 GridFastSlam::pose_covariance() const {
   const Impl& s = *impl_;
-  const Pose2 mean = pose();
-  Matrix3 covariance = Matrix3::Zero();
-  for (std::size_t i = 0; i < s.particles.size(); ++i) {
-    Eigen::Vector3d d = s.particles[i].pose - mean;
-    d[2] = wrap_angle(d[2]);
-    covariance += s.weights[i] * (d * d.transpose() + s.particles[i].covariance);
-  }
+  const Matrix3 covariance = mixture_covariance(
+      s.weights, pose(), [&](std::size_t i) -> const Pose2& { return s.particles[i].pose; },
+      [&](std::size_t i) -> const Matrix3& { return s.particles[i].covariance; });
   return 0.5 * (covariance + covariance.transpose());
 }
 
