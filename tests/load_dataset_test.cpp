@@ -9,11 +9,13 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string>
+#include <variant>
 
 #include "slamkit/core/error.hpp"
 #include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/plaza.hpp"
 #include "slamkit/models/observation_model.hpp"
+#include "slamkit/sim/simulator.hpp"
 #include "test_data.hpp"
 
 namespace slamkit {
@@ -37,24 +39,63 @@ TEST(DatasetSpec, KnownFormsPassWithoutTouchingTheFileSystem) {
 }
 
 TEST(DatasetSpec, AMisspeltKindIsAnsweredWithTheNearest) {
+  const std::string kinds = "sim, victoria-park, mrclam, course, plaza, carmen, scenario, family, building";
   EXPECT_EQ(spec_error("victoria_park:/x"),
-            "unknown dataset kind 'victoria_park' (did you mean 'victoria-park'?); expected one of: sim, "
-            "victoria-park, mrclam, course, plaza, carmen");
-  EXPECT_EQ(spec_error("tape:/x"),
-            "unknown dataset kind 'tape'; expected one of: sim, victoria-park, mrclam, course, plaza, carmen");
+            "unknown dataset kind 'victoria_park' (did you mean 'victoria-park'?); expected one of: " + kinds);
+  EXPECT_EQ(spec_error("tape:/x"), "unknown dataset kind 'tape'; expected one of: " + kinds);
   EXPECT_EQ(spec_error("/data/log"),
-            "'/data/log' is not a dataset spec; expected KIND:PATH with KIND one of: sim, victoria-park, mrclam, "
-            "course, plaza, carmen");
-  EXPECT_EQ(spec_error("mrclm"),
-            "'mrclm' is not a dataset spec; expected KIND:PATH with KIND one of: sim, victoria-park, mrclam, course, "
-            "plaza, carmen (did you mean 'mrclam'?)");
-  EXPECT_EQ(spec_error("plaz:/x"),
-            "unknown dataset kind 'plaz' (did you mean 'plaza'?); expected one of: sim, victoria-park, mrclam, course, "
-            "plaza, carmen");
-  EXPECT_EQ(spec_error("carmn:/x"),
-            "unknown dataset kind 'carmn' (did you mean 'carmen'?); expected one of: sim, victoria-park, mrclam, "
-            "course, plaza, carmen");
+            "'/data/log' is not a dataset spec; expected KIND:PATH with KIND one of: " + kinds);
+  EXPECT_EQ(spec_error("mrclm"), "'mrclm' is not a dataset spec; expected KIND:PATH with KIND one of: " + kinds +
+                                     " (did you mean 'mrclam'?)");
+  EXPECT_EQ(spec_error("plaz:/x"), "unknown dataset kind 'plaz' (did you mean 'plaza'?); expected one of: " + kinds);
+  EXPECT_EQ(spec_error("carmn:/x"), "unknown dataset kind 'carmn' (did you mean 'carmen'?); expected one of: " + kinds);
   EXPECT_EQ(spec_error("sim:"), "expected a path after 'sim:'");
+}
+
+TEST(DatasetSpec, SimulatedDatasetsAreNamedByScenarioAndSeeds) {
+  for (const char* spec : {"scenario:default", "scenario:default:3", "scenario:city:0", "family:sparse:2",
+                           "family:dense-cluttered:2:5", "building:office", "building:corridors:4"})
+    EXPECT_EQ(spec_error(spec), "no error") << spec;
+  EXPECT_NE(spec_error("scenario:defalt:3").find("unknown scenario 'defalt' (did you mean 'default'?)"),
+            std::string::npos);
+  EXPECT_NE(spec_error("family:sparse").find("expected family:NAME:WORLD_SEED[:SEED]"), std::string::npos);
+  EXPECT_NE(spec_error("scenario:default:x").find("expected the noise seed as a whole number"), std::string::npos);
+  EXPECT_NE(spec_error("scenario:default:1:2").find("expected scenario:NAME[:SEED]"), std::string::npos);
+  EXPECT_EQ(spec_error("building:offce"), "unknown building 'offce' (did you mean 'office'?); expected one of: office, "
+                                          "corridors");
+}
+
+TEST(SimulatedDataset, IsTheSimulatorsOutputForItsSeedAndSettings) {
+  SimulatorConfig config = scenario("loop-closure").config;
+  config.seed = 4;
+  const Dataset direct = simulate(scenario("loop-closure").world, config);
+  const Dataset named = load_dataset("scenario:loop-closure:4");
+  ASSERT_EQ(named.events.size(), direct.events.size());
+  EXPECT_EQ(named.truth.poses.back().pose, direct.truth.poses.back().pose);
+
+  config.clutter_rate = 2.0;
+  const Dataset cluttered =
+      load_dataset("scenario:loop-closure:4", nlohmann::json{{"clutter_rate_per_scan", 2.0}}, "mine.json");
+  const Dataset direct_cluttered = simulate(scenario("loop-closure").world, config);
+  std::size_t observations = 0, direct_observations = 0, clean_observations = 0;
+  for (std::size_t i = 0; i < cluttered.events.size(); ++i)
+    if (const auto* scan = std::get_if<ScanEvent>(&cluttered.events[i])) {
+      observations += scan->observations.size();
+      direct_observations += std::get<ScanEvent>(direct_cluttered.events[i]).observations.size();
+      clean_observations += std::get<ScanEvent>(named.events[i]).observations.size();
+    }
+  EXPECT_EQ(observations, direct_observations);
+  for (std::size_t i = 0; i < named.events.size(); ++i)
+    if (const auto* scan = std::get_if<ScanEvent>(&named.events[i]))
+      ASSERT_EQ(scan->observations.front().z, std::get<ScanEvent>(direct.events[i]).observations.front().z);
+  EXPECT_GT(observations, clean_observations) << "the settings' clutter is simulated";
+  try {
+    load_dataset("scenario:loop-closure:4", nlohmann::json{{"seed", 5}}, "mine.json");
+    ADD_FAILURE() << "a second seed in the settings";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("mine.json"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(absolute_dataset_spec("family:sparse:3:1"), "family:sparse:3:1");
 }
 
 TEST(DatasetSpec, AnMrclamRobotOutsideOneToFiveOrWithoutANumberNamesTheValidOnes) {

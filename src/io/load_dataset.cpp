@@ -21,6 +21,7 @@
 #include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/plaza.hpp"
 #include "slamkit/io/sim_log.hpp"
+#include "slamkit/io/simulated_datasets.hpp"
 #include "slamkit/io/victoria_park.hpp"
 
 namespace slamkit {
@@ -122,6 +123,18 @@ Dataset read_carmen_log(const std::string& path, const nlohmann::json* settings,
   return read_carmen(path, settings ? carmen_options_from_json(*settings, source) : CarmenOptions{});
 }
 
+Dataset read_scenario(const std::string& path, const nlohmann::json* settings, const std::string& source) {
+  return simulate_dataset("scenario", path, settings, source);
+}
+
+Dataset read_family(const std::string& path, const nlohmann::json* settings, const std::string& source) {
+  return simulate_dataset("family", path, settings, source);
+}
+
+Dataset read_building(const std::string& path, const nlohmann::json* settings, const std::string& source) {
+  return simulate_dataset("building", path, settings, source);
+}
+
 // Every reader slamkit has, by the kind that selects it in a "kind:PATH" spec. Victoria Park has no
 // landmark identities, so every filter needs an association method there; the UKF's additive noise
 // and FastSLAM 2.0's pose sample fraction were chosen on it (docs/choosing.md has the numbers).
@@ -140,6 +153,9 @@ constexpr DatasetKind kKinds[] = {
     {"course", &read_course, "", ""},
     {"plaza", &read_plaza_run, "plaza_range_only", ""},
     {"carmen", &read_carmen_log, "", ""},
+    {"scenario", &read_scenario, "", ""},
+    {"family", &read_family, "", ""},
+    {"building", &read_building, "", ""},
 };
 
 std::vector<std::string> kind_names() {
@@ -168,6 +184,7 @@ ParsedSpec parse_spec(const std::string& spec) {
   const std::string path = colon == std::string::npos ? std::string() : spec.substr(colon + 1);
   if (path.empty() && match->default_folder.empty())
     throw std::invalid_argument(fmt::format("expected a path after '{}:'", kind));
+  if (is_simulated_kind(kind)) check_simulated_spec(kind, path);
   if (match->read == &read_mrclam_robot && !path.empty()) select_mrclam_robot(path);
   if (match->read == &read_plaza_run && !path.empty()) select_plaza_run(path);
   return {match, path};
@@ -208,6 +225,8 @@ void check_dataset_spec(const std::string& spec) { parse_spec(spec); }
 
 std::string absolute_dataset_spec(const std::string& spec) {
   const ParsedSpec resolved = resolve(spec);
+  // A simulated dataset's "path" is its name and seeds.
+  if (is_simulated_kind(std::string(resolved.kind->name))) return spec;
   // MRCLAM's robot and Plaza's run are no part of the folder; they are written out, so run.json
   // names them even when the spec left robot 1 or Plaza1 implicit.
   if (resolved.kind->read == &read_mrclam_robot) {
