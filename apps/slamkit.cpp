@@ -34,6 +34,7 @@
 #include "slamkit/io/mrclam.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/io/sim_log.hpp"
+#include "slamkit/pipeline/execute.hpp"
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/pipeline/replay.hpp"
 #include "slamkit/pipeline/run_folder.hpp"
@@ -281,14 +282,6 @@ class ProgressLine : public RunObserver {
 /// The dataset settings' contents, or null for the reader's defaults.
 nlohmann::json dataset_settings_json(const std::string& path) {
   return path.empty() ? nlohmann::json() : read_json_file(path);
-}
-
-bool has_landmark_ids(const Dataset& dataset) {
-  for (const Event& e : dataset.events)
-    if (const auto* scan = std::get_if<ScanEvent>(&e))
-      for (const Observation& o : scan->observations)
-        if (o.id != kUnknownId) return true;
-  return false;
 }
 
 /// "pose_sample_fraction 0.01, association.method nn": a partial settings object in one line.
@@ -798,45 +791,29 @@ int run_command(int argc, char** argv) {
   // The filter settings as a whole, layered and checked by the library (make_filter repeats the
   // check), before any data is read. A repeated run takes them from its run.json, checked the same way.
   const Verbosity verbosity = quiet ? Verbosity::kQuiet : verbose ? Verbosity::kVerbose : Verbosity::kNormal;
-  FilterConfig filter;
-  nlohmann::json settings_contents, recommendation;
-  std::string recommendation_source;
-  std::string settings_source;  // names the settings' contents in errors where they are not data_config's
+  RunSpec spec;
+  const FilterConfig& filter = spec.filter;
   if (*run_cmd) {
     try {
       if (!repeat_path.empty()) {
-        RunSettings previous = run_settings_from_json(read_json_file(repeat_path), repeat_path);
-        filter = previous.filter;
-        data_spec = previous.dataset;
-        data_config = previous.dataset_settings;
-        settings_contents = std::move(previous.dataset_settings_contents);
-        settings_source = previous.dataset_settings_source;
-        recommendation = std::move(previous.recommended_settings);
+        spec = run_spec_from_run_json(read_json_file(repeat_path), repeat_path);
       } else {
         if (data_spec.empty()) return usage_error("--data is required (or --config with an earlier run.json)");
-        settings_contents = dataset_settings_json(data_config);
         SettingsSources sources;
-        sources.recommended_source =
-            data_config.empty() ? fmt::format("the built-in settings of {}", data_spec.substr(0, data_spec.find(':')))
-                                : data_config;
-        sources.recommended = recommended_settings(data_spec, settings_contents, sources.recommended_source);
         if (!assoc_config_path.empty()) {
           sources.association = read_json_file(assoc_config_path);
           sources.association_source = assoc_config_path;
         }
         sources.explicit_settings = flag_settings;
-        const LayeredSettings layered = layer_settings(sources);
-        filter = layered.config;
-        if (!layered.recommendation_applied.empty()) {
-          recommendation = {{"source", sources.recommended_source}, {"applied", layered.recommendation_applied}};
-          recommendation_source = sources.recommended_source;
-        }
+        spec = make_run_spec(data_spec, data_config, std::move(sources));
       }
+      spec.history = history;
     } catch (const std::invalid_argument& e) {
       return usage_error(e.what());
     } catch (const InputError& e) {  // a settings file or run.json that cannot be read or is wrong
       return bad_input(e);
     }
+    data_spec = spec.dataset;
     if (run_out.empty() && !print_config) return usage_error("--out is required");
     if (replay && history != History::kFull)
       return usage_error("--replay records every scan; it needs --history full");
@@ -926,88 +903,54 @@ int run_command(int argc, char** argv) {
       if (!particle_filter && run_cmd->count("--seed") > 0)
         warn(fmt::format("--seed is ignored by the {} filter, which draws no random numbers", to_string(filter.filter)));
 
-      // Everything needed to repeat the run from any folder: absolute paths, the dataset settings'
-      // contents (the file may change or move), every filter setting by name, and which of them the
-      // dataset recommended.
-      nlohmann::json provenance = {
-          {"slamkit_version", version()},
-          {"command_line", std::vector<std::string>(argv, argv + argc)},
-          {"working_directory", fs::current_path().string()},
-          {"dataset_as_given", data_spec},
-          {"dataset_settings_contents", settings_contents},
-          {"settings", to_json(filter)},
-      };
-      if (!recommendation.is_null()) provenance["recommended_settings"] = recommendation;
-      const std::string dataset_spec = absolute_dataset_spec(data_spec);
-      const std::string settings_path = data_config.empty() ? "" : fs::absolute(data_config).lexically_normal().string();
+      nlohmann::json provenance = {{"command_line", std::vector<std::string>(argv, argv + argc)},
+                                   {"working_directory", fs::current_path().string()}};
       if (print_config) {
-        provenance["dataset"] = dataset_spec;
-        provenance["dataset_settings"] = settings_path;
+        provenance.update({{"slamkit_version", version()},
+                           {"dataset", absolute_dataset_spec(spec.dataset)},
+                           {"dataset_as_given", spec.dataset},
+                           {"dataset_settings", spec.dataset_settings_path},
+                           {"dataset_settings_contents", spec.dataset_settings},
+                           {"settings", to_json(filter)}});
+        if (!spec.recommendation.is_null()) provenance["recommended_settings"] = spec.recommendation;
         fmt::print("{}\n", provenance.dump(2));
         return 0;
       }
       const auto stage_start = std::chrono::steady_clock::now();
-      const auto stage = [&](const char* what) {
-        if (verbosity == Verbosity::kVerbose)
+      ExecuteOptions options;
+      options.provenance = std::move(provenance);
+      options.catch_stop_signals = true;
+      options.replay = replay;
+      if (verbosity == Verbosity::kVerbose) {
+        fmt::print(stderr, "settings: {}\n", to_json(filter).dump());
+        options.on_stage = [&](std::string_view what) {
           fmt::print(stderr, "{}: {:.2f} s\n", what,
                      std::chrono::duration<double>(std::chrono::steady_clock::now() - stage_start).count());
-      };
-      if (verbosity == Verbosity::kVerbose) fmt::print(stderr, "settings: {}\n", provenance.at("settings").dump());
-      if (verbosity != Verbosity::kQuiet && !recommendation_source.empty())
+        };
+      }
+      if (verbosity != Verbosity::kQuiet && repeat_path.empty() && !spec.recommendation.is_null())
         fmt::print(stderr, "slamkit: {}'s recommended settings for {}: {} (from {}; a flag overrides each)\n",
                    data_spec.substr(0, data_spec.find(':')), to_string(filter.filter),
-                   settings_in_words(recommendation.at("applied")), recommendation_source);
-
-      // Taken before the data is read, so that a second run into the folder fails at once; the
-      // folder keeps its previous run until out.commit().
-      AtomicFolder out = stage_run_folder(run_out);
-      const Dataset dataset =
-          load_dataset(dataset_spec, settings_contents, settings_source.empty() ? settings_path : settings_source);
-      stage("dataset read");
-      add_dataset_provenance(provenance, dataset_spec, dataset);
-
-      RunOptions options;
-      options.history = history;
-      require_run_memory(filter, dataset, options);
-      auto slam = make_filter(filter, dataset);
-      check_filter_fits(*slam, dataset);
-      if (!slam->maps_range_scans() && filter.association.method == AssociationMethod::kKnown &&
-          !has_landmark_ids(dataset))
-        throw InputError(data_spec, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
+                   settings_in_words(spec.recommendation.at("applied")),
+                   spec.recommendation.at("source").get<std::string>());
       ProgressLine progress;
       if (verbosity != Verbosity::kQuiet && isatty(STDERR_FILENO)) options.observers.push_back(&progress);
-      std::optional<ReplayRecorder> recorder;
-      if (replay) options.observers.push_back(&recorder.emplace(dataset));
-      RunResult run;
-      int stop_signal = 0;
-      {  // only while the filter runs: a stop signal before or after it ends the process at once
-        const StopSignals stop_signals;
-        options.stop = stop_signals.flag();
-        run = run_filter(*slam, dataset, options);
-        stop_signal = stop_signals.received();
-      }
+      const RunRecord record = execute(spec, run_out, options);
       progress.finish();
-      stage("filter run");
+      const RunResult& run = record.run;
       if (run.diverged_at_s)
         warn(fmt::format("the filter diverged: its pose estimate was no longer finite after the event at t = {} s; "
                          "writing the result up to its last finite estimate (t = {:.1f} s) to {}",
                          *run.diverged_at_s, run.filtered.back().t, run_out));
       else if (run.partial)
         warn(fmt::format("stopped by {}: writing the partial result (up to t = {:.1f} s) to {}",
-                         signal_name(stop_signal), run.filtered.back().t, run_out));
-      run.association = to_string(filter.association.method);
-      run.dataset = dataset_spec;
-      run.dataset_settings = settings_path;
-      run.provenance = std::move(provenance);
-      const Metrics metrics = write_run_folder_files(out.path(), run, dataset, recorder ? &*recorder : nullptr);
-      out.commit();
-      warn_if_lost(metrics);
-      stage("written and evaluated");
-      print_outputs(run_out, metrics, verbosity);
-      if (recorder && verbosity != Verbosity::kQuiet)
+                         signal_name(record.stop_signal), run.filtered.back().t, run_out));
+      warn_if_lost(record.metrics);
+      print_outputs(run_out, record.metrics, verbosity);
+      if (replay && verbosity != Verbosity::kQuiet)
         fmt::print("replay: {}\n", (fs::path(run_out) / "replay.html").string());
       if (run.diverged_at_s) return kExitDiverged;
-      if (run.partial) return exit_code_for_signal(stop_signal);
+      if (run.partial) return exit_code_for_signal(record.stop_signal);
     } else if (*calibrate_cmd) {
       for (const std::string& spec : calibrate_specs)
         if (!spec.starts_with("mrclam:")) {

@@ -1,5 +1,6 @@
 // Scan matching and grid FastSLAM on the simulated office: the proposal's Gaussian around a known
 // answer, the particle filter's reproducibility and shared maps, and the office mapped.
+#include <Eigen/LU>
 #include <gtest/gtest.h>
 
 #include <map>

@@ -202,7 +202,10 @@ void write_run_files(const std::string& dir, const RunResult& run) {
   write_associations(path_in(dir, "associations.txt"), run.scan_times, run.associations);
   if (!run.landmark_origins.empty()) write_landmark_origins(path_in(dir, "landmark_origins.txt"), run.landmark_origins);
   if (!run.particles.empty()) write_particles(path_in(dir, "particles.txt"), run.particles);
+  write_run_json(dir, run);
+}
 
+void write_run_json(const std::string& dir, const RunResult& run) {
   nlohmann::json info = run.provenance;
   info.update({{"filter", run.filter},
                {"dataset", run.dataset},

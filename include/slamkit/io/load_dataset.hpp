@@ -9,7 +9,8 @@
 namespace slamkit {
 
 /// Opens a dataset from a "kind:PATH" spec ("sim:DIR", "victoria-park:DIR", "mrclam:DIR:robotN",
-/// "course:DIR", "plaza:DIR:PlazaN"). `settings_path` names a JSON file of the dataset's settings
+/// "course:DIR", "plaza:DIR:PlazaN", and the simulated "scenario:NAME:SEED", ... of
+/// io/simulated_datasets.hpp). `settings_path` names a JSON file of the dataset's settings
 /// (noise, sensor limits, ...; the shipped ones are config/*.json); empty for the defaults, which
 /// equal the shipped files.
 /// The settings' "recommended" object is for the filters (recommended_settings), not the reader.

@@ -34,6 +34,10 @@ AtomicFolder stage_run_folder(const std::string& dir);
 /// stage_run_folder(...).path(). Throws InputError if it cannot.
 void write_run_files(const std::string& dir, const RunResult& run);
 
+/// Writes run.json alone (what the run was and its provenance): the one file of a run that a campaign
+/// keeping only metrics writes besides metrics.json.
+void write_run_json(const std::string& dir, const RunResult& run);
+
 /// Replaces the run folder `dir` by one holding `run` (stage_run_folder, write_run_files, commit).
 void write_run(const std::string& dir, const RunResult& run);
 
