@@ -13,7 +13,7 @@ DEB_PACKAGES := cmake make g++ libeigen3-dev libgtest-dev libgmock-dev libbenchm
                 nlohmann-json3-dev libcli11-dev libfmt-dev zlib1g-dev libyaml-cpp-dev time
 # What `make test` needs beyond that (the demo does without them).
 TEST_DEB_PACKAGES := pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib \
-                     chromium chromium-driver
+                     chromium chromium-driver libopenmpi-dev openmpi-bin
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps test-deps build demo test bench bench-e2e bench-compare clean sanitize fuzz soak

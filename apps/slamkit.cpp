@@ -21,6 +21,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "campaign_commands.hpp"
 #include "slamkit/calib/calibration.hpp"
 #include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/atomic_folder.hpp"
@@ -763,6 +764,9 @@ int run_command(int argc, char** argv) {
       ->required();
   bench_cmd->add_option("--out", bench_out, "Folder for the SVG plots")->required();
 
+  cli::CampaignCommands campaign_commands;
+  cli::add_campaign_commands(app, campaign_commands);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -974,6 +978,10 @@ int run_command(int argc, char** argv) {
       if (!calibrate_report.empty()) write_file_atomically(calibrate_report, to_json(c).dump(2) + "\n");
       fmt::print("{}", calibration_summary(c, settings.command_delay));
       fmt::print("wrote {}\n", calibrate_out);
+    } else if (*campaign_commands.campaign) {
+      return cli::run_campaign_command(campaign_commands);
+    } else if (*campaign_commands.report) {
+      return cli::run_report_command(campaign_commands);
     } else if (*nees_cmd) {
       std::vector<Metrics> runs;
       for (const std::string& dir : nees_dirs) {

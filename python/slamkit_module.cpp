@@ -18,7 +18,10 @@
 #include <string>
 #include <vector>
 
+#include "slamkit/campaign/campaign.hpp"
+#include "slamkit/campaign/report.hpp"
 #include "slamkit/core/error.hpp"
+#include "slamkit/core/json_options.hpp"
 #include "slamkit/core/version.hpp"
 #include "slamkit/eval/evaluation.hpp"
 #include "slamkit/filters/ekf_slam.hpp"
@@ -322,6 +325,50 @@ naming the file or key.)";
 
 }  // namespace
 
+/// A campaign's tally and failures, as campaign() returns them.
+py::dict to_python(const campaign::CampaignSpec& spec, const campaign::CampaignResult& result) {
+  const campaign::CampaignTally& t = result.tally;
+  py::list failures;
+  for (const campaign::JobOutcome& f : result.failures)
+    failures.append(py::dict(py::arg("folder") = spec.jobs[f.index].folder, py::arg("error") = f.error));
+  return py::dict(py::arg("jobs") = t.total, py::arg("run") = t.run, py::arg("already_done") = t.already_done,
+                  py::arg("diverged") = t.diverged, py::arg("stopped") = t.stopped, py::arg("failed") = t.failed,
+                  py::arg("failures") = failures);
+}
+
+/// One row per run folder under `paths`: where it is, its configuration, the job's seeds (a campaign's
+/// run.json records them) and every number metrics.json holds; a pandas DataFrame where pandas is
+/// installed, else a list of dicts.
+py::object campaign_results(const py::object& given) {
+  const py::object path_like = py::module_::import("os").attr("PathLike");
+  const bool one_path = py::isinstance<py::str>(given) || py::isinstance(given, path_like);
+  const std::vector<std::string> paths =
+      one_path ? std::vector<std::string>{py::str(given)} : given.cast<std::vector<std::string>>();
+  campaign::ReportOptions options;
+  options.nees_test = false;
+  const campaign::Report report = campaign::collect_report(paths, options);
+  nlohmann::json rows = nlohmann::json::array();
+  for (const campaign::ReportRun& run : report.runs) {
+    nlohmann::json row = {{"folder", run.dir},   {"configuration", run.configuration}, {"filter", run.filter},
+                          {"dataset", run.dataset}, {"partial", run.partial},
+                          {"diverged_at_s", run.diverged_at_s ? nlohmann::json(*run.diverged_at_s) : nlohmann::json()}};
+    const nlohmann::json job =
+        read_json_file((std::filesystem::path(run.dir) / "run.json").string()).value("campaign", nlohmann::json());
+    for (const char* key : {"seed", "world_seed", "filter_seed"})
+      row[key] = job.is_object() && job.contains(key) ? job.at(key) : nlohmann::json();
+    for (const auto& [key, value] : run.metrics.items())
+      if (value.is_primitive() && !row.contains(key)) row[key] = value;
+    rows.push_back(std::move(row));
+  }
+  py::object table = to_python(rows);
+  try {
+    return py::module_::import("pandas").attr("DataFrame")(table);
+  } catch (const py::error_already_set& e) {
+    if (!e.matches(PyExc_ImportError)) throw;
+    return table;
+  }
+}
+
 PYBIND11_MODULE(slamkit, m) {
   require_numpy();
   m.doc() = kModuleDoc;
@@ -514,6 +561,32 @@ PYBIND11_MODULE(slamkit, m) {
         "Runs a filter over the whole dataset, as `slamkit run` does, and returns a Run; `settings` as for Filter. "
         "With replay=True it also records the run scan by scan, for Run.write_replay() and the replay page of "
         "Run.save().");
+
+  m.def(
+      "campaign",
+      [](const std::string& spec_path, const std::string& out, unsigned jobs) {
+        const campaign::CampaignSpec spec = campaign::read_campaign_spec(spec_path);
+        campaign::CampaignOptions options;
+        options.workers = jobs;
+        campaign::CampaignResult result;
+        {
+          py::gil_scoped_release release;
+          result = campaign::run_campaign(spec, out, options);
+        }
+        return to_python(spec, result);
+      },
+      py::arg("spec"), py::arg("out"), py::arg("jobs") = 0,
+      "Runs the campaign of the spec file `spec` (docs/campaigns.md) into the folder `out`, `jobs` runs at once "
+      "(0: one per core), as `slamkit campaign` does without its report; jobs already done there are skipped. "
+      "Returns a dict: jobs, run, already_done, diverged, stopped, failed, and failures (a list of {folder, "
+      "error}).");
+
+  m.def("campaign_results", &campaign_results, py::arg("paths"),
+        "The run folders under `paths` (a folder or a list of them: a campaign's, or folders written by `slamkit "
+        "run`) as a table, one row per run: folder, configuration (as `slamkit report` groups them), filter, "
+        "dataset, partial, diverged_at_s, the campaign's seed, world_seed and filter_seed (None outside a "
+        "campaign), then every number of metrics.json (ate_rmse_m, nees_pose_mean, ...). A pandas DataFrame "
+        "where pandas is installed, else a list of dicts.");
 
   m.def(
       "evaluate",

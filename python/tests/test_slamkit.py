@@ -318,3 +318,30 @@ def test_a_grid_filter_maps_a_laser_log_and_scores_its_map_as_the_cli_does(tmp_p
     assert log_odds.shape == observed.shape and log_odds.ndim == 2 and observed.any()
     assert resolution == 0.05 and origin.shape == (2,)
     assert (log_odds[observed] > 0).any() and (log_odds[~observed] == 0).all()
+
+
+def test_a_campaign_runs_from_python_and_its_results_load_as_a_table(tmp_path):
+    spec = tmp_path / "small.json"
+    spec.write_text(json.dumps({
+        "datasets": [{"name": "default", "spec": "scenario:default", "seeds": [1, 2], "settings": {"loops": 1}}],
+        "filters": [{"name": "ekf"}, {"name": "fej", "settings": {"ekf_variant": "fej"}}],
+        "outputs": "metrics"}))
+    tally = slamkit.campaign(str(spec), str(tmp_path / "out"), jobs=2)
+    assert (tally["jobs"], tally["run"], tally["failed"], tally["failures"]) == (4, 4, 0, [])
+    assert slamkit.campaign(str(spec), str(tmp_path / "out"))["already_done"] == 4
+    table = slamkit.campaign_results(tmp_path / "out")
+    try:
+        import pandas  # noqa: F401  (optional: a DataFrame where it is installed)
+        rows = table.to_dict("records")
+    except ImportError:
+        rows = table
+    assert len(rows) == 4
+    assert sorted((r["configuration"], r["seed"]) for r in rows) == [
+        ("ekf | default", 1), ("ekf | default", 2), ("fej | default", 1), ("fej | default", 2)]
+    for r in rows:
+        with open(os.path.join(r["folder"], "metrics.json")) as f:
+            assert r["ate_rmse_m"] == json.load(f)["ate_rmse_m"]
+        assert r["world_seed"] is None and not r["partial"]
+    spec.write_text(json.dumps({"datasets": [], "filters": []}))
+    with pytest.raises(slamkit.InputError, match="small.json: datasets: expected a non-empty list"):
+        slamkit.campaign(str(spec), str(tmp_path / "other"))

@@ -1,0 +1,151 @@
+#include "campaign_commands.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+
+#include "campaign_mpi.hpp"
+#include "slamkit/campaign/campaign.hpp"
+#include "slamkit/campaign/report.hpp"
+#include "slamkit/campaign/spec.hpp"
+#include "slamkit/pipeline/stop_signals.hpp"
+
+namespace slamkit::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kExitFailedJobs = 1;
+
+const char* status_word(campaign::JobStatus status) {
+  switch (status) {
+    case campaign::JobStatus::kRun:
+      return "done";
+    case campaign::JobStatus::kAlreadyDone:
+      return "already done";
+    case campaign::JobStatus::kDiverged:
+      return "diverged";
+    case campaign::JobStatus::kStopped:
+      return "stopped";
+    case campaign::JobStatus::kFailed:
+      return "FAILED";
+  }
+  return "";
+}
+
+/// "3 configurations x 50 jobs" style overview of what a spec expands to.
+void print_plan(const campaign::CampaignSpec& spec) {
+  std::vector<std::string> configurations;
+  for (const campaign::Job& job : spec.jobs)
+    if (configurations.empty() || configurations.back() != job.configuration)
+      configurations.push_back(job.configuration);
+  fmt::print("campaign {}: {} jobs\n", spec.name, spec.jobs.size());
+  for (const std::string& c : configurations) fmt::print("  {}\n", c);
+}
+
+std::vector<std::string> write_report_of(const std::vector<std::string>& paths, const std::string& out, bool nees) {
+  campaign::ReportOptions options;
+  options.nees_test = nees;
+  return campaign::write_report(campaign::collect_report(paths, options), out);
+}
+
+}  // namespace
+
+bool launched_by_mpi() {
+  for (const char* variable : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "MPI_LOCALNRANKS"})
+    if (std::getenv(variable) != nullptr) return true;
+  return false;
+}
+
+void add_campaign_commands(CLI::App& app, CampaignCommands& c) {
+  c.campaign = app.add_subcommand(
+      "campaign",
+      "Run many runs from one spec file (datasets with seed ranges x filters x varied settings; campaigns/*.json "
+      "and docs/campaigns.md), one job per core, then report them. Rerun it into the same folder to finish a "
+      "campaign that was stopped or killed: jobs already done are skipped");
+  c.campaign->add_option("spec", c.spec_path, "Campaign spec (JSON)")->required();
+  c.campaign->add_option("--out", c.campaign_out, "Campaign folder: runs/, campaign.json, report/")->required();
+  c.campaign->add_option("--jobs,-j", c.jobs, "Runs at once (default: one per core)")->check(CLI::Range(1u, 4096u));
+  c.campaign->add_flag("--dry-run", c.dry_run, "Print the jobs the spec expands to and stop");
+  c.campaign->add_flag("--no-report", c.no_report, "Do not write DIR/report at the end");
+  c.campaign->add_flag("--quiet", c.quiet, "Print only errors");
+
+  c.report = app.add_subcommand(
+      "report",
+      "Tables (mean, median, min-max, 95% confidence interval per configuration), the N-run NEES test and "
+      "plots over any set of run folders: a campaign's, or folders written by 'slamkit run'");
+  c.report->add_option("paths", c.report_paths, "Run folders, or folders searched for run folders")->required();
+  c.report->add_option("--out", c.report_out, "Folder for report.md, summary.csv, runs.csv, report.json and SVGs")
+      ->required();
+  c.report->add_flag("--no-nees", c.no_nees,
+                     "Skip the averaged-NEES test, which re-reads each run's dataset to score it against the truth");
+}
+
+int run_campaign_command(const CampaignCommands& c) {
+  const campaign::CampaignSpec spec = campaign::read_campaign_spec(c.spec_path);
+  if (c.dry_run) {
+    print_plan(spec);
+    return 0;
+  }
+  const bool mpi = launched_by_mpi();
+  const bool progress = !c.quiet && !mpi && isatty(STDOUT_FILENO);
+  campaign::CampaignOptions options;
+  options.workers = c.jobs;
+  options.on_job = [&](const campaign::Job& job, const campaign::JobOutcome& outcome,
+                       const campaign::CampaignTally& t) {
+    if (c.quiet) return;
+    if (outcome.status == campaign::JobStatus::kFailed)
+      fmt::print(stderr, "slamkit: job {} failed: {}\n", job.folder, outcome.error);
+    else if (progress)
+      fmt::print("\r[{}/{}] {} run, {} already done, {} failed ", t.finished(), t.total, t.run + t.diverged,
+                 t.already_done, t.failed);
+    else if (outcome.status != campaign::JobStatus::kAlreadyDone)
+      fmt::print("{} {} ({:.1f} s)\n", job.folder, status_word(outcome.status), outcome.seconds);
+    std::fflush(stdout);
+  };
+  const auto start = std::chrono::steady_clock::now();
+  const StopSignals stop_signals;
+  options.stop = stop_signals.flag();
+  const auto finish = [&](const campaign::CampaignResult& result, int ranks) {
+    const campaign::CampaignTally& t = result.tally;
+    if (!c.quiet) {
+      if (progress) fmt::print("\n");
+      fmt::print("campaign {}: {} jobs: {} run, {} already done, {} diverged, {} stopped, {} failed ({:.1f} s{})\n",
+                 spec.name, t.total, t.run, t.already_done, t.diverged, t.stopped, t.failed,
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                 ranks > 1 ? fmt::format(", {} MPI ranks", ranks) : "");
+    }
+    if (const int signal = stop_signals.received(); signal != 0) {
+      fmt::print(stderr, "slamkit: stopped by {}; run the same command again to finish the campaign\n",
+                 signal_name(signal));
+      return exit_code_for_signal(signal);
+    }
+    if (!c.no_report && t.run + t.already_done + t.diverged > 0) {
+      const std::string out = (fs::path(c.campaign_out) / "report").string();
+      write_report_of({(fs::path(c.campaign_out) / "runs").string()}, out, true);
+      if (!c.quiet) fmt::print("report: {}\n", (fs::path(out) / "report.md").string());
+    }
+    if (t.failed > 0) {
+      fmt::print(stderr, "slamkit: {} of {} jobs failed; their errors are in {}\n", t.failed, t.total,
+                 (fs::path(c.campaign_out) / "failures.json").string());
+      return kExitFailedJobs;
+    }
+    return 0;
+  };
+  if (mpi)
+    return run_campaign_mpi(spec, c.campaign_out, options,
+                            [&](const MpiCampaign& all) { return finish(all.result, all.ranks); });
+  return finish(campaign::run_campaign(spec, c.campaign_out, options), 1);
+}
+
+int run_report_command(const CampaignCommands& c) {
+  const std::vector<std::string> files = write_report_of(c.report_paths, c.report_out, !c.no_nees);
+  for (const std::string& file : files) fmt::print("wrote {}\n", file);
+  return 0;
+}
+
+}  // namespace slamkit::cli

@@ -1,0 +1,163 @@
+// `slamkit campaign` and `slamkit report` as a user runs them: a campaign killed (SIGKILL) half-way
+// and run again ends with every job once and the report of an uninterrupted one; under mpirun it
+// gives the same report as on one process; a malformed spec is an error naming the key.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "sanitizers.hpp"
+#include "test_data.hpp"
+
+using slamkit::test_data::read_json;
+using slamkit::test_data::read_text;
+using slamkit::test_data::write_text;
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kSpec = R"({
+  "name": "resume",
+  "outputs": "folder",
+  "datasets": [{"name": "default", "spec": "scenario:default", "seeds": {"from": 1, "count": 4},
+                "settings": {"loops": 1}}],
+  "filters": [{"name": "ekf"}, {"name": "fej", "settings": {"ekf_variant": "fej"}}]
+})";
+
+/// Starts `program` with `args`, stdout and stderr into `log`; returns its pid.
+pid_t start(const std::string& program, const std::vector<std::string>& args, const fs::path& log) {
+  std::vector<std::string> words = {program};
+  words.insert(words.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& word : words) argv.push_back(word.data());
+  argv.push_back(nullptr);
+  const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  const pid_t pid = ::fork();
+  if (pid == 0) {  // only async-signal-safe calls until exec
+    ::dup2(out, STDOUT_FILENO);
+    ::dup2(out, STDERR_FILENO);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  ::close(out);
+  return pid;
+}
+
+int wait_for(pid_t pid) {
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+int run(const std::string& program, const std::vector<std::string>& args, const fs::path& log) {
+  return wait_for(start(program, args, log));
+}
+
+/// summary.csv without the timing rows, which differ from run to run.
+std::string summary_without_times(const fs::path& report) {
+  std::istringstream in(read_text(report / "summary.csv"));
+  std::string kept;
+  for (std::string line; std::getline(in, line);)
+    if (line.find("wall_time_s") == std::string::npos) kept += line + "\n";
+  return kept;
+}
+
+/// The job folders under a campaign's runs/, and anything else found there (staging folders).
+std::multiset<std::string> run_folders(const fs::path& campaign) {
+  std::multiset<std::string> folders;
+  for (const auto& configuration : fs::directory_iterator(campaign / "runs"))
+    for (const auto& run : fs::directory_iterator(configuration))
+      folders.insert((configuration.path().filename() / run.path().filename()).string());
+  return folders;
+}
+
+class CampaignCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    work_ = fs::temp_directory_path() / ("slamkit_campaign_cli_" + std::to_string(getpid()));
+    fs::remove_all(work_);
+    fs::create_directories(work_);
+    write_text(work_ / "resume.json", kSpec);
+  }
+  void TearDown() override { fs::remove_all(work_); }
+  std::vector<std::string> campaign(const fs::path& out, std::vector<std::string> more = {}) const {
+    std::vector<std::string> args = {"campaign", (work_ / "resume.json").string(), "--out", out.string()};
+    args.insert(args.end(), more.begin(), more.end());
+    return args;
+  }
+  fs::path work_;
+};
+
+TEST_F(CampaignCli, AKilledCampaignRunAgainHasEveryJobOnceAndTheSameReport) {
+  ASSERT_EQ(run(SLAMKIT_CLI, campaign(work_ / "whole"), work_ / "whole.log"), 0) << read_text(work_ / "whole.log");
+
+  const fs::path killed = work_ / "killed";
+  const pid_t pid = start(SLAMKIT_CLI, campaign(killed, {"--jobs", "1"}), work_ / "killed.log");
+  // Killed once the first job's folder is whole, while later ones run.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!fs::exists(killed / "runs" / "ekf__default" / "seed-1" / "metrics.json") &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  ::kill(pid, SIGKILL);
+  wait_for(pid);
+  ASSERT_FALSE(fs::exists(killed / "report")) << "killed before the end";
+
+  ASSERT_EQ(run(SLAMKIT_CLI, campaign(killed), work_ / "rerun.log"), 0) << read_text(work_ / "rerun.log");
+  const std::string rerun = read_text(work_ / "rerun.log");
+  EXPECT_NE(rerun.find("already done"), std::string::npos) << rerun;
+  EXPECT_EQ(run_folders(killed), run_folders(work_ / "whole"));
+  EXPECT_EQ(run_folders(killed).size(), 8u);
+  EXPECT_EQ(summary_without_times(killed / "report"), summary_without_times(work_ / "whole" / "report"));
+  EXPECT_EQ(read_json(killed / "report" / "report.json").at("runs").size(), 8u);
+}
+
+TEST_F(CampaignCli, UnderMpiTheReportIsTheLocalOne) {
+  const std::string mpiexec = SLAMKIT_MPIEXEC;
+  if (mpiexec.empty()) GTEST_SKIP() << "slamkit was built without MPI (Debian's libopenmpi-dev)";
+#if defined(SLAMKIT_ADDRESS_SANITIZER) || defined(SLAMKIT_THREAD_SANITIZER)
+  GTEST_SKIP() << "Open MPI's own allocations are not the sanitizers' business";
+#endif
+  ASSERT_EQ(run(SLAMKIT_CLI, campaign(work_ / "local"), work_ / "local.log"), 0) << read_text(work_ / "local.log");
+  // Root may run mpirun only when told twice; two ranks on one host whatever its cores.
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  std::vector<std::string> args = {"-n", "2", "--oversubscribe", SLAMKIT_CLI};
+  for (const std::string& word : campaign(work_ / "mpi")) args.push_back(word);
+  ASSERT_EQ(run(mpiexec, args, work_ / "mpi.log"), 0) << read_text(work_ / "mpi.log");
+  EXPECT_NE(read_text(work_ / "mpi.log").find("2 MPI ranks"), std::string::npos) << read_text(work_ / "mpi.log");
+  EXPECT_EQ(run_folders(work_ / "mpi"), run_folders(work_ / "local"));
+  EXPECT_EQ(summary_without_times(work_ / "mpi" / "report"), summary_without_times(work_ / "local" / "report"));
+}
+
+TEST_F(CampaignCli, AMalformedSpecIsAnErrorNamingTheKey) {
+  write_text(work_ / "bad.json", R"({"datasets": [{"spec": "scenario:default", "seeds": [1]}],
+                                     "filters": [{"settings": {"filter": "ekf"}, "vary": {"particles": 5}}]})");
+  EXPECT_EQ(
+      run(SLAMKIT_CLI, {"campaign", (work_ / "bad.json").string(), "--out", (work_ / "x").string()}, work_ / "bad.log"),
+      1);
+  const std::string log = read_text(work_ / "bad.log");
+  EXPECT_NE(log.find("bad.json: filters[0].vary.particles: expected a non-empty list of values"), std::string::npos)
+      << log;
+  EXPECT_FALSE(fs::exists(work_ / "x")) << "nothing is written for a spec that is refused";
+}
+
+TEST_F(CampaignCli, ADryRunListsTheConfigurations) {
+  ASSERT_EQ(run(SLAMKIT_CLI, campaign(work_ / "dry", {"--dry-run"}), work_ / "dry.log"), 0);
+  const std::string log = read_text(work_ / "dry.log");
+  EXPECT_NE(log.find("campaign resume: 8 jobs"), std::string::npos) << log;
+  EXPECT_NE(log.find("fej | default"), std::string::npos) << log;
+  EXPECT_FALSE(fs::exists(work_ / "dry"));
+}
+
+}  // namespace
