@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -588,6 +589,9 @@ TEST_F(Cli, RunJsonRepeatsTheRunBitForBitFromAnotherFolder) {
   EXPECT_EQ(info.at("settings").at("association").at("method"), "nn");
   EXPECT_EQ(info.at("partial"), false);
   EXPECT_FALSE(info.at("slamkit_version").get<std::string>().empty());
+  // The compiler, the build type and the instruction set the numbers came from.
+  const std::string build = info.at("build").get<std::string>();
+  EXPECT_EQ(std::count(build.begin(), build.end(), ','), 2) << build;
   EXPECT_EQ(info.at("command_line").at(1), "run");
 
   const Result repeat = slamkit_cli("run --config " + (first / "r" / "run.json").string() + " --out r", *work_, second);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -78,6 +79,7 @@ std::vector<std::uint64_t> seeds_at(const json& value, const Where& where) {
                                                         : whole_number(value.at("to"), where["to"]) + 1 - from;
     if (value.contains("to") && whole_number(value.at("to"), where["to"]) < from) where["to"].fail("before 'from'");
     if (count == 0 || count > kMaxSeeds) where.fail(fmt::format("expected 1 to {} seeds, found {}", kMaxSeeds, count));
+    if (from > std::numeric_limits<std::uint64_t>::max() - (count - 1)) where.fail("the last seed is beyond 2^64 - 1");
     for (std::uint64_t i = 0; i < count; ++i) seeds.push_back(from + i);
   } else {
     where.fail(fmt::format("expected a list of seeds or {{\"from\": FIRST, \"count\": N}}, found {}", value.dump()));

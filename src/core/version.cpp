@@ -4,4 +4,6 @@ namespace slamkit {
 
 std::string version() { return SLAMKIT_VERSION; }
 
+std::string build_description() { return SLAMKIT_BUILD; }
+
 }  // namespace slamkit

@@ -84,6 +84,7 @@ RunRecord execute(const RunSpec& spec, const std::string& out_dir, const Execute
   // dataset recommended.
   nlohmann::json provenance = options.provenance;
   provenance.update({{"slamkit_version", version()},
+                     {"build", build_description()},
                      {"dataset_as_given", spec.dataset},
                      {"dataset_settings_contents", spec.dataset_settings},
                      {"settings", to_json(spec.filter)}});
