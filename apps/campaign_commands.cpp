@@ -1,17 +1,21 @@
 #include "campaign_commands.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <set>
+#include <stdexcept>
 
 #include "campaign_mpi.hpp"
 #include "slamkit/campaign/campaign.hpp"
 #include "slamkit/campaign/report.hpp"
 #include "slamkit/campaign/spec.hpp"
+#include "slamkit/core/names.hpp"
 #include "slamkit/pipeline/stop_signals.hpp"
 
 namespace slamkit::cli {
@@ -47,10 +51,19 @@ void print_plan(const campaign::CampaignSpec& spec) {
   for (const std::string& c : configurations) fmt::print("  {}\n", c);
 }
 
-std::vector<std::string> write_report_of(const std::vector<std::string>& paths, const std::string& out, bool nees) {
+std::vector<std::string> write_report_of(const std::vector<std::string>& paths, const std::string& out, bool nees,
+                                         const std::vector<std::string>& metrics = {}) {
   campaign::ReportOptions options;
   options.nees_test = nees;
-  return campaign::write_report(campaign::collect_report(paths, options), out);
+  if (!metrics.empty()) options.metrics = metrics;
+  const campaign::Report report = campaign::collect_report(paths, options);
+  std::set<std::string> measured;
+  for (const campaign::ReportRun& run : report.runs)
+    for (const auto& [key, value] : run.metrics.items()) measured.insert(key);
+  for (const std::string& key : metrics)  // a misspelt key would be a table of empty rows
+    if (!measured.contains(key))
+      throw std::invalid_argument(unknown_name_message("metric", key, {measured.begin(), measured.end()}));
+  return campaign::write_report(report, out);
 }
 
 }  // namespace
@@ -81,6 +94,11 @@ void add_campaign_commands(CLI::App& app, CampaignCommands& c) {
   c.report->add_option("paths", c.report_paths, "Run folders, or folders searched for run folders")->required();
   c.report->add_option("--out", c.report_out, "Folder for report.md, summary.csv, runs.csv, report.json and SVGs")
       ->required();
+  c.report
+      ->add_option("--metrics", c.report_metrics,
+                   fmt::format("metrics.json keys to summarise, comma-separated (default: {})",
+                               fmt::join(campaign::default_report_metrics(), ",")))
+      ->delimiter(',');
   c.report->add_flag("--no-nees", c.no_nees,
                      "Skip the averaged-NEES test, which re-reads each run's dataset to score it against the truth");
 }
@@ -143,7 +161,7 @@ int run_campaign_command(const CampaignCommands& c) {
 }
 
 int run_report_command(const CampaignCommands& c) {
-  const std::vector<std::string> files = write_report_of(c.report_paths, c.report_out, !c.no_nees);
+  const std::vector<std::string> files = write_report_of(c.report_paths, c.report_out, !c.no_nees, c.report_metrics);
   for (const std::string& file : files) fmt::print("wrote {}\n", file);
   return 0;
 }

@@ -16,6 +16,7 @@ struct CampaignCommands {
   bool dry_run = false, no_report = false, quiet = false;
   std::vector<std::string> report_paths;
   std::string report_out;
+  std::vector<std::string> report_metrics;
   bool no_nees = false;
 };
 
@@ -26,7 +27,7 @@ void add_campaign_commands(CLI::App& app, CampaignCommands& commands);
 /// stopped by one.
 int run_campaign_command(const CampaignCommands& commands);
 
-/// Writes the report of the run folders given.
+/// Writes the report of the run folders given; std::invalid_argument for a --metrics key no run has.
 int run_report_command(const CampaignCommands& commands);
 
 }  // namespace slamkit::cli

@@ -981,7 +981,11 @@ int run_command(int argc, char** argv) {
     } else if (*campaign_commands.campaign) {
       return cli::run_campaign_command(campaign_commands);
     } else if (*campaign_commands.report) {
-      return cli::run_report_command(campaign_commands);
+      try {
+        return cli::run_report_command(campaign_commands);
+      } catch (const std::invalid_argument& e) {  // a misspelt --metrics key
+        return usage_error(e.what());
+      }
     } else if (*nees_cmd) {
       std::vector<Metrics> runs;
       for (const std::string& dir : nees_dirs) {

@@ -160,4 +160,30 @@ TEST_F(CampaignCli, ADryRunListsTheConfigurations) {
   EXPECT_FALSE(fs::exists(work_ / "dry"));
 }
 
+TEST_F(CampaignCli, AReportSummarisesTheMetricsAskedFor) {
+  ASSERT_EQ(run(SLAMKIT_CLI, campaign(work_ / "c", {"--no-report"}), work_ / "c.log"), 0) << read_text(work_ / "c.log");
+  EXPECT_FALSE(fs::exists(work_ / "c" / "report"));
+  const std::string runs = (work_ / "c" / "runs").string();
+  ASSERT_EQ(run(SLAMKIT_CLI,
+                {"report", runs, "--out", (work_ / "r").string(), "--no-nees", "--metrics",
+                 "ate_rmse_m,association_wrong"},
+                work_ / "r.log"),
+            0)
+      << read_text(work_ / "r.log");
+  std::set<std::string> metrics;
+  std::istringstream summary(read_text(work_ / "r" / "summary.csv"));
+  std::string line;
+  std::getline(summary, line);  // the header
+  while (std::getline(summary, line)) {
+    const std::size_t first = line.find(','), second = line.find(',', first + 1);
+    metrics.insert(line.substr(first + 1, second - first - 1));
+  }
+  EXPECT_EQ(metrics, (std::set<std::string>{"ate_rmse_m", "association_wrong"}));
+  EXPECT_EQ(run(SLAMKIT_CLI, {"report", runs, "--out", (work_ / "s").string(), "--metrics", "ate_rmse"}, work_ / "s.log"),
+            2);
+  EXPECT_NE(read_text(work_ / "s.log").find("unknown metric 'ate_rmse' (did you mean 'ate_rmse_m'?)"),
+            std::string::npos)
+      << read_text(work_ / "s.log");
+}
+
 }  // namespace

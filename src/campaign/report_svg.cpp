@@ -369,8 +369,9 @@ void append_metric_table(std::string& md, const Report& report, std::size_t m) {
 
 std::string report_md(const Report& report, const std::vector<std::string>& pictures) {
   std::string md =
-      fmt::format("# Report: {} runs in {} configurations\n\nRun folders found under: ", report.runs.size(),
-                  report.configurations.size());
+      fmt::format("# Report: {} run{} in {} configuration{}\n\nRun folders found under: ", report.runs.size(),
+                  report.runs.size() == 1 ? "" : "s", report.configurations.size(),
+                  report.configurations.size() == 1 ? "" : "s");
   for (std::size_t i = 0; i < report.paths.size(); ++i)
     md += fmt::format("{}`{}`", i == 0 ? "" : ", ", report.paths[i]);
   md += ".\n\n| # | configuration | runs | partial | diverged |\n|---:|---|---:|---:|---:|\n";
