@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <mpi.h>
 
+#include <algorithm>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -156,6 +157,8 @@ int run_campaign_mpi(const campaign::CampaignSpec& spec, const std::string& dir,
     MpiCampaign all{true, mpi.size(), {}};
     all.result.tally.total = spec.jobs.size();
     for (const std::string& rank : ranks) add(all.result, json::parse(rank));
+    std::sort(all.result.failures.begin(), all.result.failures.end(),  // each rank's are in order, not all
+              [](const campaign::JobOutcome& a, const campaign::JobOutcome& b) { return a.index < b.index; });
     try {  // every rank waits for the status: rank 0 must send one whatever happens
       campaign::write_failures(spec, dir, all.result.failures);
       status = std::to_string(finish(all));

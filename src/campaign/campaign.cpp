@@ -161,9 +161,7 @@ CampaignResult run_jobs(const CampaignSpec& spec, const std::string& dir, const 
   return result;
 }
 
-void write_failures(const CampaignSpec& spec, const std::string& dir, std::vector<JobOutcome> failures) {
-  std::sort(failures.begin(), failures.end(),
-            [](const JobOutcome& a, const JobOutcome& b) { return a.index < b.index; });
+void write_failures(const CampaignSpec& spec, const std::string& dir, const std::vector<JobOutcome>& failures) {
   json list = json::array();
   for (const JobOutcome& f : failures) list.push_back({{"folder", spec.jobs[f.index].folder}, {"error", f.error}});
   const std::string path = (fs::path(dir) / kFailuresFile).string();

@@ -75,9 +75,14 @@ std::vector<std::uint64_t> seeds_at(const json& value, const Where& where) {
     if (!value.contains("from") || value.contains("count") == value.contains("to"))
       where.fail("expected {\"from\": FIRST, \"count\": N} or {\"from\": FIRST, \"to\": LAST}");
     const std::uint64_t from = whole_number(value.at("from"), where["from"]);
-    const std::uint64_t count = value.contains("count") ? whole_number(value.at("count"), where["count"])
-                                                        : whole_number(value.at("to"), where["to"]) + 1 - from;
-    if (value.contains("to") && whole_number(value.at("to"), where["to"]) < from) where["to"].fail("before 'from'");
+    std::uint64_t count = 0;
+    if (value.contains("count")) {
+      count = whole_number(value.at("count"), where["count"]);
+    } else {
+      const std::uint64_t to = whole_number(value.at("to"), where["to"]);
+      if (to < from) where["to"].fail("before 'from'");
+      count = to - from + 1;
+    }
     if (count == 0 || count > kMaxSeeds) where.fail(fmt::format("expected 1 to {} seeds, found {}", kMaxSeeds, count));
     if (from > std::numeric_limits<std::uint64_t>::max() - (count - 1)) where.fail("the last seed is beyond 2^64 - 1");
     for (std::uint64_t i = 0; i < count; ++i) seeds.push_back(from + i);

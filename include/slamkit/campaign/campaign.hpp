@@ -83,7 +83,7 @@ std::unique_ptr<FolderLock> claim_campaign_folder(const CampaignSpec& spec, cons
 /// Runs jobs taken from the queue until it is empty or the stop flag is set; the tally and failures
 /// are this process's.
 CampaignResult run_jobs(const CampaignSpec& spec, const std::string& dir, const CampaignOptions& options = {});
-/// DIR/failures.json for `failures` (removed where there are none).
-void write_failures(const CampaignSpec& spec, const std::string& dir, std::vector<JobOutcome> failures);
+/// DIR/failures.json for `failures`, given in job order (removed where there are none).
+void write_failures(const CampaignSpec& spec, const std::string& dir, const std::vector<JobOutcome>& failures);
 
 }  // namespace slamkit::campaign
