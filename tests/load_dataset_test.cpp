@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -50,6 +51,7 @@ TEST(DatasetSpec, AMisspeltKindIsAnsweredWithTheNearest) {
   EXPECT_EQ(spec_error("plaz:/x"), "unknown dataset kind 'plaz' (did you mean 'plaza'?); expected one of: " + kinds);
   EXPECT_EQ(spec_error("carmn:/x"), "unknown dataset kind 'carmn' (did you mean 'carmen'?); expected one of: " + kinds);
   EXPECT_EQ(spec_error("sim:"), "expected a path after 'sim:'");
+  EXPECT_EQ(spec_error("sim::x"), "expected a path after 'sim:'");
 }
 
 TEST(DatasetSpec, SimulatedDatasetsAreNamedByScenarioAndSeeds) {
@@ -133,6 +135,18 @@ TEST(DatasetSpec, EveryFormOfAnMrclamRobotReadsThatRobot) {
     EXPECT_EQ(d.name, reference.name) << suffix;
     EXPECT_EQ(d.events.size(), reference.events.size()) << suffix;
   }
+  // "mrclam::robot3": robot 3 of the datasets folder's Dataset6, as campaign files name it.
+  const char* before = std::getenv("SLAMKIT_DATA");
+  const std::string kept = before ? before : "";
+  ::setenv("SLAMKIT_DATA", dir.parent_path().parent_path().c_str(), 1);
+  const Dataset chosen = load_dataset("mrclam::robot3");
+  EXPECT_EQ(absolute_dataset_spec("mrclam::robot3"),
+            "mrclam:" + std::filesystem::absolute(dir).lexically_normal().string() + ":robot3");
+  EXPECT_EQ(spec_error("mrclam::robot9"),
+            "no MRCLAM robot 'robot9'; expected a robot from 1 to 5 as DIR:robotN, DIR:N or DIR/RobotN");
+  if (before) ::setenv("SLAMKIT_DATA", kept.c_str(), 1); else ::unsetenv("SLAMKIT_DATA");
+  EXPECT_EQ(chosen.name, reference.name);
+  EXPECT_EQ(chosen.events.size(), reference.events.size());
 }
 
 TEST(DatasetSpec, APlazaRunOfAnotherFormNamesTheValidForm) {

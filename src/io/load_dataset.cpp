@@ -182,7 +182,7 @@ ParsedSpec parse_spec(const std::string& spec) {
     throw std::invalid_argument(unknown_name_message("dataset kind", kind, kind_names()));
   }
   const std::string path = colon == std::string::npos ? std::string() : spec.substr(colon + 1);
-  if (path.empty() && match->default_folder.empty())
+  if ((path.empty() || path.starts_with(':')) && match->default_folder.empty())
     throw std::invalid_argument(fmt::format("expected a path after '{}:'", kind));
   if (is_simulated_kind(kind)) check_simulated_spec(kind, path);
   if (match->read == &read_mrclam_robot && !path.empty()) select_mrclam_robot(path);
@@ -199,17 +199,18 @@ ParsedSpec parse_recorded_spec(const std::string& spec) {
   }
 }
 
-/// The spec with its path filled in: a real dataset named without one is looked up in the datasets
-/// folder.
+/// The spec with its path filled in: a real dataset named without one ("mrclam", or "mrclam::robot3"
+/// with a robot chosen) is looked up in the datasets folder.
 ParsedSpec resolve(const std::string& spec) {
   ParsedSpec resolved = parse_recorded_spec(spec);
-  if (resolved.path.empty()) {
-    resolved.path = (fs::path(datasets_folder()) / resolved.kind->default_folder).string();
-    if (!fs::exists(resolved.path))
+  if (resolved.path.empty() || resolved.path.starts_with(':')) {
+    const std::string folder = (fs::path(datasets_folder()) / resolved.kind->default_folder).string();
+    resolved.path = folder + resolved.path;
+    if (!fs::exists(folder))
       throw InputError(spec, 0,
                        fmt::format("no path given and {} does not exist; set SLAMKIT_DATA to the folder holding "
                                    "{}/ or give {}:PATH",
-                                   resolved.path, resolved.kind->default_folder, resolved.kind->name));
+                                   folder, resolved.kind->default_folder, resolved.kind->name));
   }
   return resolved;
 }

@@ -12,7 +12,8 @@ namespace slamkit {
 /// "course:DIR", "plaza:DIR:PlazaN", and the simulated "scenario:NAME:SEED", ... of
 /// io/simulated_datasets.hpp). `settings_path` names a JSON file of the dataset's settings
 /// (noise, sensor limits, ...; the shipped ones are config/*.json); empty for the defaults, which
-/// equal the shipped files.
+/// equal the shipped files. A real dataset without a path ("victoria-park", "mrclam", or
+/// "mrclam::robot3" with the robot chosen) is the one in datasets_folder().
 /// The settings' "recommended" object is for the filters (recommended_settings), not the reader.
 /// Throws InputError on a bad spec, file or setting.
 Dataset load_dataset(const std::string& spec, const std::string& settings_path = "");
