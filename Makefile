@@ -16,7 +16,7 @@ TEST_DEB_PACKAGES := pybind11-dev python3-dev python3-numpy python3-pytest pytho
                      chromium chromium-driver libopenmpi-dev openmpi-bin
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: all deps test-deps build demo test bench bench-e2e bench-compare clean sanitize fuzz soak
+.PHONY: all deps test-deps build demo test bench bench-e2e bench-compare clean sanitize fuzz soak readme-tables
 
 all: build
 
@@ -149,6 +149,14 @@ fuzz: test-deps
 	$(configure_sanitize)
 	cmake --build $(SANITIZE_BUILD_DIR) -j $(JOBS) --target slamkit_fuzz
 	scripts/fuzz.sh $(SANITIZE_BUILD_DIR) $(FUZZ_SECONDS) out/fuzz
+
+# README.md's result tables, regenerated: campaigns/readme.json's 223 runs (about 80 s on 2 cores;
+# the real datasets from SLAMKIT_DATA or ../shared/datasets), then `report --into` replaces each
+# table between its markers. A rerun skips the runs already in out/readme; remove it after a change
+# that moves the numbers.
+readme-tables: build
+	$(SLAMKIT) campaign campaigns/readme.json --out out/readme --no-report --quiet
+	$(SLAMKIT) report out/readme/runs --out out/readme/report --no-nees --tables campaigns/readme.json --into README.md
 
 # Long runs that keep no history: 10^6 EKF steps and 10^5 FastSLAM 2.0 steps with 100 particles,
 # with the step rate and the memory as they go (about 10 minutes; not part of CI).

@@ -15,6 +15,7 @@
 #include "slamkit/campaign/campaign.hpp"
 #include "slamkit/campaign/report.hpp"
 #include "slamkit/campaign/spec.hpp"
+#include "slamkit/campaign/tables.hpp"
 #include "slamkit/core/names.hpp"
 #include "slamkit/pipeline/stop_signals.hpp"
 
@@ -51,8 +52,16 @@ void print_plan(const campaign::CampaignSpec& spec) {
   for (const std::string& c : configurations) fmt::print("  {}\n", c);
 }
 
-std::vector<std::string> write_report_of(const std::vector<std::string>& paths, const std::string& out, bool nees,
-                                         const std::vector<std::string>& metrics = {}) {
+struct ReportRequest {
+  bool nees = true;
+  std::vector<std::string> metrics;  // empty: the defaults
+  std::vector<campaign::TableSpec> tables;
+  std::string into;  // a Markdown file whose tables are replaced
+};
+
+std::vector<std::string> write_report_of(const std::vector<std::string>& paths, const std::string& out,
+                                         const ReportRequest& request) {
+  const auto& [nees, metrics, tables, into] = request;
   campaign::ReportOptions options;
   options.nees_test = nees;
   if (!metrics.empty()) options.metrics = metrics;
@@ -63,7 +72,16 @@ std::vector<std::string> write_report_of(const std::vector<std::string>& paths, 
   for (const std::string& key : metrics)  // a misspelt key would be a table of empty rows
     if (!measured.contains(key))
       throw std::invalid_argument(unknown_name_message("metric", key, {measured.begin(), measured.end()}));
-  return campaign::write_report(report, out);
+  // Tables are made before anything is written, so that a table naming an entry no run has fails
+  // without replacing an earlier report.
+  const auto rendered = campaign::render_tables(report, tables);
+  std::vector<std::string> files = campaign::write_report(report, out);
+  if (!rendered.empty()) files.push_back(campaign::write_tables(rendered, out));
+  if (!into.empty()) {
+    campaign::update_document(into, rendered);
+    files.push_back(into);
+  }
+  return files;
 }
 
 }  // namespace
@@ -99,6 +117,14 @@ void add_campaign_commands(CLI::App& app, CampaignCommands& c) {
                    fmt::format("metrics.json keys to summarise, comma-separated (default: {})",
                                fmt::join(campaign::default_report_metrics(), ",")))
       ->delimiter(',');
+  c.report
+      ->add_option("--tables", c.report_tables,
+                   "A campaign spec or JSON file whose 'tables' to write to tables.md (docs/campaigns.md, \"Tables\")")
+      ->check(CLI::ExistingFile);
+  c.report->add_option("--into", c.report_into,
+                       "A Markdown file whose marked tables (<!-- slamkit report table: NAME -->) to replace with "
+                       "these")
+      ->check(CLI::ExistingFile);
   c.report->add_flag("--no-nees", c.no_nees,
                      "Skip the averaged-NEES test, which re-reads each run's dataset to score it against the truth");
 }
@@ -144,7 +170,9 @@ int run_campaign_command(const CampaignCommands& c) {
     }
     if (!c.no_report && t.run + t.already_done + t.diverged > 0) {
       const std::string out = (fs::path(c.campaign_out) / "report").string();
-      write_report_of({(fs::path(c.campaign_out) / "runs").string()}, out, true);
+      ReportRequest request;
+      request.tables = spec.tables;
+      write_report_of({(fs::path(c.campaign_out) / "runs").string()}, out, request);
       if (!c.quiet) fmt::print("report: {}\n", (fs::path(out) / "report.md").string());
     }
     if (t.failed > 0) {
@@ -161,7 +189,14 @@ int run_campaign_command(const CampaignCommands& c) {
 }
 
 int run_report_command(const CampaignCommands& c) {
-  const std::vector<std::string> files = write_report_of(c.report_paths, c.report_out, !c.no_nees, c.report_metrics);
+  if (!c.report_into.empty() && c.report_tables.empty())
+    throw std::invalid_argument("--into needs --tables: the file whose tables replace those in it");
+  ReportRequest request;
+  request.nees = !c.no_nees;
+  request.metrics = c.report_metrics;
+  if (!c.report_tables.empty()) request.tables = campaign::read_report_tables(c.report_tables);
+  request.into = c.report_into;
+  const std::vector<std::string> files = write_report_of(c.report_paths, c.report_out, request);
   for (const std::string& file : files) fmt::print("wrote {}\n", file);
   return 0;
 }

@@ -17,6 +17,7 @@ struct CampaignCommands {
   std::vector<std::string> report_paths;
   std::string report_out;
   std::vector<std::string> report_metrics;
+  std::string report_tables, report_into;
   bool no_nees = false;
 };
 

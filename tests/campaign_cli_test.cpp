@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <nlohmann/json.hpp>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -19,6 +20,7 @@
 #include "sanitizers.hpp"
 #include "test_data.hpp"
 
+using nlohmann::json;
 using slamkit::test_data::read_json;
 using slamkit::test_data::read_text;
 using slamkit::test_data::write_text;
@@ -184,6 +186,88 @@ TEST_F(CampaignCli, AReportSummarisesTheMetricsAskedFor) {
   EXPECT_NE(read_text(work_ / "s.log").find("unknown metric 'ate_rmse' (did you mean 'ate_rmse_m'?)"),
             std::string::npos)
       << read_text(work_ / "s.log");
+}
+
+TEST_F(CampaignCli, TablesOfASpecAreWrittenAndReplaceThoseOfADocument) {
+  json spec = json::parse(kSpec);
+  const json table_spec = {{"name", "ate"},
+                           {"cell", "{ate_rmse_m.n} runs, loops {loop_closed.yes}/{n}"},
+                           {"rows", json::array({"fej", {{"key", "ekf"}, {"label", "EKF"}}})}};
+  spec["tables"] = json::array({table_spec});
+  write_text(work_ / "tables.json", spec.dump());
+  ASSERT_EQ(run(SLAMKIT_CLI, {"campaign", (work_ / "tables.json").string(), "--out", (work_ / "c").string()},
+                work_ / "c.log"),
+            0)
+      << read_text(work_ / "c.log");
+  const std::string table = "| filter | default |\n|---|---|\n| fej | 4 runs, loops 4/4 |\n| EKF | 4 runs, loops 4/4 |\n";
+  EXPECT_EQ(read_text(work_ / "c" / "report" / "tables.md"), "## ate\n\n" + table + "\n");
+
+  const fs::path document = work_ / "doc.md";
+  write_text(document, "intro\n<!-- slamkit report table: ate -->\nold\n<!-- end slamkit report table -->\nend\n");
+  const std::vector<std::string> report = {"report", (work_ / "c" / "runs").string(), "--out", (work_ / "r").string(),
+                                           "--no-nees", "--tables", (work_ / "tables.json").string(),
+                                           "--into", document.string()};
+  ASSERT_EQ(run(SLAMKIT_CLI, report, work_ / "r.log"), 0) << read_text(work_ / "r.log");
+  EXPECT_EQ(read_text(document), "intro\n<!-- slamkit report table: ate -->\n\n" + table +
+                                     "\n<!-- end slamkit report table -->\nend\n");
+
+  // A document without the table's marker is left as it was, and so is the report folder.
+  write_text(document, "no markers\n");
+  EXPECT_EQ(run(SLAMKIT_CLI, report, work_ / "bad.log"), 1);
+  EXPECT_NE(read_text(work_ / "bad.log").find("no marker '<!-- slamkit report table: ate -->'"), std::string::npos)
+      << read_text(work_ / "bad.log");
+  EXPECT_EQ(read_text(document), "no markers\n");
+
+  // A table naming an entry the campaign does not have is refused with the spec, before any run.
+  spec["tables"][0]["rows"][0] = "fejj";
+  write_text(work_ / "typo.json", spec.dump());
+  EXPECT_EQ(run(SLAMKIT_CLI, {"campaign", (work_ / "typo.json").string(), "--out", (work_ / "t").string()},
+                work_ / "typo.log"),
+            1);
+  EXPECT_NE(read_text(work_ / "typo.log").find("typo.json: tables[0].rows[0]: unknown filter entry 'fejj' (did you mean 'fej'?)"),
+            std::string::npos)
+      << read_text(work_ / "typo.log");
+  EXPECT_FALSE(fs::exists(work_ / "t"));
+}
+
+// The README's tables of real data are what campaigns/readme.json and `slamkit report --into` give:
+// regenerated from the campaign, README.md does not change. (The world-family table, 200 runs, is
+// the same campaign's; `make readme-tables` regenerates all three.)
+TEST_F(CampaignCli, TheReadmesRealDataTablesAreTheReportOfItsCampaign) {
+#if defined(SLAMKIT_ADDRESS_SANITIZER) || defined(SLAMKIT_THREAD_SANITIZER)
+  GTEST_SKIP() << "the README's figures are the release build's, which a sanitized build need not give to the digit";
+#endif
+  SLAMKIT_REQUIRE_DATASET(slamkit::test_data::shared_dataset("victoria_park"));
+  SLAMKIT_REQUIRE_DATASET(slamkit::test_data::shared_dataset("mrclam/MRCLAM_Dataset6"));
+  const fs::path source = SLAMKIT_SOURCE_DIR;
+  json spec = read_json(source / "campaigns" / "readme.json");
+  json real_groups = json::array(), real_tables = json::array();
+  for (const json& group : spec["groups"])
+    if (!group["datasets"][0]["spec"].get<std::string>().starts_with("family:")) real_groups.push_back(group);
+  for (const json& table : spec["tables"])
+    if (table["name"] != "world-families") real_tables.push_back(table);
+  ASSERT_EQ(real_groups.size(), 2u);
+  ASSERT_EQ(real_tables.size(), 2u);
+  spec["groups"] = real_groups;
+  spec["tables"] = real_tables;
+  write_text(work_ / "readme.json", spec.dump());
+  ::setenv("SLAMKIT_DATA", slamkit::test_data::shared_dataset("").c_str(), 1);
+  ASSERT_EQ(run(SLAMKIT_CLI, {"campaign", (work_ / "readme.json").string(), "--out", (work_ / "c").string(),
+                              "--no-report", "--quiet"},
+                work_ / "c.log"),
+            0)
+      << read_text(work_ / "c.log");
+  const std::string readme = read_text(source / "README.md");
+  write_text(work_ / "README.md", readme);
+  ASSERT_EQ(run(SLAMKIT_CLI,
+                {"report", (work_ / "c" / "runs").string(), "--out", (work_ / "r").string(), "--no-nees", "--tables",
+                 (work_ / "readme.json").string(), "--into", (work_ / "README.md").string()},
+                work_ / "r.log"),
+            0)
+      << read_text(work_ / "r.log");
+  EXPECT_EQ(read_text(work_ / "README.md"), readme)
+      << "README.md's tables differ from its campaign's; `make readme-tables` regenerates them:\n"
+      << read_text(work_ / "r" / "tables.md");
 }
 
 }  // namespace

@@ -277,6 +277,12 @@ void group_runs(Report& report, const std::vector<json>& run_jsons) {
       ReportConfiguration c;
       c.label = label;
       c.key = key;
+      if (const std::size_t bar = label.find(" | "); bar != std::string::npos) {
+        c.filter_entry = label.substr(0, bar);
+        c.dataset_entry = label.substr(bar + 3);
+      } else {
+        c.filter_entry = label;
+      }
       report.configurations.push_back(std::move(c));
       derived.push_back(label.empty());
       if (label.empty()) {
@@ -304,6 +310,8 @@ void group_runs(Report& report, const std::vector<json>& run_jsons) {
   for (std::size_t c = 0, d = 0; c < report.configurations.size(); ++c) {
     ReportConfiguration& config = report.configurations[c];
     if (derived[c]) {
+      config.filter_entry = filter_labels[d];
+      config.dataset_entry = dataset_labels[d];
       const int k = ++ordinal[filter_parts[d].name];
       const bool fits = labels[d].size() <= kMaxLabelLength && used.count(labels[d]) == 0 && !shared(labels[d]);
       config.label = unique_label(fits ? labels[d] : fmt::format("{} #{}", filter_parts[d].name, k), used, " #");
@@ -325,11 +333,13 @@ void group_runs(Report& report, const std::vector<json>& run_jsons) {
 
 // ---- summaries ------------------------------------------------------------------------------------
 
-MetricSummary summarize_metric(const std::string& metric, const Report& report, const ReportConfiguration& config) {
+}  // namespace
+
+MetricSummary summarize_metric(const std::string& metric, const Report& report, const std::vector<std::size_t>& runs) {
   MetricSummary s;
   s.metric = metric;
   std::vector<double> values;  // the finite ones
-  for (const std::size_t r : config.runs) {
+  for (const std::size_t r : runs) {
     const auto it = report.runs[r].metrics.find(metric);
     if (it == report.runs[r].metrics.end()) continue;
     if (it->is_boolean()) {
@@ -355,6 +365,8 @@ MetricSummary summarize_metric(const std::string& metric, const Report& report, 
   }
   return s;
 }
+
+namespace {
 
 // ---- the N-run NEES test ------------------------------------------------------------------------------
 
@@ -503,7 +515,7 @@ Report collect_report(const std::vector<std::string>& paths, const ReportOptions
   }
   group_runs(report, run_jsons);
   for (ReportConfiguration& config : report.configurations) {
-    for (const std::string& metric : report.metrics) config.metrics.push_back(summarize_metric(metric, report, config));
+    for (const std::string& metric : report.metrics) config.metrics.push_back(summarize_metric(metric, report, config.runs));
     if (!options.nees_test) config.nees.skipped = "not asked for";
   }
   if (options.nees_test) run_nees_tests(report, run_jsons);

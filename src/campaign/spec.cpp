@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <tuple>
 #include <stdexcept>
 #include <utility>
 
@@ -351,11 +352,36 @@ void expand_group(const json& group, const Where& where, const std::string& base
   }
 }
 
+/// A table's rows and columns name entries the campaign has, so a misspelt one fails before the runs
+/// rather than in the report at their end.
+void check_table_entries(const CampaignSpec& campaign, const Where& where) {
+  std::vector<std::string> filter_entries, dataset_entries;
+  const auto add = [](std::vector<std::string>& list, std::string entry) {
+    if (std::find(list.begin(), list.end(), entry) == list.end()) list.push_back(std::move(entry));
+  };
+  for (const Job& job : campaign.jobs) {
+    const std::size_t bar = job.configuration.find(" | ");
+    add(filter_entries, job.configuration.substr(0, bar));
+    add(dataset_entries, job.configuration.substr(bar + 3));
+  }
+  for (std::size_t t = 0; t < campaign.tables.size(); ++t) {
+    const TableSpec& table = campaign.tables[t];
+    const bool filter_rows = table.rows_are == "filter";
+    for (const auto& [side, lines, filters] : {std::tuple{"rows", &table.rows, filter_rows},
+                                               std::tuple{"columns", &table.columns, !filter_rows}})
+      for (std::size_t i = 0; i < lines->size(); ++i) {
+        const std::vector<std::string>& known = filters ? filter_entries : dataset_entries;
+        if (std::find(known.begin(), known.end(), (*lines)[i].key) == known.end())
+          where[t][side][i].fail(unknown_name_message(filters ? "filter entry" : "dataset entry", (*lines)[i].key, known));
+      }
+  }
+}
+
 }  // namespace
 
 CampaignSpec parse_campaign_spec(const json& spec, const std::string& source, const std::string& base_folder) {
   const Where top(source, "");
-  require_keys(spec, {"name", "outputs", "threads_per_run", "datasets", "filters", "groups"}, top);
+  require_keys(spec, {"name", "outputs", "threads_per_run", "datasets", "filters", "groups", "tables"}, top);
   CampaignSpec campaign;
   campaign.source = spec;
   campaign.name = string_at(spec, "name", top, fs::path(source).stem().string());
@@ -371,15 +397,19 @@ CampaignSpec parse_campaign_spec(const json& spec, const std::string& source, co
   std::map<std::string, std::string> folders;
   if (!spec.contains("groups")) {
     expand_group(spec, top, base_folder, campaign, folders);
-    return campaign;
+  } else {
+    if (spec.contains("datasets") || spec.contains("filters"))
+      top.fail("expected 'groups' or 'datasets' and 'filters', not both");
+    const json& groups = spec.at("groups");
+    if (!groups.is_array() || groups.empty()) top["groups"].fail("expected a non-empty list of {datasets, filters}");
+    for (std::size_t i = 0; i < groups.size(); ++i) {
+      require_keys(groups[i], {"datasets", "filters"}, top["groups"][i]);
+      expand_group(groups[i], top["groups"][i], base_folder, campaign, folders);
+    }
   }
-  if (spec.contains("datasets") || spec.contains("filters"))
-    top.fail("expected 'groups' or 'datasets' and 'filters', not both");
-  const json& groups = spec.at("groups");
-  if (!groups.is_array() || groups.empty()) top["groups"].fail("expected a non-empty list of {datasets, filters}");
-  for (std::size_t i = 0; i < groups.size(); ++i) {
-    require_keys(groups[i], {"datasets", "filters"}, top["groups"][i]);
-    expand_group(groups[i], top["groups"][i], base_folder, campaign, folders);
+  if (spec.contains("tables")) {
+    campaign.tables = parse_report_tables(spec.at("tables"), source);
+    check_table_entries(campaign, top["tables"]);
   }
   return campaign;
 }

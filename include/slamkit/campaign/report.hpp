@@ -87,6 +87,10 @@ struct ReportConfiguration {
   std::string slug;  // the label in file-name characters, unique in the report
   /// What its runs share: run.json's campaign label, or the filter settings and dataset without seeds.
   nlohmann::json key;
+  /// Its two halves, what tables (campaign/tables.hpp) pivot on: a campaign's filter and dataset
+  /// entries with their varied values ("fej ekf_update=iterated", "sparse"); for other runs the
+  /// labels of their filter settings and their dataset.
+  std::string filter_entry, dataset_entry;
   std::vector<std::size_t> runs;  // into Report::runs, in folder order
   std::size_t partial = 0, diverged = 0;
   std::vector<MetricSummary> metrics;  // in Report::metrics order
@@ -100,6 +104,9 @@ struct Report {
   std::vector<ReportRun> runs;  // sorted by folder, numbers in names by value (seed-2 before seed-10)
   std::vector<ReportConfiguration> configurations;  // in order of their first run
 };
+
+/// One metric over some of a report's runs (indices into Report::runs).
+MetricSummary summarize_metric(const std::string& metric, const Report& report, const std::vector<std::size_t>& runs);
 
 /// Every run folder under `paths` (each a run folder, or a folder searched recursively for run
 /// folders = folders holding run.json and metrics.json; sorted, each once), read and grouped by

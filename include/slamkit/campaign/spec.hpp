@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "slamkit/campaign/tables.hpp"
 #include "slamkit/pipeline/execute.hpp"
 
 namespace slamkit::campaign {
@@ -36,6 +37,8 @@ struct CampaignSpec {
   /// a campaign runs one job per core.
   unsigned threads_per_run = 1;
   std::vector<Job> jobs;
+  /// Tables its report writes to tables.md (campaign/tables.hpp).
+  std::vector<TableSpec> tables;
   /// The file's contents, kept in the campaign folder to tell a rerun of the same campaign from a
   /// different one.
   nlohmann::json source;
