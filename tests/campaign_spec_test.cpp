@@ -132,7 +132,15 @@ TEST(CampaignSpec, MalformedSpecsAreRefusedNamingTheKey) {
 TEST(CampaignSpec, TheCampaignsKeptInTheRepositoryExpand) {
   const std::filesystem::path folder = std::filesystem::path(SLAMKIT_SOURCE_DIR) / "campaigns";
   const std::pair<const char*, std::size_t> expected[] = {
-      {"quick.json", 20}, {"consistency.json", 300}, {"association.json", 240}, {"victoria-park-sensitivity.json", 57}};
+      {"quick.json", 20},
+      {"consistency.json", 300},
+      {"association.json", 240},
+      {"victoria-park-sensitivity.json", 57},
+      {"readme.json", 223},
+      {"world-families-tuning.json", 320},
+      {"world-families-test.json", 320},
+      {"information-consistency.json", 500},
+      {"tjtf-consistency.json", 200}};
   for (const auto& [file, jobs] : expected)
     EXPECT_EQ(read_campaign_spec((folder / file).string()).jobs.size(), jobs) << file;
 }

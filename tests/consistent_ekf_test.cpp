@@ -2,7 +2,7 @@
 // driven twice, 180-degree field of view), where the plain EKF becomes overconfident: the
 // first-estimates-Jacobians EKF and the invariant EKF are far closer to consistent, and no less
 // accurate; with the iterated update both are consistent. A shorter version of the 50-run
-// experiment of scripts/consistency_monte_carlo.sh.
+// experiment of docs/consistency.md (campaigns/consistency.json on the sparse scenario).
 #include <gtest/gtest.h>
 
 #include <map>

@@ -1,6 +1,6 @@
 // Association where it is hard: the loop-closure scenario's return scored by evaluate_run's
-// loop_closure_fraction (the metric scripts/association_table.sh reports), the existence rule on
-// the cluttered sparse world, and FastSLAM's JCBB per particle.
+// loop_closure_fraction (the metric of the association table, campaigns/association.json), the
+// existence rule on the cluttered sparse world, and FastSLAM's JCBB per particle.
 #include <gtest/gtest.h>
 
 #include <filesystem>

@@ -86,7 +86,8 @@ INSTANTIATE_TEST_SUITE_P(TuningSeeds, VictoriaParkFastSlamSeed, ::testing::Value
 // error (2 m/s, 6 degrees of steering), and through the sigma points its curvature moves the mean
 // (the car turns about 1% more on average). Added as zero-mean process noise it moves nothing; the
 // ATE is 1.54 m, and 0.94-1.05 of the EKF's over the 19 settings of
-// scripts/victoria_park_sensitivity.sh, where the augmented UKF is at 1.05-1.30 (docs/consistency.md).
+// campaigns/victoria-park-sensitivity.json, where the augmented UKF is at 1.05-1.30
+// (docs/consistency.md).
 TEST(VictoriaParkSlam, UkfWithAdditiveControlNoiseWithinTenPercentOfTheEkf) {
   SLAMKIT_REQUIRE_DATASET(test_data::shared_dataset("victoria_park"));
   FilterConfig config;
