@@ -4,18 +4,21 @@
 #include <fmt/ranges.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <set>
 #include <stdexcept>
+#include <thread>
 
 #include "campaign_mpi.hpp"
 #include "slamkit/campaign/campaign.hpp"
 #include "slamkit/campaign/report.hpp"
 #include "slamkit/campaign/spec.hpp"
 #include "slamkit/campaign/tables.hpp"
+#include "slamkit/core/memory_budget.hpp"
 #include "slamkit/core/names.hpp"
 #include "slamkit/pipeline/stop_signals.hpp"
 
@@ -139,6 +142,18 @@ int run_campaign_command(const CampaignCommands& c) {
   const bool progress = !c.quiet && !mpi && isatty(STDOUT_FILENO);
   campaign::CampaignOptions options;
   options.workers = c.jobs;
+  if (!mpi) {  // under MPI, a rank per core is the user's -n
+    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    if (options.workers == 0)
+      options.workers = static_cast<unsigned>(campaign::default_workers(spec, cores, physical_memory_bytes()));
+    if (!c.quiet)
+      fmt::print("campaign {}: {} jobs, {} at a time ({} cores, {} thread{} per run{})\n", spec.name, spec.jobs.size(),
+                 options.workers, cores, spec.threads_per_run, spec.threads_per_run == 1 ? "" : "s",
+                 spec.memory_per_run_bytes > 0.0
+                     ? fmt::format(", {:.0f} MB per run of {:.0f} MB", spec.memory_per_run_bytes / 1e6,
+                                   physical_memory_bytes() / 1e6)
+                     : "");
+  }
   options.on_job = [&](const campaign::Job& job, const campaign::JobOutcome& outcome,
                        const campaign::CampaignTally& t) {
     if (c.quiet) return;

@@ -352,10 +352,9 @@ py::object campaign_results(const py::object& given) {
     nlohmann::json row = {{"folder", run.dir},   {"configuration", run.configuration}, {"filter", run.filter},
                           {"dataset", run.dataset}, {"partial", run.partial},
                           {"diverged_at_s", run.diverged_at_s ? nlohmann::json(*run.diverged_at_s) : nlohmann::json()}};
-    const nlohmann::json job =
-        read_json_file((std::filesystem::path(run.dir) / "run.json").string()).value("campaign", nlohmann::json());
     for (const char* key : {"seed", "world_seed", "filter_seed"})
-      row[key] = job.is_object() && job.contains(key) ? job.at(key) : nlohmann::json();
+      row[key] = run.campaign_job.is_object() && run.campaign_job.contains(key) ? run.campaign_job.at(key)
+                                                                                : nlohmann::json();
     for (const auto& [key, value] : run.metrics.items())
       if (value.is_primitive() && !row.contains(key)) row[key] = value;
     rows.push_back(std::move(row));

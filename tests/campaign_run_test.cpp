@@ -105,6 +105,28 @@ TEST_F(CampaignRun, AFailingJobFailsAloneAndIsListed) {
   EXPECT_EQ(read_json(fs::path(dir) / "failures.json").size(), 2u);
 }
 
+TEST_F(CampaignRun, AMemoryBudgetLimitsTheJobsAtOnceAndRefusesARunOverIt) {
+  json spec = kSmall;
+  spec["memory_per_run_mb"] = 6000;
+  const CampaignSpec budgeted = parse_campaign_spec(spec, "budget.json", ".");
+  EXPECT_EQ(default_workers(budgeted, 8, 24e9), 4u);  // the memory holds four runs of 6 GB
+  EXPECT_EQ(default_workers(budgeted, 2, 24e9), 2u);  // the cores two
+  EXPECT_EQ(default_workers(budgeted, 8, 4e9), 1u);   // one at least, which its own check then weighs
+  spec["threads_per_run"] = 3;
+  EXPECT_EQ(default_workers(parse_campaign_spec(spec, "budget.json", "."), 8, 1e12), 2u);
+  EXPECT_EQ(default_workers(small(), 2, 1e9), 2u);  // without a budget, a job per core
+
+  // A one-lap EKF over the default world's 100 landmarks needs a few megabytes; 10 kB is refused.
+  spec = kSmall;
+  spec["memory_per_run_mb"] = 0.01;
+  const CampaignResult result = run_campaign(parse_campaign_spec(spec, "tiny.json", "."), (work_ / "m").string());
+  EXPECT_EQ(result.tally.failed, 4u);
+  ASSERT_FALSE(result.failures.empty());
+  EXPECT_NE(result.failures[0].error.find("more than the 9.31e-06 GiB each run may use (a campaign's memory_per_run_mb)"),
+            std::string::npos)
+      << result.failures[0].error;
+}
+
 TEST_F(CampaignRun, AStopFlagStartsNoMoreJobs) {
   std::atomic<bool> stop{true};
   CampaignOptions options;

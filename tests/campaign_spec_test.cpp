@@ -36,6 +36,18 @@ const json kTwoFilters = json::parse(R"({
                "vary": {"ekf_update": ["joint", "iterated"]}}]
 })");
 
+TEST(CampaignSpec, AMemoryBudgetIsAPositiveNumberOfMegabytes) {
+  json spec = kTwoFilters;
+  spec["memory_per_run_mb"] = 1500;
+  EXPECT_EQ(expand(spec).memory_per_run_bytes, 1.5e9);
+  EXPECT_EQ(expand(kTwoFilters).memory_per_run_bytes, 0.0);
+  for (const json& bad : {json(-1), json(0), json("2GB")}) {
+    spec["memory_per_run_mb"] = bad;
+    EXPECT_EQ(refusal(spec),
+              "spec.json: memory_per_run_mb: expected a positive number of megabytes, found " + bad.dump());
+  }
+}
+
 TEST(CampaignSpec, ExpandsEveryCombinationOnce) {
   const CampaignSpec spec = expand(kTwoFilters);
   EXPECT_EQ(spec.name, "try");

@@ -14,6 +14,7 @@
 #include "slamkit/core/atomic_folder.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
+#include "slamkit/core/memory_budget.hpp"
 
 namespace slamkit::campaign {
 namespace {
@@ -48,6 +49,7 @@ JobOutcome run_job(const CampaignSpec& spec, std::size_t index, const std::strin
     options.provenance = {{"campaign", job.description}};
     options.stop = stop;
     options.outputs = spec.outputs;
+    options.memory_budget_bytes = spec.memory_per_run_bytes;
     const RunRecord record = execute(job.spec, folder, options);
     outcome.status = record.run.diverged_at_s ? JobStatus::kDiverged
                      : record.run.partial     ? JobStatus::kStopped
@@ -81,6 +83,13 @@ void count(CampaignTally& tally, JobStatus status) {
 }
 
 }  // namespace
+
+std::size_t default_workers(const CampaignSpec& spec, unsigned cores, double memory_bytes) {
+  std::size_t workers = std::max(1u, cores) / spec.threads_per_run;
+  if (spec.memory_per_run_bytes > 0.0)
+    workers = std::min(workers, static_cast<std::size_t>(memory_bytes / spec.memory_per_run_bytes));
+  return std::max<std::size_t>(1, workers);
+}
 
 bool job_done(const std::string& folder) {
   const fs::path run_json = fs::path(folder) / "run.json";
@@ -148,9 +157,10 @@ CampaignResult run_jobs(const CampaignSpec& spec, const std::string& dir, const 
       if (options.on_job) options.on_job(spec.jobs[*index], outcome, result.tally);
     }
   };
-  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  const std::size_t workers =
-      std::min<std::size_t>(options.workers == 0 ? cores : options.workers, std::max<std::size_t>(1, spec.jobs.size()));
+  const std::size_t workers = std::min<std::size_t>(
+      options.workers == 0 ? default_workers(spec, std::thread::hardware_concurrency(), physical_memory_bytes())
+                           : options.workers,
+      std::max<std::size_t>(1, spec.jobs.size()));
   {
     std::vector<std::jthread> threads;
     for (std::size_t i = 1; i < workers; ++i) threads.emplace_back(worker);

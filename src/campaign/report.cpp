@@ -157,6 +157,7 @@ json read_run_json(const fs::path& file, ReportRun& run) {
   run.filter = j["filter"].get<std::string>();
   run.dataset = j["dataset"].get<std::string>();
   run.partial = j.value("partial", false);
+  run.campaign_job = j.value("campaign", json(nullptr));
   if (diverged.is_number()) run.diverged_at_s = diverged.get<double>();
   return j;
 }

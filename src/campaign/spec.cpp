@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -60,8 +61,10 @@ std::string string_at(const json& object, const std::string& key, const Where& w
   return value.get<std::string>();
 }
 
+/// JSON text gives an unsigned number for 3, a program building the spec (Python's dict) a signed one.
 std::uint64_t whole_number(const json& value, const Where& where) {
-  if (!value.is_number_unsigned()) where.fail(fmt::format("expected a whole number >= 0, found {}", value.dump()));
+  if (!value.is_number_unsigned() && !(value.is_number_integer() && value.get<std::int64_t>() >= 0))
+    where.fail(fmt::format("expected a whole number >= 0, found {}", value.dump()));
   return value.get<std::uint64_t>();
 }
 
@@ -381,7 +384,8 @@ void check_table_entries(const CampaignSpec& campaign, const Where& where) {
 
 CampaignSpec parse_campaign_spec(const json& spec, const std::string& source, const std::string& base_folder) {
   const Where top(source, "");
-  require_keys(spec, {"name", "outputs", "threads_per_run", "datasets", "filters", "groups", "tables"}, top);
+  require_keys(spec, {"name", "outputs", "threads_per_run", "memory_per_run_mb", "datasets", "filters", "groups", "tables"},
+               top);
   CampaignSpec campaign;
   campaign.source = spec;
   campaign.name = string_at(spec, "name", top, fs::path(source).stem().string());
@@ -393,6 +397,12 @@ CampaignSpec parse_campaign_spec(const json& spec, const std::string& source, co
     const std::uint64_t threads = whole_number(spec.at("threads_per_run"), top["threads_per_run"]);
     if (threads < 1 || threads > 1024) top["threads_per_run"].fail("expected 1 to 1024");
     campaign.threads_per_run = static_cast<unsigned>(threads);
+  }
+  if (spec.contains("memory_per_run_mb")) {
+    const json& mb = spec.at("memory_per_run_mb");
+    if (!mb.is_number() || !(mb.get<double>() > 0.0) || !std::isfinite(mb.get<double>()))
+      top["memory_per_run_mb"].fail(fmt::format("expected a positive number of megabytes, found {}", mb.dump()));
+    campaign.memory_per_run_bytes = mb.get<double>() * 1e6;
   }
   std::map<std::string, std::string> folders;
   if (!spec.contains("groups")) {

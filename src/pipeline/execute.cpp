@@ -104,7 +104,7 @@ RunRecord execute(const RunSpec& spec, const std::string& out_dir, const Execute
   run_options.history = spec.history;
   run_options.observers = options.observers;
   run_options.stop = options.stop;
-  require_run_memory(spec.filter, dataset, run_options);
+  require_run_memory(spec.filter, dataset, run_options, options.memory_budget_bytes);
   auto filter = make_filter(spec.filter, dataset);
   check_filter_fits(*filter, dataset);
   if (!filter->maps_range_scans() && spec.filter.association.method == AssociationMethod::kKnown &&

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 #include <unordered_set>
 #include <variant>
 
@@ -85,7 +87,8 @@ RunMemoryEstimate estimate_run_memory(const FilterConfig& config, const Dataset&
   return estimate;
 }
 
-void require_run_memory(const FilterConfig& config, const Dataset& dataset, const RunOptions& options) {
+void require_run_memory(const FilterConfig& config, const Dataset& dataset, const RunOptions& options,
+                        double budget_bytes) {
   const RunMemoryEstimate estimate = estimate_run_memory(config, dataset, options);
   const std::string filter =
       config.filter == FilterKind::kGridFastSlam
@@ -100,8 +103,13 @@ void require_run_memory(const FilterConfig& config, const Dataset& dataset, cons
                             ? "information matrix"
                         : config.filter == FilterKind::kTjtf ? "junction tree"
                                                              : "covariance");
-  require_memory(estimate.total_bytes(), fmt::format("{} and the history --history {} keeps ({:.3g} GiB)", filter,
-                                                     to_string(options.history), estimate.history_bytes / kGiB));
+  const std::string what = fmt::format("{} and the history --history {} keeps ({:.3g} GiB)", filter,
+                                      to_string(options.history), estimate.history_bytes / kGiB);
+  if (budget_bytes > 0.0 && estimate.total_bytes() > budget_bytes)
+    throw std::length_error(fmt::format("{} need about {:.3g} GiB, more than the {:.3g} GiB each run may use "
+                                        "(a campaign's memory_per_run_mb)",
+                                        what, estimate.total_bytes() / kGiB, budget_bytes / kGiB));
+  require_memory(estimate.total_bytes(), what);
 }
 
 }  // namespace slamkit

@@ -51,7 +51,7 @@ class JobQueue {
 };
 
 struct CampaignOptions {
-  /// Jobs run at once, each on a thread of its own (0: one per core). A job's filter threads are
+  /// Jobs run at once, each on a thread of its own (0: default_workers). A job's filter threads are
   /// the spec's threads_per_run.
   unsigned workers = 0;
   /// When set, no job is started, and running ones end as partial (JobStatus::kStopped).
@@ -66,6 +66,10 @@ struct CampaignResult {
   CampaignTally tally;
   std::vector<JobOutcome> failures;  // in job order
 };
+
+/// The jobs a machine with `cores` cores and `memory_bytes` of memory runs at once: as many as
+/// threads_per_run lets the cores hold and memory_per_run_mb the memory, at least one.
+std::size_t default_workers(const CampaignSpec& spec, unsigned cores, double memory_bytes);
 
 /// True if `folder` holds a whole run: run.json (not partial) and metrics.json.
 bool job_done(const std::string& folder);

@@ -51,6 +51,8 @@ struct ReportRun {
   std::size_t configuration_index = 0;
   std::string filter, dataset;  // run.json's
   nlohmann::json metrics;       // metrics.json as written
+  /// run.json's "campaign": the job a campaign made it from (its seeds, varied values); null otherwise.
+  nlohmann::json campaign_job;
   bool partial = false;
   std::optional<double> diverged_at_s;
 };

@@ -36,6 +36,9 @@ struct CampaignSpec {
   /// Each run's threads (the filters' `threads` setting, where a filter's settings do not give it):
   /// a campaign runs one job per core.
   unsigned threads_per_run = 1;
+  /// The memory one run may use, in bytes (0: no budget): the campaign runs no more jobs at once than
+  /// fit the machine's memory, and a job estimated to need more fails before it starts.
+  double memory_per_run_bytes = 0.0;
   std::vector<Job> jobs;
   /// Tables its report writes to tables.md (campaign/tables.hpp).
   std::vector<TableSpec> tables;

@@ -61,6 +61,9 @@ struct ExecuteOptions {
   /// Record the run for the replay page (replay.json and replay.html); needs History::kFull.
   bool replay = false;
   RunOutputs outputs = RunOutputs::kFolder;
+  /// The memory the run may use, in bytes (0: the machine's); a run estimated to need more is refused
+  /// before its filter is built (pipeline/run_memory.hpp).
+  double memory_budget_bytes = 0.0;
   /// Told of each stage as it ends ("dataset read", "filter run", "written and evaluated").
   std::function<void(std::string_view)> on_stage;
 };

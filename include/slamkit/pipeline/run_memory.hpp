@@ -25,7 +25,10 @@ struct RunMemoryEstimate {
 RunMemoryEstimate estimate_run_memory(const FilterConfig& config, const Dataset& dataset, const RunOptions& options);
 
 /// Throws std::length_error (core/memory_budget.hpp) naming the filter, its particles or map size,
-/// the history and the estimate when the estimate exceeds the memory this process may use.
-void require_run_memory(const FilterConfig& config, const Dataset& dataset, const RunOptions& options);
+/// the history and the estimate when the estimate exceeds the memory this process may use, or
+/// `budget_bytes` where that is given (> 0): a campaign's share of the machine for each of the runs
+/// it holds at once.
+void require_run_memory(const FilterConfig& config, const Dataset& dataset, const RunOptions& options,
+                        double budget_bytes = 0.0);
 
 }  // namespace slamkit
