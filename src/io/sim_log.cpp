@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <climits>
+#include <cstdlib>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -144,6 +145,14 @@ void write_truth(const fs::path& dir, const GroundTruth& truth) {
 }
 
 // ---- Reading ------------------------------------------------------------------------------------------
+
+/// A number as the log writes and reads it.
+double logged(double value) {
+  char text[32];
+  const auto end = fmt::format_to_n(text, sizeof(text) - 1, "{:.12g}", value).out;
+  *end = '\0';
+  return std::strtod(text, nullptr);
+}
 
 // Times are written rounded to 12 digits, so comparisons of computed times allow for that.
 bool same_time(double a, double b) {
@@ -367,6 +376,41 @@ void write_sim_log(const std::string& dir, const Dataset& dataset, const Simulat
     remove_stale(root / kTruthLandmarksFile);
   }
   write_world((root / kSimWorldFile).string(), world);
+}
+
+Dataset as_logged(Dataset dataset) {
+  std::vector<Event> events;
+  events.reserve(dataset.events.size());
+  std::vector<std::vector<int>> true_ids;
+  const bool with_ids = !dataset.truth.observation_ids.empty();
+  std::size_t scan_index = 0;
+  for (Event& event : dataset.events) {
+    if (auto* c = std::get_if<ControlEvent>(&event)) {
+      c->t = logged(c->t);
+      c->dt = logged(c->dt);
+      for (Eigen::Index k = 0; k < c->u.size(); ++k) c->u[k] = logged(c->u[k]);
+      events.push_back(std::move(event));
+      continue;
+    }
+    auto* scan = std::get_if<ScanEvent>(&event);
+    if (scan == nullptr) throw std::invalid_argument("as_logged: a simulated log holds landmark scans only");
+    const std::size_t index = scan_index++;
+    if (scan->observations.empty()) continue;  // no line to go on
+    scan->t = logged(scan->t);
+    const MeasuredRows rows = dataset.observation->rows();
+    for (Observation& o : scan->observations) {
+      for (Eigen::Index k = 0; k < o.z.size(); ++k) o.z[k] = logged(o.z[k]);
+      if (rows.bearing >= 0) o.z[rows.bearing] = wrap_angle(o.z[rows.bearing]);
+    }
+    if (with_ids) true_ids.push_back(std::move(dataset.truth.observation_ids.at(index)));
+    events.push_back(std::move(event));
+  }
+  dataset.events = std::move(events);
+  if (with_ids) dataset.truth.observation_ids = std::move(true_ids);
+  for (StampedPose& p : dataset.truth.poses)
+    p = StampedPose{logged(p.t), Pose2(logged(p.pose.x()), logged(p.pose.y()), wrap_angle(logged(p.pose.z())))};
+  for (Landmark& l : dataset.truth.landmarks) l.position = Vector2(logged(l.position.x()), logged(l.position.y()));
+  return dataset;
 }
 
 Dataset read_sim_log(const std::string& dir) {

@@ -13,6 +13,7 @@
 
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/names.hpp"
+#include "slamkit/io/sim_log.hpp"
 #include "slamkit/sim/building.hpp"
 #include "slamkit/sim/simulator.hpp"
 
@@ -100,7 +101,7 @@ Dataset simulate_dataset(const std::string& kind, const std::string& rest, const
   const Scenario base = kind == kScenario ? scenario(spec.name) : world_family(spec.name).member(*spec.world_seed);
   SimulatorConfig config = simulator_config_from_json(overlaid(to_json(base.config), settings, source), source);
   config.seed = spec.seed.value_or(kind == kScenario ? base.config.seed : 1);
-  return simulate(base.world, config);
+  return as_logged(simulate(base.world, config));
 }
 
 }  // namespace slamkit

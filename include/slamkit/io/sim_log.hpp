@@ -34,6 +34,13 @@ namespace slamkit {
 void write_sim_log(const std::string& dir, const Dataset& dataset, const SimulatorConfig& config,
                    const World& world);
 
+/// `dataset` (as made by simulate) as write_sim_log and read_sim_log would give it back, without the
+/// files: every number to the 12 digits the log keeps, angles wrapped as the reader wraps them, and
+/// scans without observations left out. The simulated datasets opened by name
+/// (io/simulated_datasets.hpp) are this, so a campaign's in-memory run and a run on the log that
+/// `slamkit simulate` wrote are the same run, to the last bit.
+Dataset as_logged(Dataset dataset);
+
 /// Reads a log written by write_sim_log: the events, the motion and observation models and sensor
 /// limits the simulator config implies, and whatever truth is present. spec is "sim:DIR", name
 /// "sim:" and the directory's last component. Throws InputError naming the file, the line and what
