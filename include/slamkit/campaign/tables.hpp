@@ -33,7 +33,7 @@ struct TableSpec {
   /// "filter": rows are filter entries and columns dataset entries; "dataset": the other way round.
   std::string rows_are = "filter";
   std::string corner;  // the heading above the row labels
-  /// Empty: every entry the report has, in the order of its first run.
+  /// Empty: every entry the report has, in the order of its first run (runs are in folder order).
   std::vector<TableLine> rows, columns;
   std::string cell;
 };
