@@ -18,6 +18,7 @@
 #include "slamkit/campaign/report.hpp"
 #include "slamkit/campaign/spec.hpp"
 #include "slamkit/campaign/tables.hpp"
+#include "slamkit/core/error.hpp"
 #include "slamkit/core/memory_budget.hpp"
 #include "slamkit/core/names.hpp"
 #include "slamkit/pipeline/stop_signals.hpp"
@@ -60,11 +61,14 @@ struct ReportRequest {
   std::vector<std::string> metrics;  // empty: the defaults
   std::vector<campaign::TableSpec> tables;
   std::string into;  // a Markdown file whose tables are replaced
+  /// A campaign's own report: a table that cannot be made (every run of one of its entries failed)
+  /// is a warning, not a reason to lose the report.
+  bool tables_optional = false;
 };
 
 std::vector<std::string> write_report_of(const std::vector<std::string>& paths, const std::string& out,
                                          const ReportRequest& request) {
-  const auto& [nees, metrics, tables, into] = request;
+  const auto& [nees, metrics, tables, into, tables_optional] = request;
   campaign::ReportOptions options;
   options.nees_test = nees;
   if (!metrics.empty()) options.metrics = metrics;
@@ -77,7 +81,13 @@ std::vector<std::string> write_report_of(const std::vector<std::string>& paths, 
       throw std::invalid_argument(unknown_name_message("metric", key, {measured.begin(), measured.end()}));
   // Tables are made before anything is written, so that a table naming an entry no run has fails
   // without replacing an earlier report.
-  const auto rendered = campaign::render_tables(report, tables);
+  std::vector<std::pair<std::string, std::string>> rendered;
+  try {
+    rendered = campaign::render_tables(report, tables);
+  } catch (const InputError& e) {
+    if (!tables_optional) throw;
+    fmt::print(stderr, "slamkit: warning: no tables.md: {}\n", e.what());
+  }
   std::vector<std::string> files = campaign::write_report(report, out);
   if (!rendered.empty()) files.push_back(campaign::write_tables(rendered, out));
   if (!into.empty()) {
@@ -187,6 +197,7 @@ int run_campaign_command(const CampaignCommands& c) {
       const std::string out = (fs::path(c.campaign_out) / "report").string();
       ReportRequest request;
       request.tables = spec.tables;
+      request.tables_optional = true;
       write_report_of({(fs::path(c.campaign_out) / "runs").string()}, out, request);
       if (!c.quiet) fmt::print("report: {}\n", (fs::path(out) / "report.md").string());
     }

@@ -218,6 +218,20 @@ TEST_F(CampaignCli, TablesOfASpecAreWrittenAndReplaceThoseOfADocument) {
       << read_text(work_ / "bad.log");
   EXPECT_EQ(read_text(document), "no markers\n");
 
+  // A campaign whose every run of a table's row failed still writes its report, with a warning.
+  json failing = spec;
+  failing["filters"][1] = {{"name", "grid"}, {"settings", {{"filter", "scan-matching"}}}};
+  failing["tables"][0]["rows"][0] = "grid";
+  write_text(work_ / "failing.json", failing.dump());
+  EXPECT_EQ(run(SLAMKIT_CLI, {"campaign", (work_ / "failing.json").string(), "--out", (work_ / "f").string()},
+                work_ / "f.log"),
+            1);
+  EXPECT_NE(read_text(work_ / "f.log").find("warning: no tables.md: table 'ate': no run of the filter entry 'grid'"),
+            std::string::npos)
+      << read_text(work_ / "f.log");
+  EXPECT_TRUE(fs::exists(work_ / "f" / "report" / "report.md"));
+  EXPECT_FALSE(fs::exists(work_ / "f" / "report" / "tables.md"));
+
   // A table naming an entry the campaign does not have is refused with the spec, before any run.
   spec["tables"][0]["rows"][0] = "fejj";
   write_text(work_ / "typo.json", spec.dump());
