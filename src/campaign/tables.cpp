@@ -31,7 +31,8 @@ const std::vector<std::string> kStatistics = {"mean", "median", "min",  "max", "
 const std::vector<std::string> kCellCounts = {"n", "partial", "diverged"};
 
 bool is_count(const std::string& statistic) {
-  return statistic == "n" || statistic == "zeros" || statistic == "yes" || statistic == "no" || statistic.empty();
+  return statistic == "n" || statistic == "zeros" || statistic == "yes" || statistic == "no" ||
+         statistic == "partial" || statistic == "diverged";
 }
 
 /// "{metric.statistic:spec}" or "{n}"; the spec is fmt's, or ends in '%' as Python's does (the value
