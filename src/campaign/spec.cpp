@@ -9,8 +9,8 @@
 #include <limits>
 #include <map>
 #include <optional>
-#include <tuple>
 #include <stdexcept>
+#include <tuple>
 #include <utility>
 
 #include "slamkit/core/error.hpp"
