@@ -68,31 +68,33 @@ struct ReportRequest {
 
 std::vector<std::string> write_report_of(const std::vector<std::string>& paths, const std::string& out,
                                          const ReportRequest& request) {
-  const auto& [nees, metrics, tables, into, tables_optional] = request;
   campaign::ReportOptions options;
-  options.nees_test = nees;
-  if (!metrics.empty()) options.metrics = metrics;
+  options.nees_test = request.nees;
+  if (!request.metrics.empty()) options.metrics = request.metrics;
   const campaign::Report report = campaign::collect_report(paths, options);
   std::set<std::string> measured;
   for (const campaign::ReportRun& run : report.runs)
     for (const auto& [key, value] : run.metrics.items()) measured.insert(key);
-  for (const std::string& key : metrics)  // a misspelt key would be a table of empty rows
+  for (const std::string& key : request.metrics)  // a misspelt key would be a table of empty rows
     if (!measured.contains(key))
       throw std::invalid_argument(unknown_name_message("metric", key, {measured.begin(), measured.end()}));
-  // Tables are made before anything is written, so that a table naming an entry no run has fails
-  // without replacing an earlier report.
+  // Tables and the document are made before anything is written, so that a table naming an entry no
+  // run has, or a document without a table's markers, fails without replacing an earlier report.
   std::vector<std::pair<std::string, std::string>> rendered;
-  try {
-    rendered = campaign::render_tables(report, tables);
-  } catch (const InputError& e) {
-    if (!tables_optional) throw;
-    fmt::print(stderr, "slamkit: warning: no tables.md: {}\n", e.what());
+  for (const campaign::TableSpec& table : request.tables) {
+    try {
+      rendered.emplace_back(table.name, campaign::render_table(report, table));
+    } catch (const InputError& e) {
+      if (!request.tables_optional) throw;
+      fmt::print(stderr, "slamkit: warning: table '{}' left out: {}\n", table.name, e.what());
+    }
   }
+  const std::string document = request.into.empty() ? "" : campaign::spliced_document(request.into, rendered);
   std::vector<std::string> files = campaign::write_report(report, out);
   if (!rendered.empty()) files.push_back(campaign::write_tables(rendered, out));
-  if (!into.empty()) {
-    campaign::update_document(into, rendered);
-    files.push_back(into);
+  if (!request.into.empty()) {
+    campaign::write_document(request.into, document);
+    files.push_back(request.into);
   }
   return files;
 }
@@ -156,6 +158,7 @@ int run_campaign_command(const CampaignCommands& c) {
     const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
     if (options.workers == 0)
       options.workers = static_cast<unsigned>(campaign::default_workers(spec, cores, physical_memory_bytes()));
+    options.workers = static_cast<unsigned>(std::min<std::size_t>(options.workers, std::max<std::size_t>(1, spec.jobs.size())));
     if (!c.quiet)
       fmt::print("campaign {}: {} jobs, {} at a time ({} cores, {} thread{} per run{})\n", spec.name, spec.jobs.size(),
                  options.workers, cores, spec.threads_per_run, spec.threads_per_run == 1 ? "" : "s",

@@ -11,6 +11,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "slamkit/core/angles.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
@@ -345,8 +346,8 @@ void grid_pipeline(std::string_view input) {
       RangeScanEvent scan;
       scan.t = t;
       if (tag & 4) scan.sensor_offset = Pose2(in.number(), in.number(), in.number());
-      scan.angle_min = tag & 8 ? in.number() : -M_PI / 2;
-      scan.angle_increment = tag & 16 ? in.number() : M_PI / 16;
+      scan.angle_min = tag & 8 ? in.number() : -kPi / 2;
+      scan.angle_increment = tag & 16 ? in.number() : kPi / 16;
       scan.max_range = tag & 32 ? in.number() : 8.0;
       for (int beams = 1 << (2 * (tag >> 6 & 3)); beams > 0; --beams)
         scan.ranges.push_back(static_cast<float>(in.number()));

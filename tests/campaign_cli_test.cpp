@@ -213,10 +213,16 @@ TEST_F(CampaignCli, TablesOfASpecAreWrittenAndReplaceThoseOfADocument) {
 
   // A document without the table's marker is left as it was, and so is the report folder.
   write_text(document, "no markers\n");
+  write_text(work_ / "r" / "mark", "");
   EXPECT_EQ(run(SLAMKIT_CLI, report, work_ / "bad.log"), 1);
+  EXPECT_TRUE(fs::exists(work_ / "r" / "mark")) << "the earlier report was replaced";
   EXPECT_NE(read_text(work_ / "bad.log").find("no marker '<!-- slamkit report table: ate -->'"), std::string::npos)
       << read_text(work_ / "bad.log");
   EXPECT_EQ(read_text(document), "no markers\n");
+  std::vector<std::string> without_tables = report;
+  without_tables.erase(without_tables.end() - 4, without_tables.end() - 2);  // --tables FILE
+  EXPECT_EQ(run(SLAMKIT_CLI, without_tables, work_ / "usage.log"), 2);
+  EXPECT_NE(read_text(work_ / "usage.log").find("--into needs --tables"), std::string::npos) << read_text(work_ / "usage.log");
 
   // A campaign whose every run of a table's row failed still writes its report, with a warning.
   json failing = spec;
@@ -226,7 +232,10 @@ TEST_F(CampaignCli, TablesOfASpecAreWrittenAndReplaceThoseOfADocument) {
   EXPECT_EQ(run(SLAMKIT_CLI, {"campaign", (work_ / "failing.json").string(), "--out", (work_ / "f").string()},
                 work_ / "f.log"),
             1);
-  EXPECT_NE(read_text(work_ / "f.log").find("warning: no tables.md: table 'ate': no run of the filter entry 'grid'"),
+  EXPECT_NE(read_text(work_ / "f.log").find("warning: table 'ate' left out: "),
+            std::string::npos)
+      << read_text(work_ / "f.log");
+  EXPECT_NE(read_text(work_ / "f.log").find("failing.json: tables[0].rows[0]: no run of the filter entry 'grid'"),
             std::string::npos)
       << read_text(work_ / "f.log");
   EXPECT_TRUE(fs::exists(work_ / "f" / "report" / "report.md"));
@@ -265,7 +274,7 @@ TEST_F(CampaignCli, TheReadmesRealDataTablesAreTheReportOfItsCampaign) {
   spec["groups"] = real_groups;
   spec["tables"] = real_tables;
   write_text(work_ / "readme.json", spec.dump());
-  ::setenv("SLAMKIT_DATA", slamkit::test_data::shared_dataset("").c_str(), 1);
+  const slamkit::test_data::ScopedEnvironment data("SLAMKIT_DATA", slamkit::test_data::shared_dataset("").string());
   ASSERT_EQ(run(SLAMKIT_CLI, {"campaign", (work_ / "readme.json").string(), "--out", (work_ / "c").string(),
                               "--no-report", "--quiet"},
                 work_ / "c.log"),

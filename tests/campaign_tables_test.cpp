@@ -2,6 +2,7 @@
 // read, and spliced into a Markdown document between their markers without touching the rest.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -76,7 +77,7 @@ TEST(ReportTables, EveryStatisticAndCount) {
     return t.substr(t.rfind("| fej | ") + 8, t.size() - t.rfind("| fej | ") - 8 - 3);
   };
   EXPECT_EQ(cell("{ate_rmse_m.median} {ate_rmse_m.min} {ate_rmse_m.max} {ate_rmse_m.sum} {ate_rmse_m.n}"), "2 1 3 4 2");
-  EXPECT_EQ(cell("{loop_closed.yes} {loop_closed.no} {spurious_landmarks.zeros}"), "2 0 1");
+  EXPECT_EQ(cell("{loop_closed.yes} {loop_closed.no} {loop_closed.n} {spurious_landmarks.zeros}"), "2 0 2 1");
   // The 95% interval of the mean of {1, 3}: 2 -+ t(0.975, 1) * 1 = 2 -+ 12.7062.
   EXPECT_EQ(cell("[{ate_rmse_m.ci_low:.4f}, {ate_rmse_m.ci_high:.4f}]"), "[-10.7062, 14.7062]");
   EXPECT_EQ(cell("{ate_rmse_m.mean:.0%} {{braces}}"), "200% {braces}");
@@ -95,7 +96,12 @@ TEST(ReportTables, RowsAndColumnsCanBeChosenLabelledAndGivenTheirOwnCell) {
                                      {{{"key", "fej"}, {"label", "FEJ | EKF"}},
                                       {{"key", "fej"}, {"label", "loops"}, {"cell", "{loop_closed.yes}"}}}}});
   EXPECT_EQ(render_table(two_by_two(), table), "| world | FEJ \\| EKF | loops |\n|---|---|---|\n| b | 2.0 | 2 |\n");
-  EXPECT_THROW(render_table(two_by_two(), table_of({{"name", "t"}, {"cell", "{n}"}, {"rows", {"ekff"}}})), InputError);
+  try {
+    render_table(two_by_two(), table_of({{"name", "t"}, {"cell", "{n}"}, {"rows", {"ekff"}}}));
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "t.json: tables[0].rows[0]: no run of the filter entry 'ekff' (did you mean 'ekf'?)");
+  }
 }
 
 TEST(ReportTables, AMalformedTableIsAnErrorNamingTheKey) {
@@ -148,16 +154,25 @@ TEST(ReportTables, ATableIsSplicedBetweenItsMarkersAndNothingElseMoves) {
   EXPECT_NE(error(document + document, "t").find("is there twice"), std::string::npos);
 }
 
-TEST(ReportTables, AFailedUpdateLeavesTheDocumentAsItWas) {
+TEST(ReportTables, ADocumentIsSplicedBeforeAnythingIsWrittenAndKeepsItsLineEndingsAndPermissions) {
   test_data::ScratchDir dir;
   const std::string path = dir.file("doc.md");
-  const std::string text = "<!-- slamkit report table: t -->\n| a |\n<!-- end slamkit report table -->\n";
+  const std::string text = "<!-- slamkit report table: t -->\r\n| a |\r\n<!-- end slamkit report table -->\r\n";
   test_data::write_text(path, text);
-  EXPECT_THROW(update_document(path, {{"t", "| b |\n"}, {"missing", "| c |\n"}}), InputError);
+  std::filesystem::permissions(path, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+  EXPECT_THROW(spliced_document(path, {{"t", "| b |\n"}, {"missing", "| c |\n"}}), InputError);
   EXPECT_EQ(test_data::read_text(path), text);
-  update_document(path, {{"t", "| b |\n"}});
+  write_document(path, spliced_document(path, {{"t", "| b |\n|---|\n"}}));
   EXPECT_EQ(test_data::read_text(path),
-            "<!-- slamkit report table: t -->\n\n| b |\n\n<!-- end slamkit report table -->\n");
+            "<!-- slamkit report table: t -->\r\n\r\n| b |\r\n|---|\r\n\r\n<!-- end slamkit report table -->\r\n");
+  EXPECT_EQ(std::filesystem::status(path).permissions(),
+            std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+  // Through a link, the file it names is rewritten and the link stays a link.
+  const std::string link = dir.file("link.md");
+  std::filesystem::create_symlink(path, link);
+  write_document(link, "<!-- slamkit report table: t -->\n<!-- end slamkit report table -->\n");
+  EXPECT_TRUE(std::filesystem::is_symlink(link));
+  EXPECT_EQ(test_data::read_text(path), "<!-- slamkit report table: t -->\n<!-- end slamkit report table -->\n");
 }
 
 }  // namespace

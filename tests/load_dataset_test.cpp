@@ -5,7 +5,6 @@
 
 #include <gtest/gtest.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -53,7 +52,8 @@ TEST(DatasetSpec, AMisspeltKindIsAnsweredWithTheNearest) {
   EXPECT_EQ(spec_error("plaz:/x"), "unknown dataset kind 'plaz' (did you mean 'plaza'?); expected one of: " + kinds);
   EXPECT_EQ(spec_error("carmn:/x"), "unknown dataset kind 'carmn' (did you mean 'carmen'?); expected one of: " + kinds);
   EXPECT_EQ(spec_error("sim:"), "expected a path after 'sim:'");
-  EXPECT_EQ(spec_error("sim::x"), "expected a path after 'sim:'");
+  for (const char* spec : {"sim::x", "victoria-park::x", "scenario::3"})
+    EXPECT_NE(spec_error(spec).find("which only mrclam and plaza have"), std::string::npos) << spec_error(spec);
 }
 
 TEST(DatasetSpec, SimulatedDatasetsAreNamedByScenarioAndSeeds) {
@@ -198,15 +198,12 @@ TEST(DatasetSpec, EveryFormOfAnMrclamRobotReadsThatRobot) {
     EXPECT_EQ(d.events.size(), reference.events.size()) << suffix;
   }
   // "mrclam::robot3": robot 3 of the datasets folder's Dataset6, as campaign files name it.
-  const char* before = std::getenv("SLAMKIT_DATA");
-  const std::string kept = before ? before : "";
-  ::setenv("SLAMKIT_DATA", dir.parent_path().parent_path().c_str(), 1);
+  const test_data::ScopedEnvironment data("SLAMKIT_DATA", dir.parent_path().parent_path().string());
   const Dataset chosen = load_dataset("mrclam::robot3");
   EXPECT_EQ(absolute_dataset_spec("mrclam::robot3"),
             "mrclam:" + std::filesystem::absolute(dir).lexically_normal().string() + ":robot3");
   EXPECT_EQ(spec_error("mrclam::robot9"),
             "no MRCLAM robot 'robot9'; expected a robot from 1 to 5 as DIR:robotN, DIR:N or DIR/RobotN");
-  if (before) ::setenv("SLAMKIT_DATA", kept.c_str(), 1); else ::unsetenv("SLAMKIT_DATA");
   EXPECT_EQ(chosen.name, reference.name);
   EXPECT_EQ(chosen.events.size(), reference.events.size());
 }
@@ -244,6 +241,10 @@ TEST(DatasetSpec, EveryFormOfAPlazaRunReadsThatRunWithItsSettings) {
     EXPECT_EQ(d.spec, "plaza:" + dir.string() + suffix);
     EXPECT_EQ(d.name, reference.name) << suffix;
     EXPECT_EQ(d.events.size(), reference.events.size()) << suffix;
+  }
+  {
+    const test_data::ScopedEnvironment data("SLAMKIT_DATA", dir.parent_path().string());
+    EXPECT_EQ(load_dataset("plaza::Plaza1").events.size(), reference.events.size());
   }
   const Dataset tuned = load_dataset("plaza:" + dir.string(), nlohmann::json{{"sigma_range_m", 0.5}}, "tuned.json");
   EXPECT_EQ(tuned.observation->noise()(0, 0), 0.25);

@@ -85,8 +85,8 @@ void count(CampaignTally& tally, JobStatus status) {
 }  // namespace
 
 std::size_t default_workers(const CampaignSpec& spec, unsigned cores, double memory_bytes) {
-  std::size_t workers = std::max(1u, cores) / spec.threads_per_run;
-  if (spec.memory_per_run_bytes > 0.0)
+  std::size_t workers = std::max(1u, cores) / std::max(1u, spec.threads_per_run);
+  if (spec.memory_per_run_bytes > 0.0 && memory_bytes > 0.0)  // an unknown memory bounds nothing
     workers = std::min(workers, static_cast<std::size_t>(memory_bytes / spec.memory_per_run_bytes));
   return std::max<std::size_t>(1, workers);
 }

@@ -7,11 +7,14 @@
 #include <cstddef>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
+#include <tuple>
 #include <utility>
 #include <variant>
 
+#include "slamkit/core/atomic_file.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/names.hpp"
 
@@ -126,6 +129,7 @@ std::optional<double> statistic_of(const Placeholder& p, const Report& report, c
     if (s.yes_no == 0) return std::nullopt;
     return static_cast<double>(p.statistic == "yes" ? s.yes : s.yes_no - s.yes);
   }
+  if (p.statistic == "n" && s.n == 0 && s.yes_no > 0) return static_cast<double>(s.yes_no);
   if (s.n == 0) return std::nullopt;
   if (p.statistic == "n") return static_cast<double>(s.n);
   if (p.statistic == "mean") return s.mean;
@@ -249,6 +253,8 @@ std::vector<TableSpec> parse_report_tables(const json& tables, const std::string
       if (std::find(keys.begin(), keys.end(), entry.key()) == keys.end())
         fail(source, where, unknown_name_message("key", entry.key(), keys));
     TableSpec spec;
+    spec.source = source;
+    spec.index = t;
     spec.name = string_in(table, "name", source, where, true);
     if (spec.name.empty() || spec.name.find_first_of("\n>") != std::string::npos ||
         spec.name.find("--") != std::string::npos)
@@ -288,20 +294,22 @@ std::string render_table(const Report& report, const TableSpec& table) {
   const bool filter_rows = table.rows_are == "filter";
   const std::vector<TableLine> rows = table.rows.empty() ? entries_of(report, filter_rows) : table.rows;
   const std::vector<TableLine> columns = table.columns.empty() ? entries_of(report, !filter_rows) : table.columns;
-  for (const auto& [lines, filter] : {std::pair{&rows, filter_rows}, std::pair{&columns, !filter_rows}}) {
+  for (const auto& [side, lines, filter] : {std::tuple{"rows", &rows, filter_rows},
+                                             std::tuple{"columns", &columns, !filter_rows}}) {
     std::vector<std::string> keys;
     for (const TableLine& entry : entries_of(report, filter)) keys.push_back(entry.key);
-    for (const TableLine& line : *lines)
-      if (std::find(keys.begin(), keys.end(), line.key) == keys.end())
-        throw InputError(fmt::format("table '{}'", table.name), 0,
-                         fmt::format("no run of the {} entry '{}'{}", filter ? "filter" : "dataset", line.key,
-                                     did_you_mean(line.key, keys)));
+    for (std::size_t i = 0; i < lines->size(); ++i)
+      if (std::find(keys.begin(), keys.end(), (*lines)[i].key) == keys.end())
+        throw InputError(table.source, 0,
+                         fmt::format("tables[{}].{}[{}]: no run of the {} entry '{}'{}", table.index, side, i,
+                                     filter ? "filter" : "dataset", (*lines)[i].key, did_you_mean((*lines)[i].key, keys)));
   }
   std::string out = "| " + cell_text(table.corner) + " |";
   for (const TableLine& column : columns) out += fmt::format(" {} |", cell_text(column.label));
   out += "\n|---|";
   for (std::size_t c = 0; c < columns.size(); ++c) out += "---|";
   out += '\n';
+  std::map<std::string, std::vector<Piece>> templates;
   for (const TableLine& row : rows) {
     out += fmt::format("| {} |", cell_text(row.label));
     for (const TableLine& column : columns) {
@@ -313,7 +321,11 @@ std::string render_table(const Report& report, const TableSpec& table) {
           runs.insert(runs.end(), c.runs.begin(), c.runs.end());
       const std::string& cell = !row.cell.empty() ? row.cell : !column.cell.empty() ? column.cell : table.cell;
       out += ' ';
-      if (!runs.empty()) out += cell_text(fill(parse_template(cell), report, runs));
+      if (!runs.empty()) {
+        auto [parsed, fresh] = templates.try_emplace(cell);
+        if (fresh) parsed->second = parse_template(cell);
+        out += cell_text(fill(parsed->second, report, runs));
+      }
       out += " |";
     }
     out += '\n';
@@ -338,44 +350,42 @@ std::string splice_tables(const std::string& markdown, const std::vector<std::pa
     if (end == std::string::npos || (next_begin != std::string::npos && next_begin < end))
       throw InputError(source, 0, fmt::format("the table '{}' has no '{}' after its marker", name, kEndMarker));
     // Blank lines around the table: a table touching an HTML comment is not a table to every renderer.
-    out.replace(from, end - from, "\n" + text + "\n");
+    std::string table = "\n" + text + "\n";
+    if (from >= 2 && out.compare(from - 2, 2, "\r\n") == 0) {  // the document's line endings
+      std::string crlf;
+      for (const char c : table) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
+      table = std::move(crlf);
+    }
+    out.replace(from, end - from, table);
   }
   return out;
 }
 
-std::vector<std::pair<std::string, std::string>> render_tables(const Report& report,
-                                                               const std::vector<TableSpec>& tables) {
-  std::vector<std::pair<std::string, std::string>> rendered;
-  for (const TableSpec& table : tables) rendered.emplace_back(table.name, render_table(report, table));
-  return rendered;
-}
-
 std::string write_tables(const std::vector<std::pair<std::string, std::string>>& rendered, const std::string& dir) {
   const std::string path = (std::filesystem::path(dir) / "tables.md").string();
-  std::ofstream out(path);
-  for (const auto& [name, text] : rendered) out << "## " << name << "\n\n" << text << '\n';
-  out.close();
-  if (!out) throw InputError(path, 0, "cannot write the tables");
+  std::string text;
+  for (const auto& [name, table] : rendered) text += fmt::format("## {}\n\n{}\n", name, table);
+  write_file_atomically(path, text);
   return path;
 }
 
-void update_document(const std::string& path, const std::vector<std::pair<std::string, std::string>>& rendered) {
+std::string spliced_document(const std::string& path, const std::vector<std::pair<std::string, std::string>>& rendered) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, 0, "cannot open the document to put the tables in");
   std::stringstream text;
   text << in.rdbuf();
-  const std::string updated = splice_tables(text.str(), rendered, path);
-  const std::string temporary = path + ".slamkit-tables.tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary);
-    out << updated;
-    out.close();
-    if (!out) {
-      std::filesystem::remove(temporary);
-      throw InputError(temporary, 0, "cannot write the updated document");
-    }
-  }
-  std::filesystem::rename(temporary, path);
+  return splice_tables(text.str(), rendered, path);
+}
+
+void write_document(const std::string& path, const std::string& text) {
+  std::error_code error;
+  // Through a link to the file it names, and with the file's permissions: a README kept elsewhere
+  // or read-only to others stays so.
+  const std::filesystem::path target = std::filesystem::canonical(path, error);
+  if (error) throw InputError(path, 0, fmt::format("cannot find the document: {}", error.message()));
+  const std::filesystem::perms permissions = std::filesystem::status(target, error).permissions();
+  write_file_atomically(target.string(), text);
+  if (!error) std::filesystem::permissions(target, permissions, error);
 }
 
 }  // namespace slamkit::campaign

@@ -182,7 +182,12 @@ ParsedSpec parse_spec(const std::string& spec) {
     throw std::invalid_argument(unknown_name_message("dataset kind", kind, kind_names()));
   }
   const std::string path = colon == std::string::npos ? std::string() : spec.substr(colon + 1);
-  if ((path.empty() || path.starts_with(':')) && match->default_folder.empty())
+  if (path.starts_with(':') && match->read != &read_mrclam_robot && match->read != &read_plaza_run)
+    throw std::invalid_argument(fmt::format(
+        "'{}': KIND::NAME chooses a robot or run of the datasets folder's copy, which only mrclam and plaza "
+        "have; expected {}:PATH",
+        spec, kind));
+  if (path.empty() && match->default_folder.empty())
     throw std::invalid_argument(fmt::format("expected a path after '{}:'", kind));
   if (is_simulated_kind(kind)) check_simulated_spec(kind, path);
   if (match->read == &read_mrclam_robot && !path.empty()) select_mrclam_robot(path);

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <climits>
-#include <cstdlib>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -146,12 +145,13 @@ void write_truth(const fs::path& dir, const GroundTruth& truth) {
 
 // ---- Reading ------------------------------------------------------------------------------------------
 
-/// A number as the log writes and reads it.
+/// A number as the log writes it and its reader parses it.
 double logged(double value) {
   char text[32];
-  const auto end = fmt::format_to_n(text, sizeof(text) - 1, "{:.12g}", value).out;
-  *end = '\0';
-  return std::strtod(text, nullptr);
+  const auto end = fmt::format_to_n(text, sizeof(text), "{:.12g}", value).out;
+  double parsed = 0.0;
+  parse_double(std::string_view(text, static_cast<std::size_t>(end - text)), parsed);
+  return parsed;
 }
 
 // Times are written rounded to 12 digits, so comparisons of computed times allow for that.
@@ -379,34 +379,58 @@ void write_sim_log(const std::string& dir, const Dataset& dataset, const Simulat
 }
 
 Dataset as_logged(Dataset dataset) {
-  std::vector<Event> events;
-  events.reserve(dataset.events.size());
-  std::vector<std::vector<int>> true_ids;
-  const bool with_ids = !dataset.truth.observation_ids.empty();
-  std::size_t scan_index = 0;
-  for (Event& event : dataset.events) {
+  if (!dataset.observation) throw std::invalid_argument("as_logged: the dataset has no observation model");
+  const std::vector<std::vector<int>>& ids = dataset.truth.observation_ids;
+  const bool with_ids = !ids.empty();
+  const MeasuredRows rows = dataset.observation->rows();
+  // Compacted in place: `kept` events (and their scans' ids) stay, in order, at the front.
+  std::size_t kept = 0, kept_scans = 0, scan_index = 0;
+  // Moves an event to the front; moving onto itself would empty it.
+  const auto keep = [&](std::size_t i) {
+    if (kept != i) dataset.events[kept] = std::move(dataset.events[i]);
+    ++kept;
+  };
+  for (std::size_t i = 0; i < dataset.events.size(); ++i) {
+    Event& event = dataset.events[i];
     if (auto* c = std::get_if<ControlEvent>(&event)) {
       c->t = logged(c->t);
       c->dt = logged(c->dt);
       for (Eigen::Index k = 0; k < c->u.size(); ++k) c->u[k] = logged(c->u[k]);
-      events.push_back(std::move(event));
+      keep(i);
       continue;
     }
     auto* scan = std::get_if<ScanEvent>(&event);
     if (scan == nullptr) throw std::invalid_argument("as_logged: a simulated log holds landmark scans only");
     const std::size_t index = scan_index++;
+    if (with_ids && (index >= ids.size() || ids[index].size() != scan->observations.size()))
+      throw std::invalid_argument(
+          fmt::format("as_logged: the truth's observation ids do not match scan {} of the event stream", index));
     if (scan->observations.empty()) continue;  // no line to go on
     scan->t = logged(scan->t);
-    const MeasuredRows rows = dataset.observation->rows();
     for (Observation& o : scan->observations) {
       for (Eigen::Index k = 0; k < o.z.size(); ++k) o.z[k] = logged(o.z[k]);
       if (rows.bearing >= 0) o.z[rows.bearing] = wrap_angle(o.z[rows.bearing]);
     }
-    if (with_ids) true_ids.push_back(std::move(dataset.truth.observation_ids.at(index)));
-    events.push_back(std::move(event));
+    // The reader makes one scan of consecutive obs lines with the same time.
+    auto* previous = kept == 0 ? nullptr : std::get_if<ScanEvent>(&dataset.events[kept - 1]);
+    if (previous != nullptr && previous->t == scan->t) {
+      previous->observations.insert(previous->observations.end(), scan->observations.begin(), scan->observations.end());
+      if (with_ids)
+        dataset.truth.observation_ids[kept_scans - 1].insert(dataset.truth.observation_ids[kept_scans - 1].end(),
+                                                             ids[index].begin(), ids[index].end());
+      continue;
+    }
+    if (with_ids && kept_scans != index)
+      dataset.truth.observation_ids[kept_scans] = std::move(dataset.truth.observation_ids[index]);
+    ++kept_scans;
+    keep(i);
   }
-  dataset.events = std::move(events);
-  if (with_ids) dataset.truth.observation_ids = std::move(true_ids);
+  if (with_ids && scan_index != ids.size())
+    throw std::invalid_argument(fmt::format("as_logged: the truth has observation ids for {} scans, the events have {}",
+                                            ids.size(), scan_index));
+  dataset.events.resize(kept);
+  if (with_ids) dataset.truth.observation_ids.resize(kept_scans);
+  dataset.initial_pose.z() = wrap_angle(dataset.initial_pose.z());
   for (StampedPose& p : dataset.truth.poses)
     p = StampedPose{logged(p.t), Pose2(logged(p.pose.x()), logged(p.pose.y()), wrap_angle(logged(p.pose.z())))};
   for (Landmark& l : dataset.truth.landmarks) l.position = Vector2(logged(l.position.x()), logged(l.position.y()));

@@ -68,7 +68,8 @@ struct CampaignResult {
 };
 
 /// The jobs a machine with `cores` cores and `memory_bytes` of memory runs at once: as many as
-/// threads_per_run lets the cores hold and memory_per_run_mb the memory, at least one.
+/// threads_per_run lets the cores hold and memory_per_run_mb the memory (where it is known, > 0), at
+/// least one. CampaignOptions::workers (--jobs) overrides it.
 std::size_t default_workers(const CampaignSpec& spec, unsigned cores, double memory_bytes);
 
 /// True if `folder` holds a whole run: run.json (not partial) and metrics.json.

@@ -10,6 +10,7 @@
 //   <!-- end slamkit report table -->
 // so a README's tables are regenerated from a campaign rather than copied by hand. docs/campaigns.md
 // documents the spec (the "tables" key of a campaign, or of a file given to report --tables).
+#include <cstddef>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
@@ -29,6 +30,8 @@ struct TableLine {
 };
 
 struct TableSpec {
+  std::string source;      // the file it was read from, and
+  std::size_t index = 0;   // its place in that file's "tables", for errors
   std::string name;
   /// "filter": rows are filter entries and columns dataset entries; "dataset": the other way round.
   std::string rows_are = "filter";
@@ -50,24 +53,25 @@ std::vector<TableSpec> read_report_tables(const std::string& path);
 
 /// The table as Markdown (a heading row, a rule, a row per row entry), each cell its template filled
 /// in from the runs of its row and column entries; a cell without runs is empty. InputError naming
-/// the table if a listed row or column has no run in the report.
+/// the table's file and key if a listed row or column has no run in the report.
 std::string render_table(const Report& report, const TableSpec& table);
 
-/// `markdown` with the text between each table's markers replaced by the table; `source` names the
-/// document in errors. Throws InputError if a table's markers are missing, repeated or unclosed.
+/// `markdown` with the text between each table's markers replaced by the table (in the document's
+/// line endings); `source` names the document in errors. Throws InputError if a table's markers are
+/// missing, repeated or unclosed.
 std::string splice_tables(const std::string& markdown, const std::vector<std::pair<std::string, std::string>>& tables,
                           const std::string& source);
 
-/// Each table rendered, by name, in the order given.
-std::vector<std::pair<std::string, std::string>> render_tables(const Report& report,
-                                                               const std::vector<TableSpec>& tables);
-
 /// Writes the tables into `dir` (an existing folder) as tables.md, each under a heading of its
-/// name; returns the file's path.
+/// name, whole or not at all; returns the file's path.
 std::string write_tables(const std::vector<std::pair<std::string, std::string>>& rendered, const std::string& dir);
 
-/// Replaces the tables in the Markdown file `path` (splice_tables), writing it whole through a
-/// temporary file so that a failure leaves it as it was.
-void update_document(const std::string& path, const std::vector<std::pair<std::string, std::string>>& rendered);
+/// The Markdown file `path` with its tables replaced (splice_tables); InputError if it cannot be
+/// read or lacks a table's markers. Nothing is written: a caller splices before it writes anything.
+std::string spliced_document(const std::string& path, const std::vector<std::pair<std::string, std::string>>& rendered);
+
+/// Replaces the document `path` (through a link, the file it names) by `text`, whole or not at all,
+/// keeping its permissions.
+void write_document(const std::string& path, const std::string& text);
 
 }  // namespace slamkit::campaign

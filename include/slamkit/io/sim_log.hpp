@@ -35,10 +35,12 @@ void write_sim_log(const std::string& dir, const Dataset& dataset, const Simulat
                    const World& world);
 
 /// `dataset` (as made by simulate) as write_sim_log and read_sim_log would give it back, without the
-/// files: every number to the 12 digits the log keeps, angles wrapped as the reader wraps them, and
-/// scans without observations left out. The simulated datasets opened by name
-/// (io/simulated_datasets.hpp) are this, so a campaign's in-memory run and a run on the log that
-/// `slamkit simulate` wrote are the same run, to the last bit.
+/// files: every number to the 12 digits the log keeps, parsed as the reader parses it, angles wrapped
+/// as it wraps them, scans without observations left out and scans of one logged time made one. The
+/// simulated datasets opened by name (io/simulated_datasets.hpp) are this, so a campaign's in-memory
+/// run and a run on the log that `slamkit simulate` wrote are the same run, to the last bit. It
+/// assumes simulate's output (finite values, times in order) rather than checking what the reader
+/// checks; std::invalid_argument if the truth's observation ids do not match the scans.
 Dataset as_logged(Dataset dataset);
 
 /// Reads a log written by write_sim_log: the events, the motion and observation models and sensor
