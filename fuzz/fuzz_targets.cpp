@@ -249,16 +249,6 @@ Platform platform(std::uint8_t choice) {
   }
 }
 
-/// A control at `t` with the interval and values the input gives.
-ControlEvent fuzzed_control(Bytes& in, double t, const MotionModel& motion) {
-  ControlEvent control;
-  control.t = t;
-  control.dt = in.number();
-  control.u.resize(motion.control_dim());
-  for (Eigen::Index i = 0; i < control.u.size(); ++i) control.u(i) = in.number();
-  return control;
-}
-
 /// A filter chosen by the first bytes, run by the pipeline's runner on the events the rest
 /// describes: arbitrary times (gaps, out of order), controls and observations, NaN, infinities and
 /// huge values included. The runner must refuse what it cannot run with an InputError; what it runs
@@ -295,7 +285,12 @@ void filter_pipeline(std::string_view input) {
     const std::uint8_t tag = in.byte();
     t += tag & 1 ? 0.0 : in.number();
     if (tag & 2) {
-      dataset.events.emplace_back(fuzzed_control(in, t, *p.motion));
+      ControlEvent control;
+      control.t = t;
+      control.dt = in.number();
+      control.u.resize(p.motion->control_dim());
+      for (Eigen::Index i = 0; i < control.u.size(); ++i) control.u(i) = in.number();
+      dataset.events.emplace_back(control);
     } else {
       ScanEvent scan;
       scan.t = t;
@@ -341,7 +336,12 @@ void grid_pipeline(std::string_view input) {
     const std::uint8_t tag = in.byte();
     t += tag & 1 ? 0.0 : in.number();
     if (tag & 2) {
-      dataset.events.emplace_back(fuzzed_control(in, t, *p.motion));
+      ControlEvent control;
+      control.t = t;
+      control.dt = in.number();
+      control.u.resize(p.motion->control_dim());
+      for (Eigen::Index i = 0; i < control.u.size(); ++i) control.u(i) = in.number();
+      dataset.events.emplace_back(control);
     } else {
       RangeScanEvent scan;
       scan.t = t;
