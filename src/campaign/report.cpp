@@ -352,11 +352,13 @@ MetricSummary summarize_metric(const std::string& metric, const Report& report, 
   }
   s.n = values.size();
   if (values.empty()) return s;
+  s.zeros = static_cast<std::size_t>(std::count(values.begin(), values.end(), 0.0));
   std::sort(values.begin(), values.end());
   s.min = values.front();
   s.max = values.back();
   s.median = 0.5 * (values[(s.n - 1) / 2] + values[s.n / 2]);
-  s.mean = std::accumulate(values.begin(), values.end(), 0.0) / static_cast<double>(s.n);
+  s.sum = std::accumulate(values.begin(), values.end(), 0.0);
+  s.mean = s.sum / static_cast<double>(s.n);
   if (s.n >= 2) {
     double squares = 0.0;
     for (const double v : values) squares += (v - s.mean) * (v - s.mean);

@@ -303,7 +303,8 @@ void expand_group(const json& group, const Where& where, const std::string& base
       for (std::size_t fi = 0; fi < filters.size(); ++fi) {
         const FilterEntry& f = filters[fi];
         for (const Variant& fv : f.variants) {
-          const std::string configuration = fmt::format("{}{} | {}{}", f.name, fv.words, d.name, dv.words);
+          const std::string filter_entry = f.name + fv.words, dataset_entry = d.name + dv.words;
+          const std::string configuration = fmt::format("{} | {}", filter_entry, dataset_entry);
           json dataset_settings = d.settings;
           if (!dv.patch.empty()) {
             if (dataset_settings.is_null()) dataset_settings = json::object();
@@ -321,7 +322,9 @@ void expand_group(const json& group, const Where& where, const std::string& base
                 if (filter_seed) settings["seed"] = *filter_seed;
                 Job job;
                 job.configuration = configuration;
-                job.folder = (fs::path("runs") / (file_name(f.name + fv.words) + "__" + file_name(d.name + dv.words)) /
+                job.filter_entry = filter_entry;
+                job.dataset_entry = dataset_entry;
+                job.folder = (fs::path("runs") / (file_name(filter_entry) + "__" + file_name(dataset_entry)) /
                               instance_name(world, seed, f.seeds_follow_dataset ? std::nullopt : filter_seed))
                                  .string();
                 if (const auto [it, fresh] = folders.emplace(job.folder, origin); !fresh)
@@ -363,9 +366,8 @@ void check_table_entries(const CampaignSpec& campaign, const Where& where) {
     if (std::find(list.begin(), list.end(), entry) == list.end()) list.push_back(std::move(entry));
   };
   for (const Job& job : campaign.jobs) {
-    const std::size_t bar = job.configuration.find(" | ");
-    add(filter_entries, job.configuration.substr(0, bar));
-    add(dataset_entries, job.configuration.substr(bar + 3));
+    add(filter_entries, job.filter_entry);
+    add(dataset_entries, job.dataset_entry);
   }
   for (std::size_t t = 0; t < campaign.tables.size(); ++t) {
     const TableSpec& table = campaign.tables[t];

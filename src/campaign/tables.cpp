@@ -140,17 +140,7 @@ std::optional<double> statistic_of(const Placeholder& p, const Report& report, c
     if (!s.ci95) return std::nullopt;
     return p.statistic == "ci_low" ? s.ci95->lo : s.ci95->hi;
   }
-  double sum = 0.0;
-  std::size_t zeros = 0;
-  for (const std::size_t r : runs) {
-    const auto it = report.runs[r].metrics.find(p.metric);
-    if (it == report.runs[r].metrics.end() || !it->is_number()) continue;
-    const double v = it->get<double>();
-    if (!std::isfinite(v)) continue;
-    sum += v;
-    zeros += v == 0.0;
-  }
-  return p.statistic == "sum" ? sum : static_cast<double>(zeros);
+  return p.statistic == "sum" ? s.sum : static_cast<double>(s.zeros);
 }
 
 std::string fill(const std::vector<Piece>& pieces, const Report& report, const std::vector<std::size_t>& runs) {

@@ -63,7 +63,8 @@ struct MetricSummary {
   /// Runs where the value is a finite number: what mean..max describe (a null or absent value is a
   /// metric that was not measured, and is not counted).
   std::size_t n = 0;
-  double mean = 0, median = 0, min = 0, max = 0;
+  double mean = 0, median = 0, min = 0, max = 0, sum = 0;
+  std::size_t zeros = 0;  // of those n, the runs where it is 0
   /// The 95% confidence interval of the mean (Student's t with n - 1 dof); none for n < 2.
   std::optional<eval::Interval> ci95;
   /// A true/false metric (loop_closed): true in `yes` of the `yes_no` runs where it is either.

@@ -24,6 +24,9 @@ struct Job {
   /// "fej | family:sparse clutter_rate_per_scan=1": the filter and dataset entries' names with the values
   /// they vary.
   std::string configuration;
+  /// Its two halves: the filter entry's and the dataset entry's name with their varied values (the
+  /// rows and columns of its tables).
+  std::string filter_entry, dataset_entry;
   /// What the job is, as run.json's provenance records it under "campaign" (the campaign's name,
   /// configuration, dataset, seeds and varied values).
   nlohmann::json description;
