@@ -11,6 +11,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "slamkit/core/angles.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/json_options.hpp"
 #include "slamkit/core/text_reader.hpp"
@@ -309,6 +310,62 @@ void filter_pipeline(std::string_view input) {
   });
 }
 
+/// The grid filters (scan matching, grid FastSLAM with a few particles) run on arbitrary laser scans
+/// and controls: beam geometries, ranges (NaN, infinite, negative, beyond the maximum), times. As
+/// for filter_pipeline, the runner refuses what it cannot run with an InputError, and a run it
+/// accepts ends with a finite pose.
+void grid_pipeline(std::string_view input) {
+  Bytes in(input);
+  FilterConfig config;
+  const std::uint8_t choice = in.byte();
+  config.filter = choice % 2 == 0 ? FilterKind::kScanMatching : FilterKind::kGridFastSlam;
+  config.particles = 1 + choice / 2 % 4;
+  config.threads = 1;
+  // Coarse cells and short rays: the fuzzer's time goes to the inputs, not to tracing rays.
+  config.grid.grid.resolution = 0.25;
+  config.grid.grid.range_cutoff = 5.0;
+  // A map of at most 250 m x 250 m: poses far apart are refused (GridExtentError, reported as an
+  // InputError) before the tile table spans them.
+  config.grid.grid.max_cells = 1e6;
+
+  Dataset dataset;
+  dataset.spec = "fuzz";
+  const Platform p = platform(in.byte());
+  dataset.motion = p.motion;
+  dataset.sensor = p.sensor;
+  double t = 0.0;
+  constexpr std::size_t kMaxEvents = 32;
+  while (!in.empty() && dataset.events.size() < kMaxEvents) {
+    const std::uint8_t tag = in.byte();
+    t += tag & 1 ? 0.0 : in.number();
+    if (tag & 2) {
+      ControlEvent control;
+      control.t = t;
+      control.dt = in.number();
+      control.u.resize(p.motion->control_dim());
+      for (Eigen::Index i = 0; i < control.u.size(); ++i) control.u(i) = in.number();
+      dataset.events.emplace_back(control);
+    } else {
+      RangeScanEvent scan;
+      scan.t = t;
+      if (tag & 4) scan.sensor_offset = Pose2(in.number(), in.number(), in.number());
+      scan.angle_min = tag & 8 ? in.number() : -kPi / 2;
+      scan.angle_increment = tag & 16 ? in.number() : kPi / 16;
+      scan.max_range = tag & 32 ? in.number() : 8.0;
+      for (int beams = 1 << (2 * (tag >> 6 & 3)); beams > 0; --beams)
+        scan.ranges.push_back(static_cast<float>(in.number()));
+      dataset.events.emplace_back(std::move(scan));
+    }
+  }
+  refusing_only_with_input_error([&] {
+    const auto filter = make_filter(config, dataset);
+    check_filter_fits(*filter, dataset);
+    run_filter(*filter, dataset);
+    if (!filter->pose().allFinite())
+      throw std::logic_error("the grid filter's pose is not finite after a run the runner accepted");
+  });
+}
+
 constexpr FuzzTarget kTargets[] = {
     {"sim_log", sim_log},
     {"course_log", course_log},
@@ -321,6 +378,7 @@ constexpr FuzzTarget kTargets[] = {
     {"run_folder", run_folder},
     {"text", text},
     {"filter_pipeline", filter_pipeline},
+    {"grid_pipeline", grid_pipeline},
 };
 
 }  // namespace

@@ -75,6 +75,25 @@ TEST(GridPipeline, ADatasetWithNothingTheFilterMapsWithIsRefusedBeforeRunning) {
   }
 }
 
+// Odometry that jumps 100 km between two scans: the map cannot span both, and the run is refused
+// as bad input naming the event, not left to allocate a table for the space between.
+TEST(GridPipeline, AScanFarBeyondTheMapsBoundIsBadInputNamingTheEvent) {
+  Dataset d = laser_log();
+  d.events.push_back(ControlEvent{2.0, 1.0, Control(Eigen::Vector3d(0.0, 1e5, 0.0))});
+  d.events.push_back(wall_ahead(2.0, 5.0));
+  GridSlamOptions options;
+  options.grid.max_cells = 1e6;
+  ScanMatchingFilter filter(d.motion, d.initial_pose, options);
+  try {
+    run_filter(filter, d);
+    FAIL() << "a map 100 km wide was accepted";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("test:laser: event 4 (t = 2)"), std::string::npos) << what;
+    EXPECT_NE(what.find("raise grid.max_cells"), std::string::npos) << what;
+  }
+}
+
 TEST(GridPipeline, GridSettingsAreValidatedAndRoundTripThroughRunJson) {
   FilterConfig config;
   config.filter = FilterKind::kGridFastSlam;
@@ -83,10 +102,14 @@ TEST(GridPipeline, GridSettingsAreValidatedAndRoundTripThroughRunJson) {
   const FilterConfig back = filter_config_from_json(to_json(config), "run.json");
   EXPECT_EQ(back.filter, FilterKind::kGridFastSlam);
   EXPECT_DOUBLE_EQ(back.grid.grid.resolution, 0.1);
+  EXPECT_DOUBLE_EQ(back.grid.grid.max_cells, 1e8);
   EXPECT_NEAR(back.grid.proposal_spread_rad, deg2rad(0.5), 1e-15);
 
   nlohmann::json bad = to_json(config);
   bad["grid"]["resolution_m"] = 0.0;
+  EXPECT_THROW(filter_config_from_json(bad, "run.json"), InputError);
+  bad = to_json(config);
+  bad["grid"]["max_cells"] = -1.0;
   EXPECT_THROW(filter_config_from_json(bad, "run.json"), InputError);
   bad = to_json(config);
   bad["grid"]["resolutoin_m"] = 0.1;

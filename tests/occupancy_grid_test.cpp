@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <set>
+#include <string>
 #include <stdexcept>
 #include <thread>
 #include <utility>
@@ -73,6 +74,9 @@ TEST(OccupancyGridCells, OptionsOutOfRangeAreRefused) {
   EXPECT_THROW(OccupancyGrid{options}, std::invalid_argument);
   options = GridOptions{};
   options.log_odds_limit = std::numeric_limits<float>::infinity();
+  EXPECT_THROW(OccupancyGrid{options}, std::invalid_argument);
+  options = GridOptions{};
+  options.max_cells = 0.0;
   EXPECT_THROW(OccupancyGrid{options}, std::invalid_argument);
 }
 
@@ -174,9 +178,34 @@ TEST(OccupancyGridIntegrate, ReadingsThatAreNotFiniteOrNotPositiveAreSkipped) {
 TEST(OccupancyGridIntegrate, APoseOrScanThatIsNotANumberIsRefusedBeforeAnyChange) {
   OccupancyGrid grid;
   EXPECT_THROW(grid.integrate(Pose2(std::nan(""), 0.0, 0.0), beams_along({1.0f})), std::invalid_argument);
-  EXPECT_THROW(grid.integrate(Pose2(3e6, 0.0, 0.0), beams_along({1.0f})), std::invalid_argument);
+  EXPECT_THROW(grid.integrate(Pose2(3e6, 0.0, 0.0), beams_along({1.0f})), GridExtentError);
   EXPECT_THROW(grid.integrate(kSensorInCellZero, beams_along({1.0f}, std::nan(""))), std::invalid_argument);
   EXPECT_TRUE(grid.bounds().empty());
+}
+
+// A pose kilometres from the rest of the map (a jump in a log) would make the tile table span both:
+// the scan is refused, naming the setting, and the grid is left as it was.
+TEST(OccupancyGridIntegrate, AScanThatWouldStretchTheMapBeyondMaxCellsIsRefusedBeforeAnyChange) {
+  GridOptions options;
+  options.max_cells = 1e6;  // 50 m x 50 m at 5 cm
+  OccupancyGrid grid(options);
+  grid.integrate(kSensorInCellZero, beams_along({5.0f, 5.0f}, 0.0, 1.0));
+  const OccupancyGrid before = grid;
+  const std::size_t bytes_before = grid.bytes();
+  try {
+    grid.integrate(Pose2(1e5, 0.0, 0.0), beams_along({5.0f}));
+    FAIL() << "a scan 100 km away was integrated";
+  } catch (const GridExtentError& e) {
+    EXPECT_NE(std::string(e.what()).find("max_cells"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("(100003, 0.025) m"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(grid.add(GridCell{0, 20000}, 1.0f), GridExtentError);
+  EXPECT_TRUE(grids_hold_same_cells(grid, before));
+  EXPECT_EQ(grid.bytes(), bytes_before);
+
+  // Within the bound the map grows as before: 40 m away is still inside 50 m x 50 m.
+  grid.integrate(Pose2(40.0, 0.0, 0.0), beams_along({5.0f}));
+  EXPECT_GT(grid.bounds().max.x, 800);
 }
 
 TEST(OccupancyGridIntegrate, ACellAScanEndsInIsNotFreedByTheSameScansOtherBeams) {

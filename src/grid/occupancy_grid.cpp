@@ -146,6 +146,8 @@ void validate(const GridOptions& o) {
     fail(fmt::format("log_odds_free must be finite and <= 0, found {}", o.log_odds_free));
   if (!(o.log_odds_limit > 0.0f && std::isfinite(o.log_odds_limit)))
     fail(fmt::format("log_odds_limit must be finite and > 0, found {}", o.log_odds_limit));
+  if (!(o.max_cells >= 1.0 && o.max_cells <= 1e12))
+    fail(fmt::format("max_cells must be from 1 to 1e12, found {}", o.max_cells));
 }
 
 Pose2 sensor_pose(const Pose2& vehicle_pose, const Pose2& sensor_offset) {
@@ -175,6 +177,7 @@ double OccupancyGrid::probability(GridCell cell) const { return 1.0 / (1.0 + std
 
 void OccupancyGrid::add(GridCell cell, float log_odds) {
   if (!std::isfinite(log_odds)) throw std::invalid_argument(fmt::format("occupancy grid: log-odds {} added", log_odds));
+  check_extent(CellBox{cell, cell});
   cover(CellBox{cell, cell});
   Tile& tile = writable_tile(GridCell{cell.x >> kTileShift, cell.y >> kTileShift});
   float& value = tile.log_odds[static_cast<std::size_t>(local_index(cell))];
@@ -187,7 +190,7 @@ void OccupancyGrid::integrate(const Pose2& vehicle_pose, const RangeScanEvent& s
   const Pose2 sensor = sensor_pose(vehicle_pose, scan.sensor_offset);
   // The bounds keep every cell index a beam reaches within an int (validate() bounds the rest).
   if (!(within_coordinates(sensor.head<2>()) && std::isfinite(sensor.z())))
-    throw std::invalid_argument(fmt::format("occupancy grid: sensor pose ({}, {}, {}) is not finite or beyond {} m",
+    throw GridExtentError(fmt::format("occupancy grid: sensor pose ({}, {}, {}) is not finite or beyond {} m",
                                             sensor.x(), sensor.y(), sensor.z(), kMaxAbsCoordinate));
   if (!(std::isfinite(scan.angle_min) && std::isfinite(scan.angle_increment) && !std::isnan(scan.max_range)))
     throw std::invalid_argument("occupancy grid: a scan's angle_min, angle_increment or max_range is not a number");
@@ -196,6 +199,7 @@ void OccupancyGrid::integrate(const Pose2& vehicle_pose, const RangeScanEvent& s
   const GridCell start_cell = floor_cell(start);
   CellBox reach{start_cell, start_cell};
   for_each_beam(sensor, scan, options_, [&](const TracedBeam& beam) { extend(reach, floor_cell(beam.end)); });
+  check_extent(reach);
   cover(reach);
 
   const float limit = options_.log_odds_limit;
@@ -258,6 +262,22 @@ OccupancyGrid::Tile& OccupancyGrid::writable_tile(GridCell tile) {
     std::atomic_thread_fence(std::memory_order_acquire);
   }
   return *slot;
+}
+
+void OccupancyGrid::check_extent(const CellBox& cells) const {
+  CellBox grown = observed_box_;
+  extend(grown, cells.min);
+  extend(grown, cells.max);
+  const double cells_wide = static_cast<double>(grown.max.x) - grown.min.x + 1.0;
+  const double cells_high = static_cast<double>(grown.max.y) - grown.min.y + 1.0;
+  if (cells_wide * cells_high <= options_.max_cells) return;
+  const double r = options_.resolution;
+  const Vector2 centre = 0.5 * (centre_of(cells.min) + centre_of(cells.max));
+  throw GridExtentError(fmt::format(
+      "occupancy grid: cells around ({:.6g}, {:.6g}) m would make the map {:.0f} x {:.0f} cells ({:.6g} m x {:.6g} m "
+      "at {} m), beyond its max_cells ({:.6g}): a pose far from the rest of the map (a jump in the log, or a filter "
+      "gone astray), or a map larger than allowed (raise grid.max_cells or grid.resolution_m)",
+      centre.x(), centre.y(), cells_wide, cells_high, cells_wide * r, cells_high * r, r, options_.max_cells));
 }
 
 void OccupancyGrid::cover(const CellBox& cells) {

@@ -93,7 +93,7 @@ double nearest_obstacle(Read&& read, int reach, int back_x, int back_y, float th
 template <bool kFreeBeforeHit>
 ScanMatch score(const OccupancyGrid& map, const Pose2& pose, const ScanMatcherOptions& options) {
   if (!(within_coordinates(pose.head<2>()) && std::isfinite(pose.z())))
-    throw std::invalid_argument(fmt::format("scan matcher: pose ({}, {}, {}) is not finite or beyond {} m", pose.x(),
+    throw GridExtentError(fmt::format("scan matcher: pose ({}, {}, {}) is not finite or beyond {} m", pose.x(),
                                             pose.y(), pose.z(), kMaxAbsCoordinate));
   // Everything in cell units, where cell (i, j) spans [i, i+1) x [j, j+1) and has its centre at +0.5.
   const double cells_per_metre = 1.0 / map.resolution();

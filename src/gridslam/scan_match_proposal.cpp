@@ -54,6 +54,7 @@ void validate(const GridSlamOptions& o) {
   require(o.grid.resolution >= 0.005 && o.grid.resolution <= 1.0, "resolution_m", "from 0.005 to 1", o.grid.resolution);
   require(o.grid.range_cutoff > 0.0 && o.grid.range_cutoff <= 1000.0, "range_cutoff_m", "> 0 and <= 1000",
           o.grid.range_cutoff);
+  require(o.grid.max_cells >= 1.0 && o.grid.max_cells <= 1e12, "max_cells", "from 1 to 1e12", o.grid.max_cells);
   require(o.matcher.sigma > 0.0 && o.matcher.sigma <= 1.0, "match_sigma_m", "> 0 and <= 1", o.matcher.sigma);
   require(o.matcher.search_cells >= 0 && o.matcher.search_cells <= 10, "match_search_cells", "from 0 to 10",
           o.matcher.search_cells);

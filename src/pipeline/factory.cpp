@@ -73,6 +73,7 @@ using Grid = GridSlamOptions;
 const OptionKey<Grid> kGridKeys[] = {
     {"resolution_m", RealOption<Grid>{[](Grid& o) -> double& { return o.grid.resolution; }, option_ranges::kFinite}},
     {"range_cutoff_m", RealOption<Grid>{[](Grid& o) -> double& { return o.grid.range_cutoff; }, option_ranges::kFinite}},
+    {"max_cells", RealOption<Grid>{[](Grid& o) -> double& { return o.grid.max_cells; }, option_ranges::kFinite}},
     {"match_sigma_m", RealOption<Grid>{[](Grid& o) -> double& { return o.matcher.sigma; }, option_ranges::kFinite}},
     {"match_search_cells", IntegerOption<Grid, int>{[](Grid& o) -> int& { return o.matcher.search_cells; }}},
     {"match_beam_stride", IntegerOption<Grid, int>{[](Grid& o) -> int& { return o.matcher.beam_stride; }}},

@@ -10,6 +10,7 @@
 #include "slamkit/core/coordinates.hpp"
 #include "slamkit/core/error.hpp"
 #include "slamkit/core/names.hpp"
+#include "slamkit/grid/occupancy_grid.hpp"
 #include "slamkit/models/motion_model.hpp"
 #include "slamkit/models/observation_model.hpp"
 
@@ -258,7 +259,13 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
       ++result.steps;
     } else if (const auto* range_scan = std::get_if<RangeScanEvent>(&event)) {
       if (!filter.maps_range_scans()) continue;
-      filter.update_range_scan(*range_scan);
+      try {
+        filter.update_range_scan(*range_scan);
+      } catch (const GridExtentError& e) {
+        throw InputError(dataset.spec, 0,
+                         fmt::format("event {} (t = {}): a scan the map cannot take: {}", events_done - 1,
+                                     range_scan->t, e.what()));
+      }
       if (!record(range_scan->t)) break;
       ++result.scans;
       // A range scan pairs nothing; its empty record keeps one record per scan for the readers.

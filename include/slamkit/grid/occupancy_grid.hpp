@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <stdexcept>
 #include <vector>
 
 #include "slamkit/core/types.hpp"
@@ -27,11 +28,23 @@ struct GridOptions {
   float log_odds_free = -0.4f;     // added to each cell a beam passes through
   /// Cells are clamped to +-this, so a cell can change its mind after enough contrary evidence.
   float log_odds_limit = 6.0f;
+  /// The most cells the map's bounding box may hold. Every output of a grid is a raster of that box
+  /// (map.pgm, the replay page), and its tile table spans it, so two poses kilometres apart (a jump
+  /// in a log, a filter gone astray) would cost gigabytes; 1e8 cells is 500 m x 500 m at 5 cm.
+  double max_cells = 1e8;
+};
+
+/// A scan the grid cannot take: a sensor pose that is not finite or beyond kMaxAbsCoordinate
+/// (core/coordinates.hpp), or one that would make the map's bounding box exceed max_cells. Nothing
+/// of the scan was integrated. The runner reports it as bad input naming the event.
+class GridExtentError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
 };
 
 /// Throws std::invalid_argument naming the setting: resolution from 0.001 to 100 m (cell indices of
 /// every position slamkit accepts must fit in an int), range_cutoff > 0 and <= 10 km, log_odds_occupied
-/// >= 0, log_odds_free <= 0, log_odds_limit > 0, all finite.
+/// >= 0, log_odds_free <= 0, log_odds_limit > 0, max_cells from 1 to 1e12, all finite.
 void validate(const GridOptions& options);
 
 /// Integer cell coordinates: cell (i, j) covers [i, i+1) x [j, j+1) times the resolution.
@@ -76,16 +89,16 @@ class OccupancyGrid {
   double probability(GridCell cell) const;
   /// Adds evidence to one cell, clamped to +-options().log_odds_limit, and marks it observed; copies
   /// the cell's tile first when another grid shares it. Throws std::invalid_argument for a log-odds
-  /// that is not finite.
+  /// that is not finite, GridExtentError for a cell that would make the map exceed max_cells.
   void add(GridCell cell, float log_odds);
 
   /// Integrates one scan with the vehicle at `vehicle_pose` (world frame; the scan's sensor_offset
   /// is applied): every beam marks the cells it crosses free (exact traversal: every cell the segment
   /// passes through) and, unless it is a no-return or beyond the cut-off, the cell it ends in
   /// occupied. A cell some beam of the scan ends in is not freed by the scan's other beams. Readings
-  /// that are not finite or not positive are skipped. Throws std::invalid_argument, before changing
-  /// anything, for a sensor pose that is not finite or lies beyond kMaxAbsCoordinate
-  /// (core/coordinates.hpp), or a scan whose angles or max_range are not numbers.
+  /// that are not finite or not positive are skipped. Throws, before changing anything,
+  /// GridExtentError (see there) and std::invalid_argument for a scan whose angles or max_range are
+  /// not numbers.
   void integrate(const Pose2& vehicle_pose, const RangeScanEvent& scan);
 
   /// The box of the cells observed so far.
@@ -130,6 +143,8 @@ class OccupancyGrid {
   Tile& writable_tile(GridCell tile);
   /// The tile if the table holds one, for clearing integrate()'s scratch without creating tiles.
   Tile* existing_tile(GridCell tile) { return const_cast<Tile*>(tile_at(tile)); }
+  /// Throws GridExtentError when the map's box grown by `cells` would exceed options_.max_cells.
+  void check_extent(const CellBox& cells) const;
   /// Grows the table so that it covers the tiles of `cells` (a box in cell coordinates).
   void cover(const CellBox& cells);
 
