@@ -231,13 +231,20 @@ class Filter {
       last_event_ = index;
       return py::str("control");
     }
+    // A log can hold both kinds of scan (Victoria Park): the one the filter does not map with passes
+    // it by and leaves last_scan as it was.
+    last_event_ = index;
     if (const auto* range_scan = std::get_if<RangeScanEvent>(&event)) {
-      if (filter_->maps_range_scans()) filter_->update_range_scan(*range_scan);
-      last_event_ = last_scan_ = index;
+      if (filter_->maps_range_scans()) {
+        filter_->update_range_scan(*range_scan);
+        last_scan_ = index;
+      }
       return py::str("range_scan");
     }
-    if (!filter_->maps_range_scans()) filter_->update(std::get<ScanEvent>(event));
-    last_event_ = last_scan_ = index;
+    if (!filter_->maps_range_scans()) {
+      filter_->update(std::get<ScanEvent>(event));
+      last_scan_ = index;
+    }
     return py::str("scan");
   }
 
@@ -504,12 +511,14 @@ PYBIND11_MODULE(slamkit, m) {
            py::arg("settings") = py::dict(),
            "A filter for `dataset`; `settings` as run.json's 'settings', e.g. {'filter': 'fastslam2', "
            "'particles': 50, 'seed': 3, 'association': {'method': 'nn'}}. Missing keys keep their defaults.")
-      .def("step", &Filter::step, "Applies the dataset's next event; returns 'control', 'scan', or None at the end")
+      .def("step", &Filter::step, "Applies the dataset's next event; returns 'control', 'scan' (landmark observations), "
+           "'range_scan' (a laser scan) or None at the end. A filter passes by the kind of scan it does not "
+           "map with")
       .def_property_readonly("events_done", &Filter::events_done, "events applied so far")
       .def_property_readonly("time", &Filter::time, "time of the last event applied [s]; None before the first step")
       .def_property_readonly("last_scan", &Filter::last_scan,
-                             "the last scan applied (an Event: its observations and their sensor ids); None before "
-                             "the first")
+                             "the last scan the filter applied, of the kind it maps with (an Event: its observations and "
+                             "their sensor ids); None before the first")
       .def_property_readonly("associations", &Filter::associations,
                              "what the filter did with each observation of last_scan, in its order: a list of "
                              "(decision, landmark_id) with decision 'update' (landmark_id updated), 'new' (landmark_id "

@@ -157,13 +157,14 @@ TEST_F(VictoriaParkData, LoadsEveryRowScanAndFixQuickly) {
   TextReader dr((victoria_park_dir() / "acfr_ascii" / "DRS.txt").string());
   while (dr.next()) dr_times.insert(dr.number(0, "time"));
   std::set<double> scan_times;
-  std::size_t scans = 0, controls = 0, controls_at_dr = 0, observations = 0;
+  std::size_t scans = 0, range_scans = 0, controls = 0, controls_at_dr = 0, observations = 0;
   for (const Event& e : data.events) {
     if (const auto* s = std::get_if<ScanEvent>(&e)) {
       ++scans;
       scan_times.insert(s->t);
       observations += s->observations.size();
     }
+    range_scans += std::holds_alternative<RangeScanEvent>(e) ? 1 : 0;
   }
   for (const Event& e : data.events) {
     if (const auto* c = std::get_if<ControlEvent>(&e)) {
@@ -177,6 +178,7 @@ TEST_F(VictoriaParkData, LoadsEveryRowScanAndFixQuickly) {
   EXPECT_EQ(dr_times.size(), 61763U);
   EXPECT_EQ(controls_at_dr, 61763U);
   EXPECT_EQ(scans, 7230U);
+  EXPECT_EQ(range_scans, 7230U);
   EXPECT_EQ(data.truth.poses.size(), 948U);
   EXPECT_GT(observations, 20000U);
   std::cout << "[ victoria park ] loaded in " << seconds << " s: " << controls << " controls ("
@@ -204,6 +206,8 @@ TEST_F(VictoriaParkData, EventsAreInTimeOrderAndControlsTileTheRun) {
       control_end = c->t;
       EXPECT_GE(c->t, t);
       t = c->t;
+    } else if (const auto* ranges = std::get_if<RangeScanEvent>(&e)) {
+      EXPECT_EQ(ranges->t, t) << "raw ranges follow the trees of their scan";
     } else {
       const auto& s = std::get<ScanEvent>(e);
       EXPECT_GE(s.t, t);
@@ -316,13 +320,13 @@ TEST(VictoriaParkReader, MergesControlsAndScansAndCutsControlsAtScans) {
   ScratchDir dir;
   write_small_release(dir);
   const Dataset data = read_victoria_park(dir.path().string());
-  // control 0.025 (from 0), control 0.05, control 0.06 (cut), scan 0.06, control 0.075, scan 0.075,
-  // control 0.1.
-  ASSERT_EQ(data.events.size(), 7U);
+  // control 0.025 (from 0), control 0.05, control 0.06 (cut), scan 0.06 (trees, then ranges),
+  // control 0.075, scan 0.075 (trees, then ranges), control 0.1.
+  ASSERT_EQ(data.events.size(), 9U);
   const double control_ends[] = {0.025, 0.05, 0.06, 0.075, 0.1};
   const double dts[] = {0.025, 0.025, 0.01, 0.015, 0.025};
   const double speeds[] = {1.0, 1.0, 2.0, 2.0, 2.0};
-  const std::size_t control_at[] = {0, 1, 2, 4, 6};
+  const std::size_t control_at[] = {0, 1, 2, 5, 8};
   for (int i = 0; i < 5; ++i) {
     const auto& c = std::get<ControlEvent>(data.events[control_at[i]]);
     EXPECT_DOUBLE_EQ(c.t, control_ends[i]);
@@ -331,11 +335,18 @@ TEST(VictoriaParkReader, MergesControlsAndScansAndCutsControlsAtScans) {
   }
   // The cut control carries the values of the row that ends its interval.
   EXPECT_DOUBLE_EQ(std::get<ControlEvent>(data.events[2]).u[1], -0.02);
-  for (const std::size_t i : {3U, 5U}) {
+  for (const std::size_t i : {3U, 6U}) {
     const auto& scan = std::get<ScanEvent>(data.events[i]);
     ASSERT_EQ(scan.observations.size(), 1U);
     EXPECT_NEAR(scan.observations[0].z[0], 10.0, 0.1);
     EXPECT_NEAR(scan.observations[0].z[1], 0.0, 1e-9);
+    // The same line as raw ranges: 361 beams across the half-plane ahead, 0.5 degrees apart.
+    const auto& ranges = std::get<RangeScanEvent>(data.events[i + 1]);
+    EXPECT_DOUBLE_EQ(ranges.t, scan.t);
+    ASSERT_EQ(ranges.ranges.size(), 361U);
+    EXPECT_DOUBLE_EQ(ranges.bearing(0), -kPi / 2.0);
+    EXPECT_NEAR(ranges.bearing(360), kPi / 2.0, 1e-12);
+    EXPECT_EQ(ranges.max_range, 75.0);
   }
   ASSERT_EQ(data.truth.poses.size(), 2U);
   EXPECT_DOUBLE_EQ(data.truth.poses[1].pose.x(), -0.08);
@@ -350,8 +361,8 @@ TEST(VictoriaParkReader, MaxRangeDropsFartherTrees) {
   options.max_range = 9.0;
   const Dataset data = read_victoria_park(dir.path().string(), options);
   EXPECT_TRUE(std::get<ScanEvent>(data.events[3]).observations.empty());
-  ASSERT_EQ(std::get<ScanEvent>(data.events[5]).observations.size(), 1U);
-  EXPECT_NEAR(std::get<ScanEvent>(data.events[5]).observations[0].z[0], 8.0, 0.1);
+  ASSERT_EQ(std::get<ScanEvent>(data.events[6]).observations.size(), 1U);
+  EXPECT_NEAR(std::get<ScanEvent>(data.events[6]).observations[0].z[0], 8.0, 0.1);
   EXPECT_DOUBLE_EQ(data.sensor.max_range, 9.0);
 }
 

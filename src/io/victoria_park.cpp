@@ -24,6 +24,9 @@ constexpr const char* kDrFile = "DRS.txt";
 constexpr const char* kGpsFile = "GPS.txt";
 constexpr const char* kLaserFile = "LASER.txt.gz";
 constexpr std::size_t kBeams = 361;
+// Readings of 75 m and more are not returns: ACFR's own code ignores them, and 81.91 m (the largest
+// 13-bit value in cm) is what the log holds for no return at all.
+constexpr double kLaserMaxRange = 75.0;
 
 // ---- Options ------------------------------------------------------------------------------------
 
@@ -151,24 +154,37 @@ std::vector<StampedPose> read_gps(const std::string& path) {
   return fixes;
 }
 
-std::vector<ScanEvent> read_laser(const std::string& path, const VictoriaParkOptions& options) {
+/// One line of the laser log, as the two kinds of scan the filters map with.
+struct LaserScan {
+  ScanEvent trees;        // the trees the detector finds, for the landmark filters
+  RangeScanEvent ranges;  // the raw ranges, for the grid filters
+};
+
+std::vector<LaserScan> read_laser(const std::string& path, const VictoriaParkOptions& options) {
   const TreeDetector detector(options.detector);
   TextReader in(path);
-  std::vector<ScanEvent> scans;
+  std::vector<LaserScan> scans;
   std::vector<double> ranges(kBeams);
   while (in.next()) {
     in.expect_fields(kBeams + 1, "time_s and 361 ranges");
     const double t = in.number(0, "the time");
-    expect_later(in, t, scans.empty() ? 0.0 : scans.back().t, scans.empty());
+    expect_later(in, t, scans.empty() ? 0.0 : scans.back().trees.t, scans.empty());
     for (std::size_t k = 0; k < kBeams; ++k) {
       ranges[k] = in.number(k + 1, "a range");
       if (ranges[k] < 0.0)
         in.fail(fmt::format("expected a range >= 0 m, found {} (beam {})", ranges[k], k + 1));
     }
-    ScanEvent scan{t, {}};
+    LaserScan scan;
+    scan.trees.t = t;
     for (const Tree& tree : detector.detect(ranges))
       if (tree.range <= options.max_range)
-        scan.observations.push_back({Vector2(tree.range, tree.bearing), kUnknownId});
+        scan.trees.observations.push_back({Vector2(tree.range, tree.bearing), kUnknownId});
+    // The state is the laser's pose, so the scan has no offset; beam 0 points to the car's right.
+    scan.ranges.t = t;
+    scan.ranges.angle_min = -kPi / 2.0;
+    scan.ranges.angle_increment = deg2rad(0.5);
+    scan.ranges.max_range = kLaserMaxRange;
+    scan.ranges.ranges.assign(ranges.begin(), ranges.end());
     scans.push_back(std::move(scan));
   }
   if (scans.empty()) throw InputError(path, 0, "no laser scans; expected one line per scan: time_s and 361 ranges");
@@ -178,10 +194,10 @@ std::vector<ScanEvent> read_laser(const std::string& path, const VictoriaParkOpt
 bool in_window(double t, const VictoriaParkOptions& o) { return t >= o.start_time && t <= o.end_time; }
 
 // Merges dead reckoning and scans in time order; see the header for how controls are cut at scans.
-std::vector<Event> merge(const std::vector<DrRow>& dr, std::vector<ScanEvent>& scans,
+std::vector<Event> merge(const std::vector<DrRow>& dr, std::vector<LaserScan>& scans,
                          const VictoriaParkOptions& o) {
   std::vector<Event> events;
-  events.reserve(dr.size() + 2 * scans.size());
+  events.reserve(dr.size() + 3 * scans.size());
   double previous = o.start_time;
   std::size_t next_scan = 0;
   const auto control = [&](double t, const DrRow& row) {
@@ -191,14 +207,16 @@ std::vector<Event> merge(const std::vector<DrRow>& dr, std::vector<ScanEvent>& s
     previous = t;
   };
   const auto emit_scan = [&] {
-    ScanEvent& scan = scans[next_scan++];
-    if (in_window(scan.t, o)) events.emplace_back(std::move(scan));
+    LaserScan& scan = scans[next_scan++];
+    if (!in_window(scan.trees.t, o)) return;
+    events.emplace_back(std::move(scan.trees));
+    events.emplace_back(std::move(scan.ranges));
   };
   for (const DrRow& row : dr) {
     if (!in_window(row.t, o)) continue;
     // A scan stamped with the same time as a row comes after the row's control.
-    while (next_scan < scans.size() && scans[next_scan].t < row.t) {
-      if (scans[next_scan].t > previous) control(scans[next_scan].t, row);
+    while (next_scan < scans.size() && scans[next_scan].trees.t < row.t) {
+      if (scans[next_scan].trees.t > previous) control(scans[next_scan].trees.t, row);
       emit_scan();
     }
     control(row.t, row);
@@ -222,7 +240,7 @@ Dataset read_victoria_park(const std::string& dir, const VictoriaParkOptions& op
   const std::vector<DrRow> dr = read_dr(required_file(folder, kDrFile));
   std::vector<StampedPose> gps = read_gps(required_file(folder, kGpsFile));
   const std::string laser_path = required_file(folder, kLaserFile);
-  std::vector<ScanEvent> scans = read_laser(laser_path, options);
+  std::vector<LaserScan> scans = read_laser(laser_path, options);
   const std::size_t scans_read = scans.size();
 
   Dataset data;

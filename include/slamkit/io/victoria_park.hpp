@@ -20,7 +20,10 @@
 //   into two events with the same control, so that the filter has predicted to the scan's time when
 //   the scan comes.
 // - A ScanEvent per laser scan (scans without a tree too): the trees within max_range, as range and
-//   vehicle-frame bearing from the laser, without identities.
+//   vehicle-frame bearing from the laser, without identities. After it, at the same time, a
+//   RangeScanEvent with the scan's raw ranges (beam 0 at -90 degrees, 0.5 degrees apart, no offset;
+//   readings of 75 m and more are no returns), so that the grid filters (scan-matching,
+//   grid-fastslam) map the same log; each filter takes the kind it maps with.
 // - Motion: AcfrCarModel, whose state is the laser pose; observation: RangeBearingModel without an
 //   offset (the laser is the pose); sensor limits: max_range and a 180 degree field of view.
 // - Ground truth: the GPS fixes as positions (x = east, y = north; no heading). The antenna sits at
