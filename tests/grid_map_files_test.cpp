@@ -334,6 +334,38 @@ TEST(GridMapPicture, IntermediateProbabilitiesAreShadedBetween) {
   EXPECT_LT(dark, 205);
 }
 
+// A filter's map shrunk to fit a side: each pixel the most occupied observed cell under it, so a
+// one-cell wall survives, and unknown only where no cell under it was observed.
+TEST(GridMapPicture, AShrunkRasterKeepsItsWallsAndItsExtent) {
+  GridMap map;
+  map.resolution = 0.1;
+  map.origin = Vector2(-1.0, 2.0);
+  map.width = 5;
+  map.height = 3;
+  map.log_odds.assign(15, -6.0f);
+  map.observed.assign(15, 1);
+  map.log_odds[map.index(3, 0)] = 6.0f;                                    // a wall cell
+  for (int i = 0; i < 2; ++i) map.observed[map.index(i, 2)] = 0;           // unobserved top left
+  map.log_odds[map.index(0, 2)] = map.log_odds[map.index(1, 2)] = 0.0f;
+  const GridImage image = grid_png(map, 3);  // 2 cells a pixel: 3 x 2 pixels
+  EXPECT_NEAR(image.origin_x, -1.0, 1e-12);
+  EXPECT_NEAR(image.origin_y, 2.0, 1e-12);
+  EXPECT_NEAR(image.width_m, 0.6, 1e-12);
+  EXPECT_NEAR(image.height_m, 0.4, 1e-12);
+  const std::vector<PngChunk> chunks = png_chunks(image.png);
+  EXPECT_EQ(big_endian_at(chunks.front().data, 0), 3u);
+  EXPECT_EQ(big_endian_at(chunks.front().data, 4), 2u);
+  std::string raster(2 * 4, '\x01');
+  uLongf size = raster.size();
+  ASSERT_EQ(uncompress(reinterpret_cast<Bytef*>(raster.data()), &size,
+                       reinterpret_cast<const Bytef*>(chunks[1].data.data()), chunks[1].data.size()),
+            Z_OK);
+  // Top row (cells y = 2): unknown, free, free; bottom row (y = 0, 1): free, the wall, free.
+  EXPECT_EQ(raster, literal_bytes("\x00\xcd\xfe\xfe\x00\xfe\x01\xfe"));
+  EXPECT_EQ(big_endian_at(png_chunks(grid_png(GridMap{}, 10).png).front().data, 0), 1u);
+  EXPECT_THROW(grid_png(map, 0), std::invalid_argument);
+}
+
 /// A room's walls as a reference, with the wall at x = `wall_x` (cells) from y = 0 to 39.
 OccupancyGrid room_with_wall(int wall_x, bool doubled_at = false, int second_wall_x = 0) {
   OccupancyGrid grid;

@@ -10,10 +10,12 @@
 #include <limits>
 #include <map>
 
+#include "slamkit/core/base64.hpp"
 #include "slamkit/io/run_io.hpp"
 #include "slamkit/pipeline/factory.hpp"
 #include "slamkit/pipeline/replay.hpp"
 #include "slamkit/pipeline/runner.hpp"
+#include "slamkit/sim/building.hpp"
 #include "slamkit/sim/simulator.hpp"
 
 namespace slamkit {
@@ -222,6 +224,61 @@ TEST(ReplayRecorder, FramesHoldTheHypothesesOfLandmarksWaitingToStart) {
     for (const auto& [id, total] : weight) EXPECT_NEAR(total, 1.0, 0.01) << "landmark " << id;
   }
   EXPECT_GT(with_hypotheses, 10u);
+}
+
+// A grid filter's frames come at its laser scans: the scan's beam ends around the pose, and in a
+// bounded number of frames (always the last) a picture of the best particle's grid as it grows.
+TEST(ReplayRecorder, GridFiltersFramesHoldBeamEndsAndPicturesOfTheGrowingMap) {
+  BuildingSimConfig building;
+  building.loops = 1;
+  const Dataset data = simulate_building(office_floor_plan(), building);
+  FilterConfig config;
+  config.filter = FilterKind::kGridFastSlam;
+  config.particles = 4;
+  auto filter = make_filter(config, data);
+  ReplayOptions replay_options;
+  replay_options.max_frames = 50;
+  replay_options.max_grid_images = 5;
+  replay_options.grid_image_side = 100;
+  ReplayRecorder recorder(data, replay_options, true);
+  RunOptions options;
+  options.observers.push_back(&recorder);
+  const RunResult run = run_filter(*filter, data, options);
+  const nlohmann::json replay = recorder.to_json(run.filter);
+
+  const nlohmann::json& frames = replay.at("frames");
+  EXPECT_EQ(replay.at("meta").at("scans").get<std::size_t>(), run.scans);
+  ASSERT_GE(frames.size(), 40u);
+  std::vector<std::size_t> pictured;
+  double previous_area = 0.0;
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    const nlohmann::json& frame = frames[f];
+    EXPECT_TRUE(frame.at("landmarks").empty());
+    EXPECT_EQ(frame.at("particles").size(), 2 * 4u);
+    const nlohmann::json& ends = frame.at("beam_ends");
+    ASSERT_GE(ends.size(), 2 * 50u) << "frame " << f;
+    ASSERT_LE(ends.size(), 2 * replay_options.max_beam_ends);
+    // Every return ends within the laser's range of the pose.
+    const double x = frame.at("pose")[0], y = frame.at("pose")[1];
+    for (std::size_t i = 0; i < ends.size(); i += 2)
+      EXPECT_LE(std::hypot(ends[i].get<double>() - x, ends[i + 1].get<double>() - y), building.max_range);
+    if (!frame.contains("grid")) continue;
+    pictured.push_back(f);
+    const nlohmann::json& grid = frame.at("grid");
+    const std::string png = grid.at("png");
+    EXPECT_EQ(png.substr(0, 8), base64("\x89PNG\r\n\x1a\n").substr(0, 8));
+    const double area = grid.at("w").get<double>() * grid.at("h").get<double>();
+    EXPECT_GE(area, previous_area) << "the map only grows";
+    previous_area = area;
+  }
+  EXPECT_LE(pictured.size(), replay_options.max_grid_images + 1);
+  EXPECT_GE(pictured.size(), replay_options.max_grid_images - 1);
+  EXPECT_EQ(pictured.front(), 0u);
+  EXPECT_EQ(pictured.back(), frames.size() - 1) << "the last frame shows the final map";
+  // The final picture covers the run's map.
+  const nlohmann::json& last = frames.back().at("grid");
+  EXPECT_NEAR(last.at("x").get<double>(), run.grid.origin.x(), 1e-3);
+  EXPECT_GE(last.at("w").get<double>(), run.grid.width * run.grid.resolution - 1e-3);
 }
 
 }  // namespace

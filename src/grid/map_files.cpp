@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <stdexcept>
 #include <string_view>
 #include <utility>
@@ -337,6 +338,34 @@ OccupancyGrid read_map_server(const std::string& yaml_path, const GridOptions& o
   return grid;
 }
 
+namespace {
+
+/// An 8-bit greyscale PNG of `raster`: `height` rows of a filter byte (0: none) and `width` pixels.
+std::string encode_png(std::size_t width, std::size_t height, const std::string& raster) {
+  uLongf compressed_size = compressBound(static_cast<uLong>(raster.size()));
+  std::string compressed(compressed_size, '\0');
+  if (compress2(reinterpret_cast<Bytef*>(compressed.data()), &compressed_size,
+                reinterpret_cast<const Bytef*>(raster.data()), static_cast<uLong>(raster.size()), Z_BEST_SPEED) != Z_OK)
+    throw std::runtime_error("grid image: zlib could not compress the picture");
+  compressed.resize(compressed_size);
+
+  std::string header;
+  append_be32(header, static_cast<std::uint32_t>(width));
+  append_be32(header, static_cast<std::uint32_t>(height));
+  header += std::string("\x08\x00\x00\x00\x00", 5);  // 8 bits, greyscale, deflate, no filter, no interlace
+
+  std::string png = "\x89PNG\r\n\x1a\n";
+  append_chunk(png, "IHDR", header);
+  // Chunks are limited to 2^31 - 1 bytes; decoders read consecutive IDAT chunks as one stream.
+  constexpr std::size_t kChunkBytes = std::size_t{1} << 24;
+  for (std::size_t at = 0; at < compressed.size(); at += kChunkBytes)
+    append_chunk(png, "IDAT", std::string_view(compressed).substr(at, kChunkBytes));
+  append_chunk(png, "IEND", {});
+  return png;
+}
+
+}  // namespace
+
 GridImage grid_png(const OccupancyGrid& grid, int scale) {
   if (scale < 1 || scale > 64)
     throw std::invalid_argument(fmt::format("grid image: scale must be from 1 to 64, found {}", scale));
@@ -361,30 +390,53 @@ GridImage grid_png(const OccupancyGrid& grid, int scale) {
                   raster.data() + row_start + static_cast<std::size_t>(copy) * row_bytes);
     row_start += static_cast<std::size_t>(scale) * row_bytes;
   }
-  uLongf compressed_size = compressBound(static_cast<uLong>(raster.size()));
-  std::string compressed(compressed_size, '\0');
-  if (compress2(reinterpret_cast<Bytef*>(compressed.data()), &compressed_size,
-                reinterpret_cast<const Bytef*>(raster.data()), static_cast<uLong>(raster.size()), Z_BEST_SPEED) != Z_OK)
-    throw std::runtime_error("grid image: zlib could not compress the picture");
-  compressed.resize(compressed_size);
-
-  std::string header;
-  append_be32(header, static_cast<std::uint32_t>(width));
-  append_be32(header, static_cast<std::uint32_t>(height));
-  header += std::string("\x08\x00\x00\x00\x00", 5);  // 8 bits, greyscale, deflate, no filter, no interlace
-
   GridImage image;
-  image.png = "\x89PNG\r\n\x1a\n";
-  append_chunk(image.png, "IHDR", header);
-  // Chunks are limited to 2^31 - 1 bytes; decoders read consecutive IDAT chunks as one stream.
-  constexpr std::size_t kChunkBytes = std::size_t{1} << 24;
-  for (std::size_t at = 0; at < compressed.size(); at += kChunkBytes)
-    append_chunk(image.png, "IDAT", std::string_view(compressed).substr(at, kChunkBytes));
-  append_chunk(image.png, "IEND", {});
+  image.png = encode_png(width, height, raster);
   image.origin_x = box.min.x * grid.resolution();
   image.origin_y = box.min.y * grid.resolution();
   image.width_m = box.width() * grid.resolution();
   image.height_m = box.height() * grid.resolution();
+  return image;
+}
+
+GridImage grid_png(const GridMap& map, int max_side) {
+  if (max_side < 1) throw std::invalid_argument(fmt::format("grid image: max_side must be >= 1, found {}", max_side));
+  GridImage image;
+  if (map.empty()) {
+    std::string raster{'\0', static_cast<char>(kUnknownPixel)};
+    image.png = encode_png(1, 1, raster);
+    return image;
+  }
+  const int cells_per_pixel = (std::max(map.width, map.height) + max_side - 1) / max_side;
+  const int width = (map.width + cells_per_pixel - 1) / cells_per_pixel;
+  const int height = (map.height + cells_per_pixel - 1) / cells_per_pixel;
+  const std::size_t row_bytes = static_cast<std::size_t>(width) + 1;
+  // Each pixel shows the most occupied observed cell it covers, so that a wall one cell thick stays
+  // on a picture of a map many times larger than it; a pixel no beam touched is unknown.
+  std::vector<float> most(static_cast<std::size_t>(width) * static_cast<std::size_t>(height),
+                          -std::numeric_limits<float>::infinity());
+  for (int j = 0; j < map.height; ++j)
+    for (int i = 0; i < map.width; ++i) {
+      const std::size_t cell = map.index(i, j);
+      if (map.observed[cell] == 0) continue;
+      float& pixel = most[static_cast<std::size_t>(j / cells_per_pixel) * static_cast<std::size_t>(width) +
+                          static_cast<std::size_t>(i / cells_per_pixel)];
+      pixel = std::max(pixel, map.log_odds[cell]);
+    }
+  std::string raster(row_bytes * static_cast<std::size_t>(height), '\0');
+  for (int row = 0; row < height; ++row) {  // the first row at the top: the largest y
+    const int y = height - 1 - row;
+    for (int x = 0; x < width; ++x) {
+      const float log_odds = most[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)];
+      raster[static_cast<std::size_t>(row) * row_bytes + 1 + static_cast<std::size_t>(x)] = static_cast<char>(
+          std::isinf(log_odds) ? kUnknownPixel : shade(1.0 / (1.0 + std::exp(-double{log_odds}))));
+    }
+  }
+  image.png = encode_png(static_cast<std::size_t>(width), static_cast<std::size_t>(height), raster);
+  image.origin_x = map.origin.x();
+  image.origin_y = map.origin.y();
+  image.width_m = width * cells_per_pixel * map.resolution;
+  image.height_m = height * cells_per_pixel * map.resolution;
   return image;
 }
 

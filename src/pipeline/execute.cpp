@@ -111,7 +111,8 @@ RunRecord execute(const RunSpec& spec, const std::string& out_dir, const Execute
       !has_landmark_ids(dataset))
     throw InputError(spec.dataset, 0, "the log's observations carry no landmark ids; use --assoc nn or --assoc jcbb");
   std::optional<ReplayRecorder> recorder;
-  if (options.replay) run_options.observers.push_back(&recorder.emplace(dataset));
+  if (options.replay)
+    run_options.observers.push_back(&recorder.emplace(dataset, ReplayOptions{}, filter->maps_range_scans()));
 
   RunRecord record;
   if (options.catch_stop_signals) {  // only while the filter runs: before or after, a signal ends the process

@@ -8,6 +8,8 @@
 #include <optional>
 
 #include "slamkit/core/angles.hpp"
+#include "slamkit/core/base64.hpp"
+#include "slamkit/grid/map_files.hpp"
 #include "slamkit/models/observation_model.hpp"
 
 namespace slamkit {
@@ -40,9 +42,56 @@ std::optional<Pose2> truth_at(const std::vector<StampedPose>& truth, double t) {
 
 }  // namespace
 
-ReplayRecorder::ReplayRecorder(const Dataset& dataset, ReplayOptions options) : dataset_(dataset), options_(options) {
-  for (const Event& e : dataset.events) scans_total_ += std::holds_alternative<ScanEvent>(e);
+ReplayRecorder::ReplayRecorder(const Dataset& dataset, ReplayOptions options, bool range_scans)
+    : dataset_(dataset), options_(options) {
+  for (const Event& e : dataset.events)
+    scans_total_ += range_scans ? std::holds_alternative<RangeScanEvent>(e) : std::holds_alternative<ScanEvent>(e);
   stride_ = std::max<std::size_t>(1, (scans_total_ + options_.max_frames - 1) / std::max<std::size_t>(1, options_.max_frames));
+  const std::size_t frames = (scans_total_ + stride_ - 1) / stride_;
+  grid_frame_stride_ = std::max<std::size_t>(
+      1, (frames + options_.max_grid_images - 1) / std::max<std::size_t>(1, options_.max_grid_images));
+}
+
+void ReplayRecorder::on_range_scan(const SlamFilter& filter, const RangeScanEvent& scan, std::size_t, std::size_t) {
+  const std::size_t k = scan_index_++;
+  const bool last = k + 1 == scans_total_;
+  if (k % stride_ != 0 && !last) return;
+
+  const Pose2 pose = filter.pose();
+  const Matrix3 cov = filter.pose_covariance();
+  nlohmann::json frame = {{"t", rounded(scan.t)},
+                          {"pose", {rounded(pose.x()), rounded(pose.y()), rounded(pose.z())}},
+                          {"cov", {significant(cov(0, 0)), significant(cov(0, 1)), significant(cov(1, 1)), significant(cov(2, 2))}},
+                          {"landmarks", nlohmann::json::array()},
+                          {"rays", nlohmann::json::array()}};
+  nlohmann::json& ends = frame["beam_ends"] = nlohmann::json::array();
+  const Pose2 sensor = sensor_pose(pose, scan.sensor_offset);
+  const std::size_t step = std::max<std::size_t>(1, (scan.ranges.size() + options_.max_beam_ends - 1) /
+                                                        std::max<std::size_t>(1, options_.max_beam_ends));
+  for (std::size_t b = 0; b < scan.ranges.size(); b += step) {
+    const double range = scan.ranges[b];
+    if (!(std::isfinite(range) && range > 0.0 && range < scan.max_range)) continue;
+    const double angle = sensor.z() + scan.bearing(b);
+    for (double v : {rounded(sensor.x() + range * std::cos(angle)), rounded(sensor.y() + range * std::sin(angle))})
+      ends.push_back(v);
+  }
+  if (frames_.size() % grid_frame_stride_ == 0 || last) {
+    const GridImage image = grid_png(filter.grid_map(), options_.grid_image_side);
+    frame["grid"] = {{"png", base64(image.png)},
+                     {"x", rounded(image.origin_x)},
+                     {"y", rounded(image.origin_y)},
+                     {"w", rounded(image.width_m)},
+                     {"h", rounded(image.height_m)}};
+  }
+  const std::vector<WeightedPose> samples = filter.pose_samples();
+  if (!samples.empty()) {
+    nlohmann::json& particles = frame["particles"] = nlohmann::json::array();
+    const std::size_t particle_step = std::max<std::size_t>(1, samples.size() / options_.max_particles);
+    for (std::size_t i = 0; i < samples.size(); i += particle_step)
+      for (double v : {rounded(samples[i].pose.x()), rounded(samples[i].pose.y())}) particles.push_back(v);
+  }
+  frames_.push_back(std::move(frame));
+  frame_poses_.push_back({scan.t, pose});
 }
 
 void ReplayRecorder::on_scan(const SlamFilter& filter, const ScanEvent& scan, std::size_t, std::size_t) {

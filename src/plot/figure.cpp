@@ -11,8 +11,9 @@
 #include <string_view>
 
 #include "axes.hpp"
-#include "slamkit/plot/svg_plot.hpp"
 #include "slamkit/core/atomic_file.hpp"
+#include "slamkit/core/base64.hpp"
+#include "slamkit/plot/svg_plot.hpp"
 #include "svg_elements.hpp"
 
 namespace slamkit::plot {

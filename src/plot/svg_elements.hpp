@@ -32,8 +32,6 @@ std::vector<std::string> split_lines(const std::string& s);
 
 /// A pixel quantity (coordinate, size) rounded to 0.1 px.
 std::string px(double v);
-/// `bytes` in base64 (RFC 4648, padded): how an SVG embeds a raster image in a data URI.
-std::string base64(std::string_view bytes);
 
 std::string line_attributes(const LineStyle& s);
 std::string ellipse_attributes(const EllipseStyle& s);

@@ -2,11 +2,12 @@
 """The replay page in a real browser: headless Chromium driven through chromedriver's W3C WebDriver
 HTTP protocol (standard library only, no selenium).
 
-For a default-world EKF run, a FastSLAM run and a range-only EKF run with the ring start, each
-recorded with `slamkit run --replay`, it checks that the page is self-contained (no element loads
+For a default-world EKF run, a FastSLAM run, a range-only EKF run with the ring start and a grid
+FastSLAM run in the simulated office, each recorded with `slamkit run --replay`, it checks that the page is self-contained (no element loads
 anything, the browser fetched no resource), that its script ran and knows every recorded frame, that
 seeking by the API and by the slider draws the frame asked for with exactly the recorded number of
-landmarks, landmark hypotheses, particles and rays of each decision, that the drawn pixels are
+landmarks, landmark hypotheses, particles, rays of each decision and beam end points (and for the
+grid run the latest picture of the occupancy grid), that the drawn pixels are
 there (ray and ellipse colours on the map, a curve in each time panel), that Play advances the
 frames and Pause stops them, and that zoom changes the view. The map fills
 the window beside the side panel, at the screen's pixel ratio, and follows a new window size and
@@ -133,7 +134,8 @@ def expected_counts(frame):
     for code in frame.get("rings", [])[3::4]:
         rays[DECISIONS[int(code)]] += 1
     return {"landmarks": len(frame["landmarks"]) // 6, "hypotheses": len(frame.get("hypotheses", [])) // 7,
-            "particles": len(frame.get("particles", [])) // 2, "rays": rays}
+            "particles": len(frame.get("particles", [])) // 2, "rays": rays,
+            "beamEnds": len(frame.get("beam_ends", [])) // 2}
 
 
 def check(condition, message):
@@ -202,7 +204,7 @@ def check_page(browser, page, recording, particles_expected):
         check(drawn["frame"] == k, f"{page}: seek({k}) drew frame {drawn['frame']}")
         want = expected_counts(frames[k])
         got = {"landmarks": drawn["landmarks"], "hypotheses": drawn["hypotheses"], "particles": drawn["particles"],
-               "rays": drawn["rays"]}
+               "rays": drawn["rays"], "beamEnds": drawn["beamEnds"]}
         check(got == want, f"{page}: frame {k} drew {got}, the recording holds {want}")
         check(f"frame {k + 1}/{len(frames)}" in browser.js("return document.getElementById('label').textContent"),
               f"{page}: the label does not name frame {k + 1}")
@@ -223,8 +225,21 @@ def check_page(browser, page, recording, particles_expected):
     if particles_expected:
         check(counts["particles"] > 0, f"{page}: the recording has no particles")
         check(browser.js(COUNT_NEAR, "map", 147, 51, 234) > 0, f"{page}: no particle pixels on the map")
+    grid_run = any("beam_ends" in f for f in frames)
+    if grid_run:
+        # The occupancy grid: the latest picture at or before the frame, once its image has loaded,
+        # with its black walls; the beams' end points on them.
+        pictured = max(k for k in range(middle + 1) if "grid" in frames[k])
+        Browser._wait_until(lambda: browser.js("return window.replay.drawn.occupancy") is not None,
+                            f"{page}: the occupancy grid to be drawn")
+        occupancy = browser.js("return window.replay.drawn.occupancy")
+        check(occupancy["frame"] == pictured, f"{page}: frame {middle} shows the grid of frame "
+                                              f"{occupancy['frame']}, not of {pictured}")
+        check(browser.js(COUNT_NEAR, "map", 0, 0, 0) > 200, f"{page}: no wall pixels on the map")
+        check(browser.js(COUNT_NEAR, "map", 8, 145, 178) > 0, f"{page}: no beam end pixels on the map")
     check(browser.js(COUNT_INK, "error") > 500, f"{page}: the pose-error panel is empty")
-    check(browser.js(COUNT_INK, "std") > 500, f"{page}: the landmark-std panel is empty")
+    if not grid_run:
+        check(browser.js(COUNT_INK, "std") > 500, f"{page}: the landmark-std panel is empty")
 
     # Play advances the frames, Pause stops them.
     browser.js("window.replay.seek(0)")
@@ -320,9 +335,12 @@ def main(argv):
     run(cli, work, "simulate", "--seed", "1", "--sensor", "range-only", "--loops", "1", "--out", "radio")
     run(cli, work, "run", "--filter", "ekf", "--ekf-variant", "fej", "--landmark-init", "ring", "--data",
         "sim:radio", "--out", "ring", "--replay", "--quiet")
+    run(cli, work, "simulate", "--building", "office", "--seed", "1", "--loops", "1", "--out", "building")
+    run(cli, work, "run", "--filter", "grid-fastslam", "--particles", "5", "--data", "carmen:building/office.log",
+        "--out", "grid", "--replay", "--quiet")
     browser = Browser()
     try:
-        for folder, particles in (("ekf", False), ("fastslam", True), ("ring", False)):
+        for folder, particles in (("ekf", False), ("fastslam", True), ("ring", False), ("grid", True)):
             with open(os.path.join(work, folder, "replay.json")) as f:
                 recording = json.load(f)
             if folder == "ring":

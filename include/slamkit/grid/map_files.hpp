@@ -4,6 +4,7 @@
 // and a PNG for reports and the replay page.
 #include <string>
 
+#include "slamkit/core/grid_map.hpp"
 #include "slamkit/grid/occupancy_grid.hpp"
 
 namespace slamkit {
@@ -53,5 +54,12 @@ struct GridImage {
 /// 0 (black) at 1, linear in between. An empty grid gives one unknown pixel at the origin. Throws
 /// std::invalid_argument for a scale outside 1 to 64.
 GridImage grid_png(const OccupancyGrid& grid, int scale = 1);
+
+/// A filter's map (GridMap raster) as a PNG of at most `max_side` pixels a side: each pixel covers
+/// k x k cells (the smallest k that fits) and shows the most occupied observed cell among them, so
+/// walls stay visible when a large map is shrunk; a pixel with no observed cell is unknown. The
+/// image's extent is the pixels' (up to k - 1 cells beyond the map on the right and at the top). An
+/// empty map gives one unknown pixel at the origin. Throws std::invalid_argument for max_side < 1.
+GridImage grid_png(const GridMap& map, int max_side);
 
 }  // namespace slamkit

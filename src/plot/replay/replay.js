@@ -2,7 +2,8 @@
 // pipeline/replay.hpp) sits in the page as JSON; this script draws one frame at a time: the true
 // and estimated paths, the map with 2-sigma covariance ellipses, the scan's observations as rays
 // coloured by what the filter did with each, particles, and in sync the pose error with its 2-sigma
-// band and the landmark standard deviations over time (the tutorial's Figure 3). The map has a grid
+// band and the landmark standard deviations over time (the tutorial's Figure 3). For a grid filter,
+// the occupancy grid of its best particle as it grows and where the scan's beams end. The map has a grid
 // in metres and a scale bar that follow zoom, and fills what the window leaves it; every canvas is
 // drawn at the screen's pixel ratio. window.replay exposes the state and what the last frame drew,
 // for the browser test.
@@ -25,6 +26,24 @@
   const label = document.getElementById('label');
 
   const state = { frame: 0, playing: false, drawn: null };
+  const gridRun = frames.some((f) => f.beam_ends !== undefined);
+
+  // A grid filter's map is pictured in some frames; a frame shows the latest picture at or before it.
+  // Pictures are decoded when first shown, and the map is drawn again once one has loaded.
+  const pictureFrame = [];
+  frames.forEach((f, i) => pictureFrame.push(f.grid ? i : (i ? pictureFrame[i - 1] : -1)));
+  const pictures = new Map();
+  function picture(frameIndex) {
+    const k = pictureFrame[frameIndex];
+    if (k === undefined || k < 0) return null;
+    if (!pictures.has(k)) {
+      const image = new Image();
+      image.onload = () => redrawSoon();
+      image.src = `data:image/png;base64,${frames[k].grid.png}`;
+      pictures.set(k, image);
+    }
+    return { frame: k, image: pictures.get(k), box: frames[k].grid };
+  }
 
   // A canvas's pixels follow its box on screen and the screen's pixel ratio, so that lines stay
   // sharp on high-DPI screens; drawing is in CSS pixels.
@@ -50,6 +69,8 @@
     frames.forEach((f) => add(f.pose[0], f.pose[1]));
     const last = frames.length ? frames[frames.length - 1].landmarks : [];
     for (let i = 0; i < last.length; i += 6) add(last[i + 1], last[i + 2]);
+    const map = frames.length ? frames[frames.length - 1].grid : null;
+    if (map) { add(map.x, map.y); add(map.x + map.w, map.y + map.h); }
     if (!isFinite(b.minX)) { b.minX = -1; b.maxX = 1; b.minY = -1; b.maxY = 1; }
     return b;
   }
@@ -150,13 +171,22 @@
     const resized = w !== mapSize.w || h !== mapSize.h;
     mapSize.w = w; mapSize.h = h;
     if (resized && view.fitted) fitView();
-    const drawn = { frame: state.frame, landmarks: 0, hypotheses: 0, particles: 0,
+    const drawn = { frame: state.frame, landmarks: 0, hypotheses: 0, particles: 0, beamEnds: 0, occupancy: null,
                     rays: { update: 0, new: 0, discard: 0, wrong: 0, pending: 0 },
                     size: { w, h, ratio, pixelWidth: mapCanvas.width, pixelHeight: mapCanvas.height } };
     ctx.fillStyle = '#ffffff';
     ctx.fillRect(0, 0, w, h);
     const grid = gridLines(w, h);
     drawGrid(ctx, grid, w, h);
+
+    // The occupancy grid under everything else, each cell a crisp square at any zoom.
+    const shown = picture(state.frame);
+    if (shown && shown.image.complete && shown.image.naturalWidth > 0) {
+      const [sx, sy] = toScreen(shown.box.x, shown.box.y + shown.box.h);
+      ctx.imageSmoothingEnabled = false;
+      ctx.drawImage(shown.image, sx, sy, shown.box.w * view.scale, shown.box.h * view.scale);
+      drawn.occupancy = { frame: shown.frame, width: shown.image.naturalWidth, height: shown.image.naturalHeight };
+    }
 
     ctx.fillStyle = '#6b7280';
     data.true_landmarks.forEach(([x, y]) => { const [sx, sy] = toScreen(x, y); ctx.fillRect(sx - 2, sy - 2, 4, 4); });
@@ -170,6 +200,14 @@
       ctx.strokeStyle = colours[name]; ctx.lineWidth = name === 'wrong' ? 2 : 1;
       ctx.beginPath(); ctx.moveTo(px, py); ctx.lineTo(ex, ey); ctx.stroke();
       drawn.rays[name] += 1;
+    }
+    // Where the laser's beams ended, as the filter placed the scan.
+    const ends = f.beam_ends || [];
+    ctx.fillStyle = '#0891b2';
+    for (let i = 0; i < ends.length; i += 2) {
+      const [sx, sy] = toScreen(ends[i], ends[i + 1]);
+      ctx.fillRect(Math.round(sx) - 1, Math.round(sy) - 1, 2, 2);
+      drawn.beamEnds += 1;
     }
     // A range alone puts its landmark on a circle about the sensor.
     const rings = f.rings || [];
@@ -293,10 +331,11 @@
     panel(errorCanvas, errorSeries,
           errorSeries.length ? `pose error [m], ${errorAligned ? 'aligned' : 'unaligned'}: x (blue), y (green)`
                              : 'pose error: no ground truth for this dataset', f.t);
-    panel(stdCanvas, stdSeries, 'landmark std x [m] (first six landmarks)', f.t);
+    panel(stdCanvas, stdSeries, gridRun ? 'landmark std: none, this filter maps an occupancy grid'
+                                        : 'landmark std x [m] (first six landmarks)', f.t);
     slider.value = String(state.frame);
     label.textContent = `t = ${f.t.toFixed(1)} s, frame ${state.frame + 1}/${frames.length}, ` +
-      `${f.landmarks.length / 6} landmarks`;
+      (gridRun ? 'occupancy grid of the best particle' : `${f.landmarks.length / 6} landmarks`);
   }
 
   function seek(frame) {
