@@ -201,7 +201,9 @@ PyRun run_dataset(const PyDataset& dataset, const py::dict& settings, bool repla
   PyRun run{{}, dataset, nullptr};
   RunOptions options;
   std::shared_ptr<ReplayRecorder> recorder;
-  if (replay) options.observers.push_back((recorder = std::make_shared<ReplayRecorder>(*dataset.data)).get());
+  if (replay)
+    options.observers.push_back(
+        (recorder = std::make_shared<ReplayRecorder>(*dataset.data, ReplayOptions{}, filter->maps_range_scans())).get());
   {
     py::gil_scoped_release release;
     run.result = run_filter(*filter, *dataset.data, options);

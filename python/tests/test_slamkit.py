@@ -319,6 +319,15 @@ def test_a_grid_filter_maps_a_laser_log_and_scores_its_map_as_the_cli_does(tmp_p
     assert resolution == 0.05 and origin.shape == (2,)
     assert (log_odds[observed] > 0).any() and (log_odds[~observed] == 0).all()
 
+    # Recorded, its replay page draws the grid; stepping, the filter takes the laser scans.
+    recorded = slamkit.run(dataset, {"filter": "scan-matching"}, replay=True)
+    page = tmp_path / "grid.html"
+    recorded.write_replay(str(page))
+    assert '"beam_ends"' in read_text(page) and '"grid":{"h"' in read_text(page)
+    stepper = slamkit.Filter(dataset, {"filter": "scan-matching"})
+    kinds = [stepper.step() for _ in range(40)]
+    assert "range_scan" in kinds and "scan" not in kinds and stepper.last_scan is not None
+
 
 def test_a_campaign_runs_from_python_and_its_results_load_as_a_table(tmp_path):
     spec = tmp_path / "small.json"
