@@ -943,9 +943,9 @@ int run_command(int argc, char** argv) {
       progress.finish();
       const RunResult& run = record.run;
       if (run.diverged_at_s)
-        warn(fmt::format("the filter diverged: its pose estimate was no longer finite after the event at t = {} s; "
-                         "writing the result up to its last finite estimate (t = {:.1f} s) to {}",
-                         *run.diverged_at_s, run.filtered.back().t, run_out));
+        warn(fmt::format("the filter diverged: {} after the event at t = {} s; writing the result up to its last "
+                         "estimate before it (t = {:.1f} s) to {}",
+                         run.divergence, *run.diverged_at_s, run.filtered.back().t, run_out));
       else if (run.partial)
         warn(fmt::format("stopped by {}: writing the partial result (up to t = {:.1f} s) to {}",
                          signal_name(record.stop_signal), run.filtered.back().t, run_out));

@@ -17,6 +17,7 @@
 #include "slamkit/pipeline/runner.hpp"
 #include "slamkit/sim/building.hpp"
 #include "slamkit/sim/simulator.hpp"
+#include "test_data.hpp"
 
 namespace slamkit {
 namespace {
@@ -141,12 +142,13 @@ TEST_P(DivergedRun, StopsAtTheLastFiniteEstimateAndTheRunFolderSaysWhen) {
   EXPECT_GT(run.map.size(), 5u);
   for (const Landmark& lm : run.map) ASSERT_TRUE(lm.position.allFinite() && lm.covariance.allFinite());
 
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "slamkit_diverged_run_test";
-  write_run(dir.string(), run);
-  const RunResult back = read_run(dir.string());
+  // A folder of each instance's own: the instances run side by side under ctest.
+  const test_data::ScratchDir dir;
+  write_run(dir.file("run"), run);
+  const RunResult back = read_run(dir.file("run"));
   EXPECT_TRUE(back.partial);
   EXPECT_EQ(back.diverged_at_s, run.diverged_at_s);
-  std::filesystem::remove_all(dir);
+  EXPECT_EQ(back.divergence, "its pose estimate was no longer finite");
 }
 
 INSTANTIATE_TEST_SUITE_P(Filters, DivergedRun, ::testing::Values(FilterKind::kEkf, FilterKind::kFastSlam2),

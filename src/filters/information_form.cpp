@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "slamkit/filters/slam_filter.hpp"
+
 namespace slamkit {
 
 namespace {
@@ -33,7 +35,7 @@ Eigen::Matrix<double, N, N> InformationFormEstimator::floored(const Eigen::Matri
 Eigen::MatrixXd InformationFormEstimator::spd_inverse(const Eigen::MatrixXd& m, const char* what) {
   const Eigen::LLT<Eigen::MatrixXd> llt(m);
   if (llt.info() != Eigen::Success)
-    throw std::logic_error(std::string("the information filter met ") + what + " that is not positive definite");
+    throw FilterBreakdown(std::string("the information filter met ") + what + " that is not positive definite");
   return llt.solve(Eigen::MatrixXd::Identity(m.rows(), m.cols()));
 }
 
@@ -99,7 +101,7 @@ bool InformationFormEstimator::replace_information(InformationGraph omega) {
 }
 
 Eigen::MatrixXd InformationFormEstimator::covariance_columns(std::size_t first, std::size_t count) const {
-  if (!factorise()) throw std::logic_error("the information matrix is not positive definite");
+  if (!factorise()) throw FilterBreakdown("the information matrix is not positive definite");
   Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(exported_.rows(), static_cast<Eigen::Index>(count));
   for (std::size_t i = 0; i < count; ++i)
     unit(static_cast<Eigen::Index>(first + i), static_cast<Eigen::Index>(i)) = 1.0;
@@ -121,7 +123,7 @@ const Eigen::MatrixXd& InformationFormEstimator::landmark_columns(std::size_t in
 Eigen::MatrixXd InformationFormEstimator::local_covariance(const InformationGraph::Variables& variables) const {
   const InformationGraph::Variables blanket = graph_.neighbourhood(variables);
   const Eigen::LLT<Eigen::MatrixXd> llt(graph_.gather(blanket));
-  if (llt.info() != Eigen::Success) throw std::logic_error("the information matrix is not positive definite");
+  if (llt.info() != Eigen::Success) throw FilterBreakdown("the information matrix is not positive definite");
   ++local_recoveries_;
   // The columns of the variables asked about, in their order.
   Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(blanket.rows(), variables.rows());
@@ -255,7 +257,7 @@ void InformationFormEstimator::landmark_marginals(std::vector<Vector2>& means,
     }
     return;
   }
-  if (!factorise()) throw std::logic_error("the information matrix is not positive definite");
+  if (!factorise()) throw FilterBreakdown("the information matrix is not positive definite");
   const Eigen::Index n = exported_.rows();
   for (std::size_t first = 0; first < count; first += kMarginalsPerSolve) {
     const std::size_t chunk = std::min(kMarginalsPerSolve, count - first);
@@ -367,7 +369,7 @@ void InformationFormEstimator::marginalise(const InformationGraph::Variables& va
   const Eigen::MatrixXd cross = joint.block(blanket_first, first, r, v);
   const Eigen::LLT<Eigen::MatrixXd> own(joint.block(first, first, v, v));
   if (own.info() != Eigen::Success)
-    throw std::logic_error("marginalisation: an information block is not positive definite");
+    throw FilterBreakdown("marginalisation: an information block is not positive definite");
   if (vector) add_to_rows(blanket, -cross * own.solve(rows_of(variable, *vector)), *vector);
   if (variable.vehicle)
     graph_.isolate_vehicle();

@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "slamkit/filters/slam_filter.hpp"
+
 namespace slamkit {
 
 SparseExtendedInformationFilter::SparseExtendedInformationFilter(std::shared_ptr<const MotionModel> motion,
@@ -41,7 +43,7 @@ Eigen::MatrixXd sparsification_change(const Eigen::MatrixXd& block, Eigen::Index
         other(i, j) = m(out[static_cast<std::size_t>(i)], out[static_cast<std::size_t>(j)]);
     }
     const Eigen::LLT<Eigen::MatrixXd> llt(other);
-    if (llt.info() != Eigen::Success) throw std::logic_error("SEIF sparsification: a block is not positive definite");
+    if (llt.info() != Eigen::Success) throw FilterBreakdown("SEIF sparsification: a block is not positive definite");
     return Eigen::MatrixXd(kept_block - cross * llt.solve(cross.transpose()));
   };
   const Eigen::Index s = block.rows();

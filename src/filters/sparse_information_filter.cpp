@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "slamkit/core/angles.hpp"
+#include "slamkit/filters/slam_filter.hpp"
 
 namespace slamkit {
 
@@ -150,7 +151,7 @@ void SparseInformationFilter::relax_landmark(std::size_t index) {
 void SparseInformationFilter::recover_mean(std::span<const std::size_t> moved) {
   const auto n = static_cast<Eigen::Index>(dim_);
   if (options_.recovery_sweeps == 0) {
-    if (!factorise()) throw std::logic_error("the information matrix is not positive definite");
+    if (!factorise()) throw FilterBreakdown("the information matrix is not positive definite");
     x_.head(n) = solve(xi_.head(n));
   } else {
     // The vehicle, the active landmarks (the ones the step moved), and the next ones in turn, so

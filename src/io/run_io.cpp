@@ -213,6 +213,7 @@ void write_run_json(const std::string& dir, const RunResult& run) {
                {"association", run.association},
                {"partial", run.partial},
                {"diverged_at_s", run.diverged_at_s ? nlohmann::json(*run.diverged_at_s) : nlohmann::json()},
+               {"divergence", run.diverged_at_s ? nlohmann::json(run.divergence) : nlohmann::json()},
                {"history", run.history},
                {"steps", run.steps},
                {"scans", run.scans},
@@ -265,6 +266,8 @@ RunResult read_run(const std::string& dir) {
     if (const auto at = info.find("diverged_at_s"); at != info.end() && !at->is_null()) {
       if (!at->is_number()) throw InputError(info_path, 0, "expected 'diverged_at_s' to be a time or null, found " + at->dump());
       run.diverged_at_s = at->get<double>();
+      if (const auto why = info.find("divergence"); why != info.end() && why->is_string())
+        run.divergence = why->get<std::string>();
     }
     run.history = info.value("history", "full");
     if (run.history != "full" && run.history != "decimated" && run.history != "none")

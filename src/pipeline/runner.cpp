@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "slamkit/core/coordinates.hpp"
 #include "slamkit/core/error.hpp"
@@ -214,17 +215,28 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
   Thinning filtered_thinning(options.decimated_samples), std_thinning(options.decimated_samples),
       particle_thinning(options.decimated_samples);
   double last_time = start_time(dataset);
-  // Returns false, recording nothing, when the estimate is no longer finite: such a filter would go on
-  // producing nothing but NaNs, and without known association would start a landmark at every
-  // observation (no gate holds a NaN), so the run stops at the last finite estimate instead.
+  // Ends the run as diverged at `t` for `why`; false, which the callers return.
+  const auto diverged = [&](double t, std::string why) {
+    result.partial = true;
+    result.diverged_at_s = t;
+    result.divergence = std::move(why);
+    return false;
+  };
+  // Returns false, recording nothing, when the estimate is no longer finite (or its covariance says
+  // nothing sound): such a filter would go on producing nothing but NaNs, and without known
+  // association would start a landmark at every observation (no gate holds a NaN), so the run stops
+  // at the last sound estimate instead.
   auto record = [&](double t) {
-    const Pose2 pose = filter.pose();
-    const Matrix3 covariance = filter.pose_covariance();
-    if (!pose.allFinite() || !covariance.allFinite()) {
-      result.partial = true;
-      result.diverged_at_s = t;
-      return false;
+    Pose2 pose;
+    Matrix3 covariance;
+    try {
+      pose = filter.pose();
+      covariance = filter.pose_covariance();
+    } catch (const FilterBreakdown& e) {  // an information filter recovers its covariance by factorising
+      return diverged(t, e.what());
     }
+    if (!pose.allFinite() || !covariance.allFinite()) return diverged(t, "its pose estimate was no longer finite");
+    if ((covariance.diagonal().array() < 0.0).any()) return diverged(t, "its pose covariance had a negative variance");
     last_time = t;
     // Several events can share a time (a control then the scan taken there): keep the latest state.
     if (!result.filtered.empty() && result.filtered.back().t == t) {
@@ -243,6 +255,16 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
     return true;
   };
 
+  // Applies one event to the filter; false, the run ending as diverged there, when the filter's
+  // numbers break down (its estimate is then as untrustworthy as one that is not finite).
+  const auto applied = [&](double t, auto&& apply) {
+    try {
+      apply();
+      return true;
+    } catch (const FilterBreakdown& e) {
+      return diverged(t, e.what());
+    }
+  };
   double last_std_time = -INFINITY;
   const auto begin = std::chrono::steady_clock::now();
   record(start_time(dataset));
@@ -254,8 +276,7 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
     }
     ++events_done;
     if (const auto* control = std::get_if<ControlEvent>(&event)) {
-      filter.predict(*control);
-      if (!record(control->t)) break;
+      if (!applied(control->t, [&] { filter.predict(*control); }) || !record(control->t)) break;
       ++result.steps;
     } else if (const auto* range_scan = std::get_if<RangeScanEvent>(&event)) {
       if (!filter.maps_range_scans()) continue;
@@ -278,8 +299,7 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
     } else {
       const auto& scan = std::get<ScanEvent>(event);
       if (filter.maps_range_scans()) continue;
-      filter.update(scan);
-      if (!record(scan.t)) break;
+      if (!applied(scan.t, [&] { filter.update(scan); }) || !record(scan.t)) break;
       ++result.scans;
       if (options.history == History::kFull) {
         result.scan_times.push_back(scan.t);
@@ -310,19 +330,28 @@ RunResult run_filter(SlamFilter& filter, const Dataset& dataset, const RunOption
     result.pose_covariances.push_back(filter.pose_covariance());
   }
   result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin).count();
-  result.map = filter.landmarks();
+  // A filter whose numbers broke down may not be able to say more (an information filter cannot
+  // recover its map from a matrix it cannot factorise): what it cannot say is left empty.
+  const auto unless_broken = [](auto&& query) {
+    try {
+      return query();
+    } catch (const FilterBreakdown&) {
+      return decltype(query()){};
+    }
+  };
+  result.map = unless_broken([&] { return filter.landmarks(); });
   result.grid = filter.grid_map();
   if (result.diverged_at_s)
     std::erase_if(result.map, [](const Landmark& lm) { return !lm.position.allFinite() || !lm.covariance.allFinite(); });
   // A particle filter's smoothed trajectory is a whole path: only a run that keeps everything takes it.
-  if (options.history == History::kFull) result.trajectory = filter.smoothed_trajectory();
+  if (options.history == History::kFull) result.trajectory = unless_broken([&] { return filter.smoothed_trajectory(); });
   if (result.diverged_at_s)
     std::erase_if(result.trajectory, [](const StampedPose& p) { return !p.pose.allFinite(); });
   result.smoothed = !result.trajectory.empty();
   if (!result.smoothed) result.trajectory = result.filtered;
   if (options.history == History::kFull) record_origins(filter, result);
-  result.statistics = filter.statistics();
-  result.information = filter.information_panels();
+  result.statistics = unless_broken([&] { return filter.statistics(); });
+  result.information = unless_broken([&] { return filter.information_panels(); });
   result.dead_reckoning = dead_reckoning(dataset, options);
   if (result.partial)
     std::erase_if(result.dead_reckoning, [&](const StampedPose& p) { return p.t > result.filtered.back().t; });

@@ -69,10 +69,12 @@ struct RunResult {
   /// The run stopped before the end of the dataset (interrupted, or diverged); everything above
   /// covers the part that ran.
   bool partial = false;
-  /// Set when the run stopped because the filter's pose estimate stopped being finite: the time of
-  /// the event after which it was not. The trajectories end at the last finite estimate, and the
-  /// map holds only its finite landmarks.
+  /// Set when the run stopped because the filter's pose estimate stopped being finite, or its numbers
+  /// broke down (FilterBreakdown): the time of the event after which it was not to be trusted. The
+  /// trajectories end at the last estimate before it, and the map holds only its finite landmarks.
   std::optional<double> diverged_at_s;
+  /// Why, with diverged_at_s: "its pose estimate was no longer finite", or what broke down.
+  std::string divergence;
   /// Where the run came from, as the front end describes it for run.json: the version, the command
   /// line, every effective setting, the dataset settings' contents (see io/run_io.hpp). Kept as JSON
   /// so that a new setting reaches run.json without a change here.

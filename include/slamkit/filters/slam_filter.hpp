@@ -5,6 +5,7 @@
 // which filter it drives.
 #include <map>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,14 @@
 #include "slamkit/core/types.hpp"
 
 namespace slamkit {
+
+/// Thrown by a filter whose numbers have broken down, such as an information matrix too
+/// ill-conditioned to factorise: from there its estimate means no more than one that is not finite,
+/// so the runner ends the run as diverged at that event, keeping what ran (RunResult::divergence).
+class FilterBreakdown : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 class SlamFilter {
  public:
