@@ -83,15 +83,7 @@ void ReplayRecorder::on_range_scan(const SlamFilter& filter, const RangeScanEven
                      {"w", rounded(image.width_m)},
                      {"h", rounded(image.height_m)}};
   }
-  const std::vector<WeightedPose> samples = filter.pose_samples();
-  if (!samples.empty()) {
-    nlohmann::json& particles = frame["particles"] = nlohmann::json::array();
-    const std::size_t particle_step = std::max<std::size_t>(1, samples.size() / options_.max_particles);
-    for (std::size_t i = 0; i < samples.size(); i += particle_step)
-      for (double v : {rounded(samples[i].pose.x()), rounded(samples[i].pose.y())}) particles.push_back(v);
-  }
-  frames_.push_back(std::move(frame));
-  frame_poses_.push_back({scan.t, pose});
+  keep_frame(filter, scan.t, pose, std::move(frame));
 }
 
 void ReplayRecorder::on_scan(const SlamFilter& filter, const ScanEvent& scan, std::size_t, std::size_t) {
@@ -148,6 +140,10 @@ void ReplayRecorder::on_scan(const SlamFilter& filter, const ScanEvent& scan, st
         held.push_back(v);
     }
   }
+  keep_frame(filter, scan.t, pose, std::move(frame));
+}
+
+void ReplayRecorder::keep_frame(const SlamFilter& filter, double t, const Pose2& pose, nlohmann::json frame) {
   const std::vector<WeightedPose> samples = filter.pose_samples();
   if (!samples.empty()) {
     nlohmann::json& particles = frame["particles"] = nlohmann::json::array();
@@ -156,7 +152,7 @@ void ReplayRecorder::on_scan(const SlamFilter& filter, const ScanEvent& scan, st
       for (double v : {rounded(samples[i].pose.x()), rounded(samples[i].pose.y())}) particles.push_back(v);
   }
   frames_.push_back(std::move(frame));
-  frame_poses_.push_back({scan.t, pose});
+  frame_poses_.push_back({t, pose});
 }
 
 nlohmann::json ReplayRecorder::to_json(const std::string& filter_name,

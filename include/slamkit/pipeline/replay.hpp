@@ -61,6 +61,9 @@ class ReplayRecorder : public RunObserver {
                          const std::optional<Pose2>& truth_from_estimate = std::nullopt) const;
 
  private:
+  /// Adds the filter's particles (at most max_particles) to `frame` and keeps it, with its pose.
+  void keep_frame(const SlamFilter& filter, double t, const Pose2& pose, nlohmann::json frame);
+
   const Dataset& dataset_;
   ReplayOptions options_;
   std::size_t scans_total_ = 0;
