@@ -191,7 +191,7 @@ void OccupancyGrid::integrate(const Pose2& vehicle_pose, const RangeScanEvent& s
   // The bounds keep every cell index a beam reaches within an int (validate() bounds the rest).
   if (!(within_coordinates(sensor.head<2>()) && std::isfinite(sensor.z())))
     throw GridExtentError(fmt::format("occupancy grid: sensor pose ({}, {}, {}) is not finite or beyond {} m",
-                                            sensor.x(), sensor.y(), sensor.z(), kMaxAbsCoordinate));
+                                      sensor.x(), sensor.y(), sensor.z(), kMaxAbsCoordinate));
   if (!(std::isfinite(scan.angle_min) && std::isfinite(scan.angle_increment) && !std::isnan(scan.max_range)))
     throw std::invalid_argument("occupancy grid: a scan's angle_min, angle_increment or max_range is not a number");
 

@@ -94,7 +94,7 @@ template <bool kFreeBeforeHit>
 ScanMatch score(const OccupancyGrid& map, const Pose2& pose, const ScanMatcherOptions& options) {
   if (!(within_coordinates(pose.head<2>()) && std::isfinite(pose.z())))
     throw GridExtentError(fmt::format("scan matcher: pose ({}, {}, {}) is not finite or beyond {} m", pose.x(),
-                                            pose.y(), pose.z(), kMaxAbsCoordinate));
+                                      pose.y(), pose.z(), kMaxAbsCoordinate));
   // Everything in cell units, where cell (i, j) spans [i, i+1) x [j, j+1) and has its centre at +0.5.
   const double cells_per_metre = 1.0 / map.resolution();
   const double c = std::cos(pose.z()), s = std::sin(pose.z());
