@@ -13,6 +13,7 @@
 #include "slamkit/pipeline/runner.hpp"
 #include "slamkit/sim/simulator.hpp"
 #include "test_data.hpp"
+#include "wrapped_motion_model.hpp"
 
 namespace slamkit {
 namespace {
@@ -46,19 +47,10 @@ void expect_diverged_at_control(const RunResult& run, const Dataset& data, std::
 }
 
 // The dataset's motion model until its `healthy`-th noise query, -1 of control noise from then on.
-class NegativeNoiseAfter final : public MotionModel {
+class NegativeNoiseAfter final : public test_data::WrappedMotionModel {
  public:
   NegativeNoiseAfter(std::shared_ptr<const MotionModel> model, std::size_t healthy)
-      : model_(std::move(model)), left_(healthy) {}
-  std::string name() const override { return model_->name(); }
-  int control_dim() const override { return model_->control_dim(); }
-  Pose2 predict(const Pose2& x, const Control& u, double dt) const override { return model_->predict(x, u, dt); }
-  Matrix3 jacobian_state(const Pose2& x, const Control& u, double dt) const override {
-    return model_->jacobian_state(x, u, dt);
-  }
-  ControlJacobian jacobian_control(const Pose2& x, const Control& u, double dt) const override {
-    return model_->jacobian_control(x, u, dt);
-  }
+      : WrappedMotionModel(std::move(model)), left_(healthy) {}
   ControlCovariance control_noise(const Control& u, double dt) const override {
     if (left_ == 0) return -ControlCovariance::Identity(u.size(), u.size());
     --left_;
@@ -66,7 +58,6 @@ class NegativeNoiseAfter final : public MotionModel {
   }
 
  private:
-  std::shared_ptr<const MotionModel> model_;
   mutable std::size_t left_;
 };
 

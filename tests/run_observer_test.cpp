@@ -18,6 +18,7 @@
 #include "slamkit/sim/building.hpp"
 #include "slamkit/sim/simulator.hpp"
 #include "test_data.hpp"
+#include "wrapped_motion_model.hpp"
 
 namespace slamkit {
 namespace {
@@ -85,26 +86,17 @@ TEST(RunObserver, StopGivesAPartialResultThatTheRunFolderKeeps) {
 
 // The dataset's motion model until its `healthy`-th prediction, NaN from then on: a filter fed it
 // diverges part-way through the run.
-class NanAfter final : public MotionModel {
+class NanAfter final : public test_data::WrappedMotionModel {
  public:
-  NanAfter(std::shared_ptr<const MotionModel> model, std::size_t healthy) : model_(std::move(model)), left_(healthy) {}
-  std::string name() const override { return model_->name(); }
-  int control_dim() const override { return model_->control_dim(); }
+  NanAfter(std::shared_ptr<const MotionModel> model, std::size_t healthy)
+      : WrappedMotionModel(std::move(model)), left_(healthy) {}
   Pose2 predict(const Pose2& x, const Control& u, double dt) const override {
     if (left_ == 0) return Pose2::Constant(std::numeric_limits<double>::quiet_NaN());
     --left_;
     return model_->predict(x, u, dt);
   }
-  Matrix3 jacobian_state(const Pose2& x, const Control& u, double dt) const override {
-    return model_->jacobian_state(x, u, dt);
-  }
-  ControlJacobian jacobian_control(const Pose2& x, const Control& u, double dt) const override {
-    return model_->jacobian_control(x, u, dt);
-  }
-  ControlCovariance control_noise(const Control& u, double dt) const override { return model_->control_noise(u, dt); }
 
  private:
-  std::shared_ptr<const MotionModel> model_;
   mutable std::size_t left_;
 };
 

@@ -21,6 +21,13 @@ double rounded(double v) { return std::round(v * 1000.0) / 1000.0; }
 /// Covariances span many magnitudes; four significant digits draw the same ellipse.
 double significant(double v) { return std::stod(fmt::format("{:.4g}", v)); }
 
+/// What every frame starts with: its time, the pose and the pose covariance (xx, xy, yy, theta theta).
+nlohmann::json frame_head(double t, const Pose2& pose, const Matrix3& cov) {
+  return {{"t", rounded(t)},
+          {"pose", {rounded(pose.x()), rounded(pose.y()), rounded(pose.z())}},
+          {"cov", {significant(cov(0, 0)), significant(cov(0, 1)), significant(cov(1, 1)), significant(cov(2, 2))}}};
+}
+
 /// Truth samples further apart than this are not interpolated between (as in the evaluation): a
 /// GPS gap of a minute hides tens of metres of driving.
 constexpr double kMaxTruthGapS = 1.0;
@@ -58,12 +65,9 @@ void ReplayRecorder::on_range_scan(const SlamFilter& filter, const RangeScanEven
   if (k % stride_ != 0 && !last) return;
 
   const Pose2 pose = filter.pose();
-  const Matrix3 cov = filter.pose_covariance();
-  nlohmann::json frame = {{"t", rounded(scan.t)},
-                          {"pose", {rounded(pose.x()), rounded(pose.y()), rounded(pose.z())}},
-                          {"cov", {significant(cov(0, 0)), significant(cov(0, 1)), significant(cov(1, 1)), significant(cov(2, 2))}},
-                          {"landmarks", nlohmann::json::array()},
-                          {"rays", nlohmann::json::array()}};
+  nlohmann::json frame = frame_head(scan.t, pose, filter.pose_covariance());
+  frame["landmarks"] = nlohmann::json::array();
+  frame["rays"] = nlohmann::json::array();
   nlohmann::json& ends = frame["beam_ends"] = nlohmann::json::array();
   const Pose2 sensor = sensor_pose(pose, scan.sensor_offset);
   const std::size_t step = std::max<std::size_t>(1, (scan.ranges.size() + options_.max_beam_ends - 1) /
@@ -105,10 +109,7 @@ void ReplayRecorder::on_scan(const SlamFilter& filter, const ScanEvent& scan, st
   if (k % stride_ != 0 && k + 1 != scans_total_) return;
 
   const Pose2 pose = filter.pose();
-  const Matrix3 cov = filter.pose_covariance();
-  nlohmann::json frame = {{"t", rounded(scan.t)},
-                          {"pose", {rounded(pose.x()), rounded(pose.y()), rounded(pose.z())}},
-                          {"cov", {significant(cov(0, 0)), significant(cov(0, 1)), significant(cov(1, 1)), significant(cov(2, 2))}}};
+  nlohmann::json frame = frame_head(scan.t, pose, filter.pose_covariance());
   nlohmann::json& landmarks = frame["landmarks"] = nlohmann::json::array();
   for (const Landmark& lm : filter.landmarks())
     for (double v : {double(lm.id), rounded(lm.position.x()), rounded(lm.position.y()),
