@@ -99,11 +99,13 @@ TEST(GridPipeline, GridSettingsAreValidatedAndRoundTripThroughRunJson) {
   config.filter = FilterKind::kGridFastSlam;
   config.grid.grid.resolution = 0.1;
   config.grid.proposal_spread_rad = deg2rad(0.5);
+  config.grid.weight_temperature = 30.0;
   const FilterConfig back = filter_config_from_json(to_json(config), "run.json");
   EXPECT_EQ(back.filter, FilterKind::kGridFastSlam);
   EXPECT_DOUBLE_EQ(back.grid.grid.resolution, 0.1);
   EXPECT_DOUBLE_EQ(back.grid.grid.max_cells, 1e8);
   EXPECT_NEAR(back.grid.proposal_spread_rad, deg2rad(0.5), 1e-15);
+  EXPECT_DOUBLE_EQ(back.grid.weight_temperature, 30.0);
 
   nlohmann::json bad = to_json(config);
   bad["grid"]["resolution_m"] = 0.0;

@@ -157,6 +157,26 @@ TEST(ScanMatcherSearch, AKnownOffsetIsRecoveredToWithinACell) {
   }
 }
 
+TEST(ScanMatcherSearch, APriorWeighsAgainstTheScan) {
+  const OccupancyGrid map = mapped_room();
+  const ScanMatcher matcher;
+  const Pose2 truth(3.0, 2.0, 0.3), guess = truth + Pose2(0.15, 0.1, 0.05);
+  const RangeScanEvent scan = room_scan(truth);
+  const ScanMatch alone = matcher.match(map, guess, scan);
+  // A vague prior leaves the scan to decide; a sure one (a robot known to stand still) holds the
+  // search at its mean; between them, the peak lies between the two.
+  const ScanMatch vague = matcher.match(map, PosePrior{guess, 1e-6 * Matrix3::Identity(), 1.0}, scan);
+  EXPECT_EQ(vague.pose, alone.pose);
+  EXPECT_EQ(vague.log_likelihood, alone.log_likelihood);
+  const ScanMatch sure = matcher.match(map, PosePrior{guess, 1e9 * Matrix3::Identity(), 1.0}, scan);
+  EXPECT_EQ(sure.pose, guess);
+  EXPECT_EQ(sure.log_likelihood, matcher.evaluate(map, guess, scan).log_likelihood);
+  const Matrix3 information = Eigen::Vector3d(1.0 / 0.0025, 1.0 / 0.0025, 1.0 / 0.0004).asDiagonal();
+  const ScanMatch between = matcher.match(map, PosePrior{guess, information, 1.0 / 30.0}, scan);
+  EXPECT_GT((between.pose - alone.pose).head<2>().norm(), 0.01);
+  EXPECT_LT((between.pose - guess).head<2>().norm(), (guess - alone.pose).head<2>().norm());
+}
+
 TEST(ScanMatcherSearch, AFlatLikelihoodLeavesTheGuessWhereItIs) {
   OccupancyGrid map;
   const RangeScanEvent scan = room_scan(Pose2(4.0, 3.0, 0.0));

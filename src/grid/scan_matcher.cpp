@@ -188,25 +188,34 @@ ScanMatch ScanMatcher::evaluate(const OccupancyGrid& map, const Pose2& vehicle_p
   return score(map, vehicle_pose, options_);
 }
 
-ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& guess, const RangeScanEvent& scan) const {
+template <typename Objective>
+ScanMatch ScanMatcher::climb(const OccupancyGrid& map, const Pose2& guess, const RangeScanEvent& scan,
+                             const Objective& objective) const {
   prepare_beams(scan, options_);
   // A bound on the climb, far above the few dozen moves a matchable guess needs, so a slope that
   // runs on (a corridor's length) ends the search.
   constexpr int kMaxIterations = 300;
   ScanMatch best = score(map, Pose2(guess.x(), guess.y(), wrap_angle(guess.z())), options_);
+  double best_value = objective(best);
   double linear = options_.linear_step, angular = options_.angular_step;
   int halvings = 0;
   for (int iteration = 0; iteration < kMaxIterations; ++iteration) {
     const std::array<Pose2, 6> moves{Pose2(linear, 0.0, 0.0),  Pose2(-linear, 0.0, 0.0), Pose2(0.0, linear, 0.0),
                                      Pose2(0.0, -linear, 0.0), Pose2(0.0, 0.0, angular), Pose2(0.0, 0.0, -angular)};
     ScanMatch step_best = best;
+    double step_value = best_value;
     for (const Pose2& move : moves) {
       const Pose2 moved = best.pose + move;
       const ScanMatch candidate = score(map, Pose2(moved.x(), moved.y(), wrap_angle(moved.z())), options_);
-      if (candidate.log_likelihood > step_best.log_likelihood) step_best = candidate;
+      const double value = objective(candidate);
+      if (value > step_value) {
+        step_best = candidate;
+        step_value = value;
+      }
     }
-    if (step_best.log_likelihood > best.log_likelihood) {
+    if (step_value > best_value) {
       best = step_best;
+      best_value = step_value;
       continue;
     }
     if (halvings == options_.refinements) break;
@@ -215,6 +224,18 @@ ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& guess, const
     ++halvings;
   }
   return best;
+}
+
+ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& guess, const RangeScanEvent& scan) const {
+  return climb(map, guess, scan, [](const ScanMatch& m) { return m.log_likelihood; });
+}
+
+ScanMatch ScanMatcher::match(const OccupancyGrid& map, const PosePrior& prior, const RangeScanEvent& scan) const {
+  return climb(map, prior.mean, scan, [&](const ScanMatch& m) {
+    Eigen::Vector3d from_prior = m.pose - prior.mean;
+    from_prior[2] = wrap_angle(from_prior[2]);
+    return prior.likelihood_scale * m.log_likelihood - 0.5 * from_prior.dot(prior.information * from_prior);
+  });
 }
 
 }  // namespace slamkit

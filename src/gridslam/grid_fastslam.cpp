@@ -81,7 +81,7 @@ struct GridFastSlam::Impl {
               scan_match_proposal(matcher, p.map, scan, p.pose, p.covariance, config.slam, &slots[i]);
           p.pose = proposal.mean;
           p.covariance = proposal.covariance;
-          p.log_weight += proposal.log_weight;
+          p.log_weight += proposal.log_weight / config.slam.weight_temperature;
           p.matched = proposal.matched;
         }
         p.map.integrate(p.pose, scan);

@@ -3,7 +3,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
-#include <algorithm>
+#include <Eigen/Eigenvalues>
 #include <array>
 #include <cmath>
 #include <stdexcept>
@@ -16,8 +16,7 @@ namespace slamkit {
 
 namespace {
 
-constexpr int kPatternPoses = 27;
-constexpr double kCovarianceFloor = 0.1;  // of the pattern's spacing
+constexpr int kStencilPoses = 27;
 
 /// Keeps the prior's density finite where the odometry has not moved (a zero covariance) or moves
 /// along a degenerate direction: a millimetre and a tenth of a milliradian are far below anything a
@@ -26,14 +25,6 @@ Matrix3 regularised(const Matrix3& covariance) {
   Matrix3 c = 0.5 * (covariance + covariance.transpose());
   c.diagonal() += Eigen::Vector3d(1e-6, 1e-6, 1e-8);
   return c;
-}
-
-double log_sum_exp(const std::array<double, kPatternPoses>& terms) {
-  const double peak = *std::max_element(terms.begin(), terms.end());
-  if (!std::isfinite(peak)) return peak;
-  double sum = 0.0;
-  for (double t : terms) sum += std::exp(t - peak);
-  return peak + std::log(sum);
 }
 
 /// With a generator, moves the proposal's mean to a draw from N(mean, f covariance) and leaves it
@@ -64,6 +55,8 @@ void validate(const GridSlamOptions& o) {
           o.matcher.max_range);
   require(o.likelihood_temperature >= 1.0 && o.likelihood_temperature <= 1000.0, "likelihood_temperature",
           "from 1 to 1000", o.likelihood_temperature);
+  require(o.weight_temperature >= 1.0 && o.weight_temperature <= 1000.0, "weight_temperature", "from 1 to 1000",
+          o.weight_temperature);
   require(o.min_matched_fraction >= 0.0 && o.min_matched_fraction <= 1.0, "min_matched_fraction", "from 0 to 1",
           o.min_matched_fraction);
   require(o.proposal_spread_m > 0.0 && o.proposal_spread_m <= 1.0, "proposal_spread_m", "> 0 and <= 1",
@@ -87,53 +80,79 @@ PoseProposal scan_match_proposal(const ScanMatcher& matcher, const OccupancyGrid
                                  const GridSlamOptions& options, std::mt19937_64* rng) {
   const double temperature = options.likelihood_temperature;
   PoseProposal proposal;
-  const ScanMatch peak = matcher.match(map, prior_mean, scan);
+  const Eigen::LDLT<Matrix3> prior(regularised(prior_covariance));
+  const Matrix3 prior_information = prior.solve(Matrix3::Identity());
+  const ScanMatch peak = matcher.match(map, PosePrior{prior_mean, prior_information, 1.0 / temperature}, scan);
   proposal.matched = peak.beams_used > 0 &&
                      peak.beams_matched >= options.min_matched_fraction * static_cast<double>(peak.beams_used);
-  if (!proposal.matched) {
+  const auto odometry_proposes = [&] {
     proposal.mean = prior_mean;
     proposal.covariance = prior_covariance;
     draw(proposal, options, rng);
     proposal.log_weight = matcher.evaluate(map, proposal.mean, scan).log_likelihood / temperature;
     return proposal;
-  }
+  };
+  if (!proposal.matched) return odometry_proposes();
 
-  const Eigen::LDLT<Matrix3> prior(regularised(prior_covariance));
+  // The product's logarithm around the peak, on the poses of a 3 x 3 x 3 stencil that move along one
+  // or two axes (the second differences need no more): its curvature is that of a Laplace
+  // approximation, whose Gaussian is as wide as the product is, not as the stencil: along a
+  // corridor, where the scan says little, the proposal keeps the odometry's spread, and that is what
+  // keeps the particles diverse until a loop tells them apart.
   const double prior_log_norm = -0.5 * prior.vectorD().array().log().sum() - 1.5 * std::log(2.0 * kPi);
-  const Eigen::Vector3d spread(options.proposal_spread_m, options.proposal_spread_m, options.proposal_spread_rad);
-  std::array<Eigen::Vector3d, kPatternPoses> offsets;
-  std::array<double, kPatternPoses> log_terms;
-  for (int k = 0; k < kPatternPoses; ++k) {
-    offsets[k] = Eigen::Vector3d(k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1).cwiseProduct(spread);
-    Pose2 pose = peak.pose + offsets[k];
+  const Eigen::Vector3d step(options.proposal_spread_m, options.proposal_spread_m, options.proposal_spread_rad);
+  std::array<double, kStencilPoses> log_terms{};
+  for (int k = 0; k < kStencilPoses; ++k) {
+    const Eigen::Vector3i cell(k % 3 - 1, k / 3 % 3 - 1, k / 9 - 1);
+    if (cell.cwiseAbs().sum() == 3) continue;
+    const Eigen::Vector3d offset = cell.cast<double>().cwiseProduct(step);
+    Pose2 pose = peak.pose + offset;
     pose[2] = wrap_angle(pose[2]);
     Eigen::Vector3d from_prior = pose - prior_mean;
     from_prior[2] = wrap_angle(from_prior[2]);
     log_terms[k] = matcher.evaluate(map, pose, scan).log_likelihood / temperature -
-                   0.5 * from_prior.dot(prior.solve(from_prior)) + prior_log_norm;
+                   0.5 * from_prior.dot(prior_information * from_prior) + prior_log_norm;
   }
-  // The weight factor is p(z | m, x', u), the integral of the product over the pose: the pattern's
-  // sum times the volume each of its poses stands for. The volume matters where some particles of
-  // a scan are matched and others are not (their factor, the likelihood at a draw from the prior,
-  // estimates the same integral): without it a matched particle would gain the prior's density,
-  // some 13 nats on a Radish log's scan, over one that is not, whatever its map.
-  const double log_sum = log_sum_exp(log_terms);
-  proposal.log_weight = log_sum + std::log(spread.prod());
-  Eigen::Vector3d mean_offset = Eigen::Vector3d::Zero();
-  Matrix3 second_moment = Matrix3::Zero();
-  for (int k = 0; k < kPatternPoses; ++k) {
-    const double w = std::exp(log_terms[k] - log_sum);
-    mean_offset += w * offsets[k];
-    second_moment += w * offsets[k] * offsets[k].transpose();
+  const auto at = [&](Eigen::Vector3i offset) {
+    return log_terms[(offset[0] + 1) + 3 * (offset[1] + 1) + 9 * (offset[2] + 1)];
+  };
+  const double centre = at(Eigen::Vector3i::Zero());
+  Matrix3 hessian;
+  for (int i = 0; i < 3; ++i) {
+    const Eigen::Vector3i ei = Eigen::Vector3i::Unit(i);
+    hessian(i, i) = (at(ei) - 2.0 * centre + at(-ei)) / (step[i] * step[i]);
+    for (int j = 0; j < i; ++j) {
+      const Eigen::Vector3i ej = Eigen::Vector3i::Unit(j);
+      hessian(i, j) = hessian(j, i) =
+          (at(ei + ej) - at(ei - ej) - at(ej - ei) + at(-ei - ej)) / (4.0 * step[i] * step[j]);
+    }
   }
-  // A peak much sharper than the pattern's spacing puts (almost) every weight on the centre, and the
-  // pattern's covariance would be singular: a tenth of the spacing is kept, far below the spread a
-  // scan's likelihood leaves (a few millimetres with the defaults) and so below anything it adds.
-  const Eigen::Vector3d floor = (kCovarianceFloor * spread).cwiseAbs2();
-  proposal.covariance = second_moment - mean_offset * mean_offset.transpose();
-  proposal.covariance.diagonal() += floor;
-  proposal.mean = peak.pose + mean_offset;
-  proposal.mean[2] = wrap_angle(proposal.mean[2]);
+  // The prior's curvature is known exactly; what the differences add beyond it is the scan's
+  // information, which cannot be negative. A likelihood field is only piecewise smooth, so where the
+  // differences make it so (a ridge between two walls' cells) that direction keeps the prior's alone.
+  const Eigen::SelfAdjointEigenSolver<Matrix3> scan_part(-hessian - prior_information);
+  const Matrix3 scan_information = scan_part.eigenvectors() * scan_part.eigenvalues().cwiseMax(0.0).asDiagonal() *
+                                   scan_part.eigenvectors().transpose();
+  const Matrix3 information = prior_information + scan_information;
+  const Eigen::LLT<Matrix3> factor(information);
+  // Only a prior too wide for doubles (a covariance near 1e300 from a log's wild odometry) gets here
+  // with curvatures that are not numbers; the odometry then says what is known.
+  if (!information.allFinite() || factor.info() != Eigen::Success) {
+    proposal.matched = false;
+    return odometry_proposes();
+  }
+  // The climb found the product's peak already: a Newton step from the pattern's gradient would
+  // follow the likelihood field's roughness (a tree's one or two cells, a beam crossing to the next
+  // wall cell), and where the scan is weak, the covariance it is scaled by is wide.
+  proposal.mean = peak.pose;
+  proposal.covariance = factor.solve(Matrix3::Identity());
+  proposal.covariance = 0.5 * (proposal.covariance + proposal.covariance.transpose());
+  // The weight factor is p(z | m, x', u), the product's integral over the pose: its Laplace
+  // approximation, the product's peak times sqrt(det(2 pi covariance)). It is on the same scale as
+  // an unmatched particle's factor (the likelihood at a draw from the prior, an estimate of the same
+  // integral), so particles of one scan that did and did not match compete fairly.
+  const Matrix3 l = factor.matrixL();
+  proposal.log_weight = centre + 1.5 * std::log(2.0 * kPi) - l.diagonal().array().log().sum();
   draw(proposal, options, rng);
   return proposal;
 }

@@ -81,6 +81,8 @@ const OptionKey<Grid> kGridKeys[] = {
      RealOption<Grid>{[](Grid& o) -> double& { return o.matcher.max_range; }, option_ranges::kFinite}},
     {"likelihood_temperature",
      RealOption<Grid>{[](Grid& o) -> double& { return o.likelihood_temperature; }, option_ranges::kFinite}},
+    {"weight_temperature",
+     RealOption<Grid>{[](Grid& o) -> double& { return o.weight_temperature; }, option_ranges::kFinite}},
     {"min_matched_fraction",
      RealOption<Grid>{[](Grid& o) -> double& { return o.min_matched_fraction; }, option_ranges::kFinite}},
     {"proposal_spread_m",

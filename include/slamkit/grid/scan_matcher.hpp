@@ -48,6 +48,17 @@ struct ScanMatch {
   int beams_used = 0;
 };
 
+/// What was believed of the pose before the scan, for a search of the posterior's peak rather than the
+/// likelihood's: where the scan is ambiguous (along a corridor longer than the laser's range) the
+/// likelihood is nearly flat, and its peak wanders wherever a rounding error leads; the prior holds
+/// the search where the odometry put the robot.
+struct PosePrior {
+  Pose2 mean = Pose2::Zero();
+  Matrix3 information = Matrix3::Zero();  // the inverse of the prior's covariance
+  /// The scan's log-likelihood is multiplied by this before it meets the prior (1 / temperature).
+  double likelihood_scale = 1.0;
+};
+
 class ScanMatcher {
  public:
   /// Throws std::invalid_argument when `options` fail validate().
@@ -66,8 +77,16 @@ class ScanMatcher {
   /// moves of one step along x, y or heading is taken while one improves; then the steps are halved,
   /// `refinements` times. Deterministic; at most 300 moves and halvings together.
   ScanMatch match(const OccupancyGrid& map, const Pose2& guess, const RangeScanEvent& scan) const;
+  /// The same climb, from the prior's mean, of likelihood_scale times the scan's log-likelihood minus
+  /// half the squared Mahalanobis distance from the prior's mean. The result's log_likelihood is the
+  /// scan's own at the peak found.
+  ScanMatch match(const OccupancyGrid& map, const PosePrior& prior, const RangeScanEvent& scan) const;
 
  private:
+  template <typename Objective>
+  ScanMatch climb(const OccupancyGrid& map, const Pose2& guess, const RangeScanEvent& scan,
+                  const Objective& objective) const;
+
   ScanMatcherOptions options_;
 };
 

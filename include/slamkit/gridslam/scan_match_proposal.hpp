@@ -2,13 +2,14 @@
 // The improved proposal of grid-based FastSLAM (Grisetti, Stachniss and Burgard, "Improved
 // techniques for grid mapping with Rao-Blackwellized particle filters", IEEE T-RO 23(1), 2007): a
 // particle's pose after a scan is drawn from p(x | m, z, x', u) ~ p(z | m, x) p(x | x', u), which a
-// laser makes far narrower than the odometry's prior. The scan matcher finds the peak of the scan's
-// likelihood from the odometry's prediction; the product is evaluated at a fixed pattern of poses
-// around the peak, and its weighted mean and covariance are the Gaussian the pose is drawn from. The
-// sum of the product over the pattern (the proposal's normalising constant) is the particle's weight
-// factor. Where the match cannot be trusted (too few beams found an obstacle, as in a corridor's
-// open end or before there is a map), the odometry's prior is the proposal and the likelihood at the
-// drawn pose the weight factor. The scan-matching filter uses the same Gaussian with one particle.
+// laser makes far narrower than the odometry's prior. The scan matcher climbs to the product's peak
+// from the odometry's prediction; the product is evaluated on a pattern of 19 poses around it,
+// whose finite differences give the curvature of a Laplace approximation: the Gaussian the pose is
+// drawn from, as wide as the product is along every direction (along a corridor, the odometry's
+// spread), however fine the pattern. Its integral (the proposal's normalising constant) is the
+// particle's weight factor. Where the match cannot be trusted (too few beams found an obstacle, as
+// in a corridor's open end or before there is a map), the odometry's prior is the proposal and the
+// likelihood at the drawn pose the weight factor. The scan-matching filter uses the same Gaussian with one particle.
 #include <random>
 
 #include "slamkit/core/types.hpp"
@@ -27,10 +28,16 @@ struct GridSlamOptions {
   /// one scan are not independent (a map error or an unmapped object moves many together), so their
   /// product would be far too sure of itself. GMapping divides by 3 for the same reason.
   double likelihood_temperature = 3.0;
+  /// Grid FastSLAM divides a particle's log weight factor by this as well: it flattens the weights
+  /// without widening the proposal. The temperature above shapes where a particle goes, this one how
+  /// fast the lineages die out; with 1 the particles resample after four scans of five and one
+  /// lineage is left when a loop closes (docs/grid-mapping.md compares 1 and 10 over seeds).
+  /// GMapping divides by three times the particle count.
+  double weight_temperature = 10.0;
   /// A match is trusted when at least this share of the beams used found an obstacle near its end.
   double min_matched_fraction = 0.3;
-  /// The pattern the proposal is evaluated on: the peak and the poses +-these along x, y and heading
-  /// (27 poses).
+  /// The pattern the proposal's curvature is measured on: the peak and the poses +-these along one or
+  /// two of x, y and heading (19 poses).
   double proposal_spread_m = 0.02;
   double proposal_spread_rad = 0.01;
   /// A particle draws its pose from N(mean, f covariance) of the proposal: f = 1 is the textbook
