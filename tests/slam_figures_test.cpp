@@ -94,3 +94,24 @@ TEST(SvgPlotSlam, StdSeriesOfMismatchedLengthsThrow) {
   d.series.push_back({1, {0, 1}, {1, 2}, {1}});
   EXPECT_THROW(landmark_std_figure(d), std::invalid_argument);
 }
+
+// A laser's no-returns through a window or a door reach far beyond the walls; framing the whole
+// grid would leave the building a speck in the middle of the picture.
+TEST(SvgPlotSlam, AGridMapIsFramedOnItsWallsAndPaths) {
+  MapPlotData m;
+  m.grid_png = "png";
+  m.grid_lower_left = Vector2(-50.0, -50.0);
+  m.grid_size = Vector2(100.0, 100.0);
+  m.estimated_trajectory = {Vector2(0.0, 0.0), Vector2(6.0, 1.0)};
+  const Frame whole = map_figure(m).frame();
+  EXPECT_LE(whole.x_min, -50.0) << "without a focus the whole grid is shown";
+  m.grid_focus_min = Vector2(-5.0, -4.0);
+  m.grid_focus_max = Vector2(5.0, 4.0);
+  const Frame framed = map_figure(m).frame();
+  EXPECT_LE(framed.x_min, -5.0);
+  EXPECT_GE(framed.x_max, 6.0) << "the trajectory is inside";
+  EXPECT_GT(framed.x_min, -8.0);
+  EXPECT_LT(framed.x_max, 9.0);
+  EXPECT_LE(framed.y_min, -4.0);
+  EXPECT_GE(framed.y_max, 4.0);
+}

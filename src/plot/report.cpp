@@ -9,6 +9,7 @@
 #include <numbers>
 #include <stdexcept>
 #include <string_view>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -24,6 +25,29 @@
 namespace slamkit {
 
 namespace {
+
+/// Sets the picture's focus to the box of the grid's occupied cells, bar the outermost hundredth
+/// along each axis: a long beam through a window marks a lone cell tens of metres from the walls.
+/// No occupied cell: the whole grid is shown.
+void frame_occupied_cells(const GridMap& grid, plot::MapPlotData& map) {
+  std::vector<int> columns, rows;
+  for (int j = 0; j < grid.height; ++j)
+    for (int i = 0; i < grid.width; ++i) {
+      const std::size_t cell = grid.index(i, j);
+      if (grid.observed[cell] == 0 || grid.log_odds[cell] <= 0.0f) continue;
+      columns.push_back(i);
+      rows.push_back(j);
+    }
+  if (columns.empty()) return;
+  const auto quantile = [](std::vector<int>& v, double q) {
+    const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1));
+    std::nth_element(v.begin(), v.begin() + k, v.end());
+    return v[static_cast<std::size_t>(k)];
+  };
+  map.grid_focus_min = grid.origin + grid.resolution * Vector2(quantile(columns, 0.01), quantile(rows, 0.01));
+  map.grid_focus_max =
+      grid.origin + grid.resolution * Vector2(quantile(columns, 0.99) + 1, quantile(rows, 0.99) + 1);
+}
 
 std::vector<Vector2> positions(const std::vector<StampedPose>& poses, const eval::Se2Transform& align) {
   std::vector<Vector2> out;
@@ -179,6 +203,7 @@ void write_run_plots(const std::string& dir, const RunResult& run, const GroundT
     map.grid_png = image.png;
     map.grid_lower_left = Vector2(image.origin_x, image.origin_y);
     map.grid_size = Vector2(image.width_m, image.height_m);
+    frame_occupied_cells(run.grid, map);
   }
   const std::string map_path = (fs::path(dir) / "map.svg").string();
   draw_figure(map_path, [&] {

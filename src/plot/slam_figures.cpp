@@ -12,6 +12,26 @@ namespace slamkit::plot {
 
 using svg::kNaN;
 
+namespace {
+
+/// Limits the map's view to the grid's focus and every trajectory, with a margin.
+void frame_grid_focus(Figure& fig, const MapPlotData& data) {
+  if (data.grid_png.empty() || !(data.grid_focus_max.array() > data.grid_focus_min.array()).all()) return;
+  Vector2 lo = data.grid_focus_min, hi = data.grid_focus_max;
+  for (const auto* path : {&data.true_trajectory, &data.estimated_trajectory, &data.dead_reckoning,
+                           &data.reference_points})
+    for (const Vector2& p : *path)
+      if (p.allFinite()) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+  const double margin = std::max(1.0, 0.03 * (hi - lo).maxCoeff());
+  fig.set_x_limits(lo.x() - margin, hi.x() + margin);
+  fig.set_y_limits(lo.y() - margin, hi.y() + margin);
+}
+
+}  // namespace
+
 Figure map_figure(const MapPlotData& data) {
   Figure fig(960, 800);
   fig.set_title(data.title);
@@ -38,6 +58,7 @@ Figure map_figure(const MapPlotData& data) {
   for (const Landmark& l : data.true_landmarks) truth.push_back(l.position);
   fig.add_markers(estimated, {Marker::kCircle, palette::kVermillion, 4.5}, "estimated landmarks");
   fig.add_markers(truth, {Marker::kPlus, palette::kBlack, 8.0, 1.3}, "true landmarks");
+  frame_grid_focus(fig, data);
   return fig;
 }
 

@@ -249,6 +249,11 @@ struct MapPlotData {
   std::string grid_png;
   Vector2 grid_lower_left = Vector2::Zero();
   Vector2 grid_size = Vector2::Zero();
+  /// The grid's part worth looking at (the box of its occupied cells [m]); when set (max > min), the
+  /// picture frames it and the trajectories, not the whole grid, whose far edges only beams through
+  /// a window or a door reached.
+  Vector2 grid_focus_min = Vector2::Zero();
+  Vector2 grid_focus_max = Vector2::Zero();
 };
 
 /// The map: equal aspect, metres on both axes; empty series are left out of the legend.
