@@ -152,7 +152,8 @@ TEST(CampaignSpec, TheCampaignsKeptInTheRepositoryExpand) {
       {"world-families-tuning.json", 320},
       {"world-families-test.json", 320},
       {"information-consistency.json", 500},
-      {"tjtf-consistency.json", 200}};
+      {"tjtf-consistency.json", 200},
+      {"grid-radish.json", 30}};
   for (const auto& [file, jobs] : expected)
     EXPECT_EQ(read_campaign_spec((folder / file).string()).jobs.size(), jobs) << file;
 }
