@@ -230,12 +230,15 @@ ScanMatch ScanMatcher::match(const OccupancyGrid& map, const Pose2& guess, const
   return climb(map, guess, scan, [](const ScanMatch& m) { return m.log_likelihood; });
 }
 
+double PosePrior::log_posterior(const Pose2& pose, double log_likelihood) const {
+  Eigen::Vector3d from_mean = pose - mean;
+  from_mean[2] = wrap_angle(from_mean[2]);
+  return likelihood_scale * log_likelihood - 0.5 * from_mean.dot(information * from_mean);
+}
+
 ScanMatch ScanMatcher::match(const OccupancyGrid& map, const PosePrior& prior, const RangeScanEvent& scan) const {
-  return climb(map, prior.mean, scan, [&](const ScanMatch& m) {
-    Eigen::Vector3d from_prior = m.pose - prior.mean;
-    from_prior[2] = wrap_angle(from_prior[2]);
-    return prior.likelihood_scale * m.log_likelihood - 0.5 * from_prior.dot(prior.information * from_prior);
-  });
+  return climb(map, prior.mean, scan,
+               [&](const ScanMatch& m) { return prior.log_posterior(m.pose, m.log_likelihood); });
 }
 
 }  // namespace slamkit

@@ -82,7 +82,8 @@ PoseProposal scan_match_proposal(const ScanMatcher& matcher, const OccupancyGrid
   PoseProposal proposal;
   const Eigen::LDLT<Matrix3> prior(regularised(prior_covariance));
   const Matrix3 prior_information = prior.solve(Matrix3::Identity());
-  const ScanMatch peak = matcher.match(map, PosePrior{prior_mean, prior_information, 1.0 / temperature}, scan);
+  const PosePrior odometry{prior_mean, prior_information, 1.0 / temperature};
+  const ScanMatch peak = matcher.match(map, odometry, scan);
   proposal.matched = peak.beams_used > 0 &&
                      peak.beams_matched >= options.min_matched_fraction * static_cast<double>(peak.beams_used);
   const auto odometry_proposes = [&] {
@@ -108,10 +109,7 @@ PoseProposal scan_match_proposal(const ScanMatcher& matcher, const OccupancyGrid
     const Eigen::Vector3d offset = cell.cast<double>().cwiseProduct(step);
     Pose2 pose = peak.pose + offset;
     pose[2] = wrap_angle(pose[2]);
-    Eigen::Vector3d from_prior = pose - prior_mean;
-    from_prior[2] = wrap_angle(from_prior[2]);
-    log_terms[k] = matcher.evaluate(map, pose, scan).log_likelihood / temperature -
-                   0.5 * from_prior.dot(prior_information * from_prior) + prior_log_norm;
+    log_terms[k] = odometry.log_posterior(pose, matcher.evaluate(map, pose, scan).log_likelihood) + prior_log_norm;
   }
   const auto at = [&](Eigen::Vector3i offset) {
     return log_terms[(offset[0] + 1) + 3 * (offset[1] + 1) + 9 * (offset[2] + 1)];

@@ -57,6 +57,10 @@ struct PosePrior {
   Matrix3 information = Matrix3::Zero();  // the inverse of the prior's covariance
   /// The scan's log-likelihood is multiplied by this before it meets the prior (1 / temperature).
   double likelihood_scale = 1.0;
+
+  /// The posterior's log at `pose`, up to a constant: likelihood_scale times the scan's
+  /// log-likelihood there, minus half the squared Mahalanobis distance from the mean.
+  double log_posterior(const Pose2& pose, double log_likelihood) const;
 };
 
 class ScanMatcher {
