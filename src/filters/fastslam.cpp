@@ -13,7 +13,6 @@
 #include "fastslam_impl.hpp"
 #include "slamkit/core/angles.hpp"
 #include "slamkit/core/random_draws.hpp"
-#include "slamkit/filters/particle_moments.hpp"
 
 namespace slamkit {
 
@@ -78,7 +77,7 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
       clutter_density(slamkit::clutter_density(cfg.association, cfg.sensor, *observation)),
       existence(cfg.association, cfg.sensor),
       pending(cfg.association, cfg.sensor, *observation),
-      resample_rng(splitmix64(cfg.seed ^ 0x526573616d706c65ULL)),
+      particles(static_cast<std::size_t>(cfg.particles), Particle{}, cfg.resample, cfg.policy, cfg.seed),
       grid(std::max(5.0, 0.5 * cfg.sensor.max_range)),
       relocalise_association(cfg.association) {
   if (!motion) throw std::invalid_argument("FastSLAM needs a motion and an observation model");
@@ -120,15 +119,11 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
     log_p0 = -0.5 * gates.new_landmark - kLogGaussianConstant<D> - 0.5 * log_det_2r;
   });
 
-  const auto n = static_cast<std::size_t>(config.particles);
-  particles.resize(n);
-  next_particles.reserve(n);
-  parents.reserve(n);
+  const std::size_t n = particles.size();
   for (Particle& p : particles) {
     p.map = LandmarkTree(&map_nodes);
     p.pose = config.initial_pose;
     p.pose[2] = wrap_angle(p.pose[2]);
-    p.log_weight = -std::log(static_cast<double>(n));
     if (const std::optional<RangeCalibrationPrior>& prior = config.range_calibration) {
       p.links = CalibrationLinks(&link_nodes);
       p.calibration = Vector2(prior->offset_m, prior->scale_error);
@@ -137,8 +132,6 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
     }
   }
   slots.resize(n);
-  for (std::size_t i = 0; i < n; ++i) slots[i].rng.seed(splitmix64(splitmix64(config.seed) ^ i));
-  weights.assign(n, 1.0 / static_cast<double>(n));
 }
 
 void FastSlam::Impl::start(double t) {
@@ -150,7 +143,7 @@ void FastSlam::Impl::start(double t) {
 void FastSlam::Impl::predict_particle(std::size_t i, const ControlEvent& c) {
   Particle& p = particles[i];
   if (config.version == 1) {
-    const Control u = motion->sample_control(c.u, c.dt, slots[i].rng);
+    const Control u = motion->sample_control(c.u, c.dt, particles.stream(i));
     p.pose = motion->predict(p.pose, u, c.dt);
   } else {
     const Matrix3 f = motion->jacobian_state(p.pose, c.u, c.dt);
@@ -196,7 +189,7 @@ void FastSlam::Impl::plan_known_association(const ScanEvent& scan, std::size_t s
 
 Vector2 FastSlam::Impl::mean_calibration() const {
   Vector2 mean = Vector2::Zero();
-  for (std::size_t i = 0; i < particles.size(); ++i) mean += weights[i] * particles[i].calibration;
+  for (std::size_t i = 0; i < particles.size(); ++i) mean += particles.weights()[i] * particles[i].calibration;
   return mean;
 }
 
@@ -208,17 +201,7 @@ void sort_unique(std::vector<std::uint32_t>& v) {
 }  // namespace
 
 void FastSlam::Impl::gather_candidates() {
-  const Pose2 centre_pose = [&] {
-    Pose2 mean = Pose2::Zero();
-    double s = 0.0, c = 0.0;
-    for (std::size_t i = 0; i < particles.size(); ++i) {
-      mean.head<2>() += weights[i] * particles[i].pose.head<2>();
-      s += weights[i] * std::sin(particles[i].pose[2]);
-      c += weights[i] * std::cos(particles[i].pose[2]);
-    }
-    mean[2] = std::atan2(s, c);
-    return mean;
-  }();
+  const Pose2 centre_pose = particles.mean_pose();
   double spread = 0.0;
   for (const Particle& p : particles) spread = std::max(spread, (p.pose.head<2>() - centre_pose.head<2>()).norm());
   // The sensor may be mounted off the pose origin: a particle's
@@ -249,12 +232,12 @@ void FastSlam::Impl::decide_new_landmarks(const ScanEvent& scan) {
   const std::size_t n_obs = scan.observations.size();
   make_room(start_detections, n_obs);
   start_detections.assign(n_obs, 1);
-  pending.begin_scan(scan.t, particles[best].pose);
+  pending.begin_scan(scan.t, particles.best_particle().pose);
   const auto started = static_cast<std::size_t>(next_id - first_started_id);
   for (std::size_t k = 0; k < n_obs; ++k) {
     double weight_new = 0.0;
     for (std::size_t i = 0; i < particles.size(); ++i)
-      if (slots[i].pairings[k].decision == AssociationDecision::kNew) weight_new += weights[i];
+      if (slots[i].pairings[k].decision == AssociationDecision::kNew) weight_new += particles.weights()[i];
     // Explained by the particles that hold most of the weight: those that see a new landmark in it
     // are off, and start it as they would anyway.
     if (weight_new <= 0.5) continue;
@@ -305,31 +288,12 @@ void FastSlam::Impl::record_associations(std::size_t slot, const ScanEvent& scan
 }
 
 void FastSlam::Impl::reweight_and_resample(const ScanEvent& scan) {
-  const std::size_t n = particles.size();
-  log_weights.resize(n);
-  for (std::size_t i = 0; i < n; ++i) log_weights[i] = particles[i].log_weight + slots[i].log_likelihood;
-  if (!normalize_log_weights(log_weights, weights)) ++collapses;
-  const double ess = effective_sample_size(weights);
-  ess_sum += ess;
-  best = static_cast<std::size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
-  record_associations(best, scan);
-  if (slots[best].relocalised) ++relocalisations;
-
-  if (config.policy.should_resample(scans, ess, n)) {
-    resample(config.resample, weights, resample_rng, resample_scratch, parents);
-    // Copies share the maps and paths: O(1) per particle however large the maps.
-    for (const std::size_t parent : parents) next_particles.push_back(particles[parent]);
-    // The best particle stays best: the first copy of the highest-weight parent drawn.
-    std::size_t new_best = 0;
-    for (std::size_t j = 1; j < n; ++j)
-      if (weights[parents[j]] > weights[parents[new_best]]) new_best = j;
-    best = new_best;
-    particles.swap(next_particles);
-    next_particles.clear();
-    weights.assign(n, 1.0 / static_cast<double>(n));
-    ++resamples;
-  }
-  for (std::size_t i = 0; i < n; ++i) particles[i].log_weight = std::log(weights[i]);
+  log_likelihoods.resize(particles.size());
+  for (std::size_t i = 0; i < particles.size(); ++i) log_likelihoods[i] = slots[i].log_likelihood;
+  particles.weigh(log_likelihoods);
+  record_associations(particles.best(), scan);
+  if (slots[particles.best()].relocalised) ++relocalisations;
+  particles.resample_if_due();
 }
 
 void FastSlam::Impl::index_grid_entries() {
@@ -401,13 +365,13 @@ void FastSlam::predict(const ControlEvent& control) {
   s.start(control.t - control.dt);
   // The drift is followed along the best particle's path: the particles differ by metres over a
   // lap, which changes the lever arms of the drift little.
-  const Matrix3 q = s.relocalising() ? s.motion->process_noise(s.particles[s.best].pose, control.u, control.dt)
+  const Matrix3 q = s.relocalising() ? s.motion->process_noise(s.particles.best_particle().pose, control.u, control.dt)
                                      : Matrix3::Zero();
   s.pool.run(s.particles.size(), kPredictGrain, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) s.predict_particle(i, control);
   });
   if (s.initialiser) s.dead_reckoning.advance(*s.motion, control.u, control.dt);
-  if (s.relocalising()) s.drift.add(q, s.particles[s.best].pose.head<2>());
+  if (s.relocalising()) s.drift.add(q, s.particles.best_particle().pose.head<2>());
 }
 
 void FastSlam::update(const ScanEvent& scan) {
@@ -422,7 +386,7 @@ void FastSlam::update(const ScanEvent& scan) {
   if (s.relocalising()) {
     s.drift_at_scan.push_back(s.drift);
     s.scan_times.push_back(scan.t);
-    s.scan_positions.push_back(s.particles[s.best].pose.head<2>());
+    s.scan_positions.push_back(s.particles.best_particle().pose.head<2>());
     while (s.scan_times[s.window_start] < scan.t - s.config.association.relocalise_window_s) ++s.window_start;
   }
   if (s.known())
@@ -455,17 +419,9 @@ void FastSlam::update(const ScanEvent& scan) {
   if (!s.known() && ++s.scans_since_prune >= kGridPruneScans) s.prune_grid();
 }
 
-Pose2 FastSlam::pose() const {
-  const Impl& s = *impl_;
-  return weighted_mean_pose(s.weights, [&](std::size_t i) -> const Pose2& { return s.particles[i].pose; });
-}
+Pose2 FastSlam::pose() const { return impl_->particles.mean_pose(); }
 
-Matrix3 FastSlam::pose_covariance() const {
-  const Impl& s = *impl_;
-  return mixture_covariance(
-      s.weights, pose(), [&](std::size_t i) -> const Pose2& { return s.particles[i].pose; },
-      [&](std::size_t i) -> const Matrix3& { return s.particles[i].pose_cov; });
-}
+Matrix3 FastSlam::pose_covariance() const { return impl_->particles.pose_covariance(); }
 
 std::size_t FastSlam::num_landmarks() const {
   std::size_t n = 0;
@@ -501,12 +457,7 @@ void FastSlam::forget_smoothed_trajectory() {
   for (Impl::Particle& p : impl_->particles) p.path = ParticlePath();
 }
 
-std::vector<WeightedPose> FastSlam::pose_samples() const {
-  const Impl& s = *impl_;
-  std::vector<WeightedPose> out(s.particles.size());
-  for (std::size_t i = 0; i < out.size(); ++i) out[i] = {s.particles[i].pose, s.weights[i]};
-  return out;
-}
+std::vector<WeightedPose> FastSlam::pose_samples() const { return impl_->particles.pose_samples(); }
 
 std::vector<LandmarkHypothesis> FastSlam::landmark_hypotheses() const {
   const Impl& s = *impl_;
@@ -515,7 +466,6 @@ std::vector<LandmarkHypothesis> FastSlam::landmark_hypotheses() const {
 
 std::map<std::string, double> FastSlam::statistics() const {
   const Impl& s = *impl_;
-  const auto n = static_cast<double>(s.particles.size());
   std::size_t provisional = 0;
   s.best_particle().map.for_each([&](std::size_t, const LandmarkGaussian& lm) {
     provisional += !lm.removed && !s.existence.confirmed(lm.existence) ? 1 : 0;
@@ -523,13 +473,10 @@ std::map<std::string, double> FastSlam::statistics() const {
   std::size_t searches = 0;
   for (const Impl::Slot& slot : s.slots) searches += slot.relocalisation_searches;
   std::map<std::string, double> statistics = {
-      {"particles", n},
       {"landmarks_provisional", static_cast<double>(provisional)},
-      {"ess_mean", s.scans > 0 ? s.ess_sum / static_cast<double>(s.scans) : n},
-      {"resamples", static_cast<double>(s.resamples)},
-      {"weight_collapses", static_cast<double>(s.collapses)},
       {"relocalisations", static_cast<double>(s.relocalisations)},
       {"relocalisation_searches", static_cast<double>(searches)}};
+  s.particles.add_statistics(statistics);
   if (!s.known() && s.pending.active()) {
     statistics["observations_pending"] = static_cast<double>(s.pending_observations);
     statistics["landmarks_pending"] = static_cast<double>(s.pending.size());
@@ -544,7 +491,7 @@ std::map<std::string, double> FastSlam::statistics() const {
     Matrix2 cov = Matrix2::Zero();
     for (std::size_t i = 0; i < s.particles.size(); ++i) {
       const Vector2 d = s.particles[i].calibration - mean;
-      cov += s.weights[i] * (s.particles[i].calibration_cov + d * d.transpose());
+      cov += s.particles.weights()[i] * (s.particles[i].calibration_cov + d * d.transpose());
     }
     statistics["range_offset_m"] = mean[0];
     statistics["range_offset_std_m"] = std::sqrt(cov(0, 0));

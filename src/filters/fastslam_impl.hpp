@@ -26,6 +26,7 @@
 #include "slamkit/filters/landmark_initialiser.hpp"
 #include "slamkit/filters/landmark_tree.hpp"
 #include "slamkit/filters/particle_path.hpp"
+#include "slamkit/filters/particle_set.hpp"
 #include "slamkit/filters/worker_pool.hpp"
 
 namespace slamkit {
@@ -207,7 +208,6 @@ struct FastSlam::Impl {
     // FastSLAM 2.0: the pose's covariance about `pose`: the part of the last scan's proposal not
     // sampled (FastSlamConfig::pose_sample_fraction), plus the motion noise since.
     Matrix3 pose_cov = Matrix3::Zero();
-    double log_weight = 0.0;             // log of the normalised weight
     // With a range calibration: the particle's Gaussian of (offset, scale error).
     Vector2 calibration = Vector2::Zero();
     Matrix2 calibration_cov = Matrix2::Zero();
@@ -226,10 +226,9 @@ struct FastSlam::Impl {
     std::uint32_t index = 0;
   };
 
-  /// Per particle slot (not per particle: resampling moves particles, slots stay): the random
-  /// stream and the scratch of a scan update.
+  /// Per particle slot (not per particle: resampling moves particles, slots stay): the scratch of
+  /// a scan update. The slot's random stream is the particle set's.
   struct Slot {
-    std::mt19937_64 rng;
     std::vector<Pairing> pairings;
     // Association without identities: the landmarks in the widened view of the particle's pose, in
     // index order, and what the shared kernel decided for each observation.
@@ -295,7 +294,7 @@ struct FastSlam::Impl {
   /// (N = 5) the pose and the range calibration; the pose is then drawn. Returns the log of the
   /// proposal's normalising constant, the particle's weight factor.
   template <int D, int N>
-  double propose(Particle& p, Slot& s, const ScanEvent& scan, std::size_t old_size) const;
+  double propose(Particle& p, Slot& s, const ScanEvent& scan, std::size_t old_size, std::mt19937_64& rng) const;
   /// The log likelihood of an innovation at squared Mahalanobis distance m2 from a prediction whose
   /// covariance S has log determinant log_det (FastSlamConfig::likelihood).
   template <int D>
@@ -357,7 +356,7 @@ struct FastSlam::Impl {
   void index_grid_entries();
   void prune_grid();
   void set_origin(int id, const LandmarkOrigin& origin);
-  const Particle& best_particle() const { return particles[best]; }
+  const Particle& best_particle() const { return particles.best_particle(); }
 
   FastSlamConfig config;
   // The threads first: the node storage serves them. The node storage next: it must outlive every
@@ -389,17 +388,9 @@ struct FastSlam::Impl {
   std::size_t pending_observations = 0;
   double log_p0 = 0.0;
 
-  std::vector<Particle> particles;
+  ParticleSet<Particle> particles;
   std::vector<Slot> slots;
-  std::vector<double> weights;
-  std::vector<double> log_weights;  // scratch of reweighting
-  std::mt19937_64 resample_rng;
-  // Scratch of resampling; next_particles is empty between scans (its elements would hold
-  // references that make every node look shared) but keeps its capacity.
-  ResampleScratch resample_scratch;
-  std::vector<std::size_t> parents;
-  std::vector<Particle> next_particles;
-  std::size_t best = 0;
+  std::vector<double> log_likelihoods;  // per particle of the current scan
 
   std::vector<char> valid;  // per observation of the current scan: finite measurement
   std::vector<Pairing> known_plan;
@@ -439,9 +430,6 @@ struct FastSlam::Impl {
   std::size_t relocalisations = 0;  // of the best particle's lineage: counted where the best relocalised
 
   std::size_t scans = 0;
-  std::size_t resamples = 0;
-  std::size_t collapses = 0;
-  double ess_sum = 0.0;
 };
 
 }  // namespace slamkit

@@ -237,7 +237,8 @@ void FastSlam::Impl::start_placed(Particle& p, const InitialLandmark& placed, in
 }
 
 template <int D, int N>
-double FastSlam::Impl::propose(Particle& p, Slot& s, const ScanEvent& scan, std::size_t old_size) const {
+double FastSlam::Impl::propose(Particle& p, Slot& s, const ScanEvent& scan, std::size_t old_size,
+                              std::mt19937_64& rng) const {
   using StateVector = Eigen::Matrix<double, N, 1>;
   using StateSquare = Eigen::Matrix<double, N, N>;
   const MeasurementKernels<D>& kernel = kernels.get<D>();
@@ -298,7 +299,7 @@ double FastSlam::Impl::propose(Particle& p, Slot& s, const ScanEvent& scan, std:
   const double fraction = config.pose_sample_fraction;
   const Pose2 mean = mu.template head<3>();
   const Matrix3 pose_sigma = sigma.template topLeftCorner<3, 3>();
-  p.pose = sample_gaussian(mean, fraction * pose_sigma, s.rng);
+  p.pose = sample_gaussian(mean, fraction * pose_sigma, rng);
   p.pose_cov = (1.0 - fraction) * pose_sigma;
   // The calibration's part of the proposal is not kept: the landmark updates at the drawn pose
   // refine the calibration with these observations (once).
@@ -343,7 +344,8 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   };
   double log_likelihood = 0.0;
   if (config.version == 2)
-    log_likelihood = calibrating() ? propose<D, 5>(p, s, scan, old_size) : propose<D, 3>(p, s, scan, old_size);
+    log_likelihood = calibrating() ? propose<D, 5>(p, s, scan, old_size, particles.stream(i))
+                                   : propose<D, 3>(p, s, scan, old_size, particles.stream(i));
 
   // Landmark updates at the particle's final pose; for FastSLAM 1.0 they also give the weight.
   for (std::size_t k = 0; k < n_obs; ++k) {

@@ -6,9 +6,8 @@
 #include <thread>
 
 #include "slamkit/core/angles.hpp"
-#include "slamkit/core/random_draws.hpp"
-#include "slamkit/filters/particle_moments.hpp"
 #include "slamkit/filters/particle_path.hpp"
+#include "slamkit/filters/particle_set.hpp"
 #include "slamkit/filters/worker_pool.hpp"
 #include "slamkit/grid/grid_snapshot.hpp"
 #include "slamkit/models/motion_model.hpp"
@@ -30,30 +29,22 @@ unsigned thread_count(unsigned requested) {
 struct GridFastSlam::Impl {
   struct Particle {
     Pose2 pose;  // drawn at the last scan, then moved by the odometry's prediction
-    Matrix3 covariance = Matrix3::Zero();  // of the prediction since the last scan
-    double log_weight = 0.0;
+    Matrix3 pose_cov = Matrix3::Zero();  // of the prediction since the last scan
     OccupancyGrid map;
     ParticlePath path;
     bool matched = false;  // at the last scan
   };
 
   Impl(std::shared_ptr<const MotionModel> motion_model, const Pose2& initial_pose, const GridFastSlamConfig& cfg)
-      : config(cfg), motion(std::move(motion_model)), matcher(cfg.slam.matcher), pool(thread_count(cfg.threads)),
-        path_nodes(pool), resample_rng(splitmix64(cfg.seed ^ 0x47726964ULL)) {
-    if (!motion) throw std::invalid_argument("grid FastSLAM needs a motion model");
-    if (cfg.particles < 1) throw std::invalid_argument("grid FastSLAM needs at least one particle");
-    const auto n = static_cast<std::size_t>(cfg.particles);
-    slots.resize(n);
-    for (std::size_t i = 0; i < n; ++i) slots[i].seed(splitmix64(splitmix64(cfg.seed) ^ i));
-    particles.reserve(n);
-    for (std::size_t i = 0; i < n; ++i)
-      particles.push_back({initial_pose, Matrix3::Zero(), 0.0, OccupancyGrid(cfg.slam.grid), {}, false});
-    weights.assign(n, 1.0 / static_cast<double>(n));
-  }
-
-  std::size_t best() const {
-    return static_cast<std::size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
-  }
+      : config(cfg),
+        motion(motion_model ? std::move(motion_model) : throw std::invalid_argument("grid FastSLAM needs a motion model")),
+        matcher(cfg.slam.matcher),
+        pool(thread_count(cfg.threads)),
+        path_nodes(pool),
+        particles(cfg.particles >= 1 ? static_cast<std::size_t>(cfg.particles)
+                                     : throw std::invalid_argument("grid FastSLAM needs at least one particle"),
+                  Particle{initial_pose, Matrix3::Zero(), OccupancyGrid(cfg.slam.grid), {}, false}, cfg.resample,
+                  cfg.resample_when, cfg.seed) {}
 
   void extend_paths(double t) {
     if (!keep_paths) return;
@@ -70,7 +61,7 @@ struct GridFastSlam::Impl {
 
   void scan(const RangeScanEvent& scan) {
     const bool first = scans++ == 0;
-    log_weights.resize(particles.size());
+    log_likelihoods.assign(particles.size(), 0.0);
     pool.run(particles.size(), kScanGrain, [&](std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) {
         Particle& p = particles[i];
@@ -78,39 +69,20 @@ struct GridFastSlam::Impl {
         // start pose, which is known.
         if (!first) {
           const PoseProposal proposal =
-              scan_match_proposal(matcher, p.map, scan, p.pose, p.covariance, config.slam, &slots[i]);
+              scan_match_proposal(matcher, p.map, scan, p.pose, p.pose_cov, config.slam, &particles.stream(i));
           p.pose = proposal.mean;
-          p.covariance = proposal.covariance;
-          p.log_weight += proposal.log_weight / config.slam.weight_temperature;
+          p.pose_cov = proposal.covariance;
+          log_likelihoods[i] = proposal.log_weight / config.slam.weight_temperature;
           p.matched = proposal.matched;
         }
         p.map.integrate(p.pose, scan);
-        log_weights[i] = p.log_weight;
       }
     });
     unmatched += static_cast<std::size_t>(
         std::count_if(particles.begin(), particles.end(), [&](const Particle& p) { return !first && !p.matched; }));
-    if (!normalize_log_weights(log_weights, weights)) ++collapses;
-    // Keep the log-weights near zero so that they never lose precision however long the run.
-    const double shift = *std::max_element(log_weights.begin(), log_weights.end());
-    if (std::isfinite(shift))
-      for (Particle& p : particles) p.log_weight -= shift;
     extend_paths(scan.t);
-    const double ess = effective_sample_size(weights);
-    ess_sum += ess;
-    if (config.resample_when.should_resample(scans, ess, particles.size())) resample();
-  }
-
-  void resample() {
-    parents.clear();
-    slamkit::resample(config.resample, weights, resample_rng, scratch, parents);
-    std::vector<Particle> drawn;
-    drawn.reserve(particles.size());
-    for (std::size_t parent : parents) drawn.push_back(particles[parent]);
-    particles = std::move(drawn);
-    for (Particle& p : particles) p.log_weight = 0.0;
-    weights.assign(particles.size(), 1.0 / static_cast<double>(particles.size()));
-    ++resamples;
+    particles.weigh(log_likelihoods);
+    particles.resample_if_due();
   }
 
   GridFastSlamConfig config;
@@ -119,16 +91,11 @@ struct GridFastSlam::Impl {
   // The threads first: the path nodes serve them, and the particles' paths must die before both.
   WorkerPool pool;
   ParticlePath::NodeStorage path_nodes;
-  std::vector<std::mt19937_64> slots;
-  std::vector<Particle> particles;
-  std::vector<double> weights, log_weights;
-  std::mt19937_64 resample_rng;
-  ResampleScratch scratch;
-  std::vector<std::size_t> parents;
+  ParticleSet<Particle> particles;
+  std::vector<double> log_likelihoods;  // per particle of the current scan
   bool keep_paths = true;
   double last_path_t = NAN;
-  std::size_t scans = 0, resamples = 0, collapses = 0, unmatched = 0;
-  double ess_sum = 0.0;
+  std::size_t scans = 0, unmatched = 0;
   std::vector<AssociationRecord> no_associations;
 };
 
@@ -140,30 +107,21 @@ GridFastSlam::~GridFastSlam() = default;
 
 void GridFastSlam::predict(const ControlEvent& control) {
   Impl& s = *impl_;
-  for (Impl::Particle& p : s.particles) predict_pose(*s.motion, control, p.pose, p.covariance);
+  for (Impl::Particle& p : s.particles) predict_pose(*s.motion, control, p.pose, p.pose_cov);
   s.extend_paths(control.t);
 }
 
 void GridFastSlam::update_range_scan(const RangeScanEvent& scan) { impl_->scan(scan); }
 
-Pose2 GridFastSlam::pose() const {
-  const Impl& s = *impl_;
-  return weighted_mean_pose(s.weights, [&](std::size_t i) -> const Pose2& { return s.particles[i].pose; });
-}
+Pose2 GridFastSlam::pose() const { return impl_->particles.mean_pose(); }
 
-Matrix3 GridFastSlam::pose_covariance() const {
-  const Impl& s = *impl_;
-  const Matrix3 covariance = mixture_covariance(
-      s.weights, pose(), [&](std::size_t i) -> const Pose2& { return s.particles[i].pose; },
-      [&](std::size_t i) -> const Matrix3& { return s.particles[i].covariance; });
-  return 0.5 * (covariance + covariance.transpose());
-}
+Matrix3 GridFastSlam::pose_covariance() const { return impl_->particles.pose_covariance(); }
 
 const std::vector<AssociationRecord>& GridFastSlam::last_associations() const { return impl_->no_associations; }
 
 std::vector<StampedPose> GridFastSlam::smoothed_trajectory() const {
   const Impl& s = *impl_;
-  return s.particles[s.best()].path.poses();
+  return s.particles.best_particle().path.poses();
 }
 
 void GridFastSlam::forget_smoothed_trajectory() {
@@ -171,15 +129,9 @@ void GridFastSlam::forget_smoothed_trajectory() {
   for (Impl::Particle& p : impl_->particles) p.path = ParticlePath();
 }
 
-std::vector<WeightedPose> GridFastSlam::pose_samples() const {
-  const Impl& s = *impl_;
-  std::vector<WeightedPose> out;
-  out.reserve(s.particles.size());
-  for (std::size_t i = 0; i < s.particles.size(); ++i) out.push_back({s.particles[i].pose, s.weights[i]});
-  return out;
-}
+std::vector<WeightedPose> GridFastSlam::pose_samples() const { return impl_->particles.pose_samples(); }
 
-const OccupancyGrid& GridFastSlam::best_map() const { return impl_->particles[impl_->best()].map; }
+const OccupancyGrid& GridFastSlam::best_map() const { return impl_->particles.best_particle().map; }
 
 GridMap GridFastSlam::grid_map() const { return to_grid_map(best_map()); }
 
@@ -189,14 +141,13 @@ std::map<std::string, double> GridFastSlam::statistics() const {
   std::vector<const OccupancyGrid*> maps;
   for (const Impl::Particle& p : s.particles) maps.push_back(&p.map);
   const auto distinct = static_cast<double>(OccupancyGrid::distinct_bytes(maps));
-  return {{"particles", n},
-          {"range_scans", static_cast<double>(s.scans)},
-          {"ess_mean", s.scans > 0 ? s.ess_sum / static_cast<double>(s.scans) : n},
-          {"resamples", static_cast<double>(s.resamples)},
-          {"weight_collapses", static_cast<double>(s.collapses)},
-          {"unmatched_particle_scans", static_cast<double>(s.unmatched)},
-          {"grid_bytes_per_particle", distinct / n},
-          {"grid_bytes_unshared_per_particle", static_cast<double>(s.particles.front().map.bytes())}};
+  std::map<std::string, double> statistics = {
+      {"range_scans", static_cast<double>(s.scans)},
+      {"unmatched_particle_scans", static_cast<double>(s.unmatched)},
+      {"grid_bytes_per_particle", distinct / n},
+      {"grid_bytes_unshared_per_particle", static_cast<double>(s.particles.front().map.bytes())}};
+  s.particles.add_statistics(statistics);
+  return statistics;
 }
 
 }  // namespace slamkit
