@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -175,14 +176,16 @@ TEST(Resampling, EffectiveSampleSize) {
 TEST(Resampling, LogSumExpNormalisation) {
   std::vector<double> w;
   // exp(-1e5) underflows; the shift by the maximum keeps the ratio 1 : 2.
-  EXPECT_TRUE(normalize_log_weights(std::vector<double>{-1e5, -1e5 + std::log(2.0)}, w));
+  const std::optional<double> log_sum = normalize_log_weights(std::vector<double>{-1e5, -1e5 + std::log(2.0)}, w);
+  ASSERT_TRUE(log_sum.has_value());
+  EXPECT_NEAR(*log_sum, -1e5 + std::log(3.0), 1e-9);
   EXPECT_NEAR(w[0], 1.0 / 3.0, 1e-12);
   EXPECT_NEAR(w[1], 2.0 / 3.0, 1e-12);
 
   const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_TRUE(normalize_log_weights(std::vector<double>{nan, 3.0, -inf, 3.0}, w));
+  EXPECT_TRUE(normalize_log_weights(std::vector<double>{nan, 3.0, -inf, 3.0}, w).has_value());
   EXPECT_EQ(w, (std::vector<double>{0.0, 0.5, 0.0, 0.5}));
 
-  EXPECT_FALSE(normalize_log_weights(std::vector<double>{-inf, nan, -inf}, w)) << "a collapse is reported";
+  EXPECT_FALSE(normalize_log_weights(std::vector<double>{-inf, nan, -inf}, w).has_value()) << "a collapse is reported";
   for (const double v : w) EXPECT_DOUBLE_EQ(v, 1.0 / 3.0);
 }

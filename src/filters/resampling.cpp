@@ -186,14 +186,14 @@ double effective_sample_size(std::span<const double> weights) {
   return sum_sq > 0.0 ? 1.0 / sum_sq : 0.0;
 }
 
-bool normalize_log_weights(std::span<const double> log_weights, std::vector<double>& weights) {
+std::optional<double> normalize_log_weights(std::span<const double> log_weights, std::vector<double>& weights) {
   weights.resize(log_weights.size());
   double max = -std::numeric_limits<double>::infinity();
   for (const double lw : log_weights)
     if (std::isfinite(lw)) max = std::max(max, lw);
   if (!std::isfinite(max)) {
     std::fill(weights.begin(), weights.end(), 1.0 / static_cast<double>(weights.size()));
-    return false;
+    return std::nullopt;
   }
   // Shifting by the largest log-weight makes the largest term exp(0) = 1, so the sum is >= 1 and
   // neither overflows nor underflows whatever the scale of the log-likelihoods.
@@ -203,7 +203,7 @@ bool normalize_log_weights(std::span<const double> log_weights, std::vector<doub
     sum += weights[i];
   }
   for (double& w : weights) w /= sum;
-  return true;
+  return max + std::log(sum);
 }
 
 std::vector<std::size_t> resample_multinomial(std::span<const double> weights, std::mt19937_64& rng) {

@@ -29,6 +29,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <optional>
 #include <random>
 #include <span>
 #include <stdexcept>
@@ -117,22 +118,12 @@ class ParticleSet {
   void weigh(std::span<const double> log_likelihoods) {
     if (log_likelihoods.size() != particles_.size())
       throw std::invalid_argument("a particle set is weighed with one log-likelihood per particle");
-    for (std::size_t i = 0; i < particles_.size(); ++i) {
-      const double sum = log_weights_[i] + log_likelihoods[i];
-      log_weights_[i] = std::isnan(sum) ? -std::numeric_limits<double>::infinity() : sum;
-    }
-    const double top = *std::max_element(log_weights_.begin(), log_weights_.end());
-    if (!std::isfinite(top)) {
+    for (std::size_t i = 0; i < particles_.size(); ++i) log_weights_[i] += log_likelihoods[i];
+    if (const std::optional<double> log_sum = normalize_log_weights(log_weights_, weights_)) {
+      for (double& lw : log_weights_) lw = std::isfinite(lw) ? lw - *log_sum : -std::numeric_limits<double>::infinity();
+    } else {
       ++collapses_;
       equalise();
-    } else {
-      double sum = 0.0;
-      for (std::size_t i = 0; i < particles_.size(); ++i) sum += (weights_[i] = std::exp(log_weights_[i] - top));
-      const double log_sum = top + std::log(sum);
-      for (std::size_t i = 0; i < particles_.size(); ++i) {
-        weights_[i] /= sum;
-        log_weights_[i] -= log_sum;
-      }
     }
     best_ = static_cast<std::size_t>(std::max_element(weights_.begin(), weights_.end()) - weights_.begin());
     ess_ = effective_sample_size(weights_);

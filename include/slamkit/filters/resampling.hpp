@@ -15,6 +15,7 @@
 // The uniforms come from the generator's raw bits through a fixed transform, not the standard
 // library's distributions, so a seed selects the same particles with every standard library.
 #include <cstddef>
+#include <optional>
 #include <random>
 #include <span>
 #include <string>
@@ -53,10 +54,11 @@ std::string to_string(const ResamplePolicy& policy);
 /// ESS = 1 / sum w_i^2 of normalised weights: N for uniform weights, 1 when one particle has all.
 double effective_sample_size(std::span<const double> weights);
 
-/// Normalises log-weights into `weights` (resized to match) by log-sum-exp. A NaN or infinite
-/// log-weight counts as zero weight. Returns false, with uniform weights, when no log-weight is
-/// finite: the measurement ruled out every particle, and no particle is better than another.
-bool normalize_log_weights(std::span<const double> log_weights, std::vector<double>& weights);
+/// Normalises log-weights into `weights` (resized to match) by log-sum-exp, and returns the
+/// log-sum-exp (the log of the normaliser). A NaN or infinite log-weight counts as zero weight.
+/// Returns nullopt, with uniform weights, when no log-weight is finite: the measurement ruled out
+/// every particle, and no particle is better than another.
+std::optional<double> normalize_log_weights(std::span<const double> log_weights, std::vector<double>& weights);
 
 /// Each scheme takes normalised weights (non-negative, summing to 1 up to rounding; the sum is
 /// used as given, so rounding cannot run a draw off the end) and returns N = weights.size() parent
