@@ -132,6 +132,7 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
     }
   }
   slots.resize(n);
+  log_likelihoods.resize(n);
 }
 
 void FastSlam::Impl::start(double t) {
@@ -288,8 +289,6 @@ void FastSlam::Impl::record_associations(std::size_t slot, const ScanEvent& scan
 }
 
 void FastSlam::Impl::reweight_and_resample(const ScanEvent& scan) {
-  log_likelihoods.resize(particles.size());
-  for (std::size_t i = 0; i < particles.size(); ++i) log_likelihoods[i] = slots[i].log_likelihood;
   particles.weigh(log_likelihoods);
   record_associations(particles.best(), scan);
   if (slots[particles.best()].relocalised) ++relocalisations;

@@ -239,7 +239,6 @@ struct FastSlam::Impl {
     std::vector<std::uint32_t> observed;
     // (mean, index) of each landmark this scan created or moved into another grid cell.
     std::vector<std::pair<Vector2, std::uint32_t>> grid_entries;
-    double log_likelihood = 0.0;
     // Relocalisation's scratch: the landmarks mapped since the window and those before it, the
     // former as measurements from the pose, and the joint search's workspace and answer.
     std::vector<std::uint32_t> recent;
@@ -390,7 +389,7 @@ struct FastSlam::Impl {
 
   ParticleSet<Particle> particles;
   std::vector<Slot> slots;
-  std::vector<double> log_likelihoods;  // per particle of the current scan
+  std::vector<double> log_likelihoods;  // per particle slot: its weight factor from the current scan
 
   std::vector<char> valid;  // per observation of the current scan: finite measurement
   std::vector<Pairing> known_plan;

@@ -383,7 +383,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   if (relocalising() && (!s.confirmed_now.empty() || old_size < p.map.size()))
     relocalise(p, s, static_cast<std::uint32_t>(old_size));
   if (!known()) count_misses(p, s);
-  s.log_likelihood = log_likelihood;
+  log_likelihoods[i] = log_likelihood;
 }
 
 template void FastSlam::Impl::update_particle<1>(std::size_t, const ScanEvent&);

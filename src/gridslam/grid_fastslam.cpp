@@ -60,7 +60,7 @@ struct GridFastSlam::Impl {
   }
 
   void scan(const RangeScanEvent& scan) {
-    const bool first = scans++ == 0;
+    const bool first = particles.weighed_scans() == 0;
     log_likelihoods.assign(particles.size(), 0.0);
     pool.run(particles.size(), kScanGrain, [&](std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) {
@@ -95,7 +95,7 @@ struct GridFastSlam::Impl {
   std::vector<double> log_likelihoods;  // per particle of the current scan
   bool keep_paths = true;
   double last_path_t = NAN;
-  std::size_t scans = 0, unmatched = 0;
+  std::size_t unmatched = 0;
   std::vector<AssociationRecord> no_associations;
 };
 
@@ -142,7 +142,7 @@ std::map<std::string, double> GridFastSlam::statistics() const {
   for (const Impl::Particle& p : s.particles) maps.push_back(&p.map);
   const auto distinct = static_cast<double>(OccupancyGrid::distinct_bytes(maps));
   std::map<std::string, double> statistics = {
-      {"range_scans", static_cast<double>(s.scans)},
+      {"range_scans", static_cast<double>(s.particles.weighed_scans())},
       {"unmatched_particle_scans", static_cast<double>(s.unmatched)},
       {"grid_bytes_per_particle", distinct / n},
       {"grid_bytes_unshared_per_particle", static_cast<double>(s.particles.front().map.bytes())}};

@@ -78,6 +78,8 @@ class ParticleSet {
   /// The highest-weight particle; after resampling, the first copy of the highest-weight parent drawn.
   std::size_t best() const { return best_; }
   const Particle& best_particle() const { return particles_[best_]; }
+  /// The scans weighed so far.
+  std::size_t weighed_scans() const { return scans_; }
   /// Slot i's random stream: one thread may draw from it while others draw from theirs.
   std::mt19937_64& stream(std::size_t slot) { return streams_[slot]; }
 
