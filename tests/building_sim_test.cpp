@@ -123,7 +123,7 @@ TEST(BuildingCastRay, DistanceToTheNearestWall) {
 // ---- Floor plans ------------------------------------------------------------------------------------
 
 TEST(BuildingFloorPlan, ByNameAndUnknownNamesListTheKnownOnes) {
-  EXPECT_EQ(floor_plan_names(), (std::vector<std::string>{"office", "corridors"}));
+  EXPECT_EQ(floor_plan_names(), (std::vector<std::string>{"office", "corridors", "ring"}));
   for (const std::string& name : floor_plan_names()) EXPECT_EQ(floor_plan(name).name, name);
   try {
     floor_plan("ofice");
@@ -131,7 +131,7 @@ TEST(BuildingFloorPlan, ByNameAndUnknownNamesListTheKnownOnes) {
   } catch (const std::invalid_argument& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("did you mean 'office'"), std::string::npos) << what;
-    EXPECT_NE(what.find("office, corridors"), std::string::npos) << what;
+    EXPECT_NE(what.find("office, corridors, ring"), std::string::npos) << what;
   }
 }
 
@@ -144,12 +144,14 @@ TEST(BuildingFloorPlan, SizesAndRoutes) {
     }
     return hi - lo;
   };
-  const FloorPlan office = office_floor_plan(), corridors = corridor_building_floor_plan();
+  const FloorPlan office = office_floor_plan(), corridors = corridor_building_floor_plan(), ring = ring_floor_plan();
   EXPECT_EQ(extent(office), Vector2(20.0, 15.0));
   EXPECT_EQ(extent(corridors), Vector2(80.0, 60.0));
+  EXPECT_EQ(extent(ring), Vector2(35.0, 25.0));
   EXPECT_GT(lap_length(corridors), 100.0);
-  // Both routes keep well clear of every wall, door jambs included.
-  for (const FloorPlan& plan : {office, corridors}) {
+  EXPECT_NEAR(lap_length(ring), 110.0, 1e-9);
+  // Every route keeps well clear of every wall, door jambs included.
+  for (const FloorPlan& plan : {office, corridors, ring}) {
     for (std::size_t i = 0; i < plan.route.size(); ++i) {
       const Vector2 a = plan.route[i], b = plan.route[(i + 1) % plan.route.size()];
       for (int k = 0; k <= 200; ++k)

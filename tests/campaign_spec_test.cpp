@@ -154,7 +154,7 @@ TEST(CampaignSpec, TheCampaignsKeptInTheRepositoryExpand) {
       {"information-consistency.json", 500},
       {"tjtf-consistency.json", 200},
       {"grid-radish.json", 60},
-      {"grid-buildings.json", 26}};
+      {"grid-buildings.json", 46}};
   for (const auto& [file, jobs] : expected)
     EXPECT_EQ(read_campaign_spec((folder / file).string()).jobs.size(), jobs) << file;
 }

@@ -66,7 +66,7 @@ TEST(DatasetSpec, SimulatedDatasetsAreNamedByScenarioAndSeeds) {
   EXPECT_NE(spec_error("scenario:default:x").find("expected the noise seed as a whole number"), std::string::npos);
   EXPECT_NE(spec_error("scenario:default:1:2").find("expected scenario:NAME[:SEED]"), std::string::npos);
   EXPECT_EQ(spec_error("building:offce"), "unknown building 'offce' (did you mean 'office'?); expected one of: office, "
-                                          "corridors");
+                                          "corridors, ring");
 }
 
 /// Every event and every piece of truth the same, to the bit.

@@ -196,6 +196,23 @@ FloorPlan corridor_building_floor_plan() {
   return d.take();
 }
 
+// A 2.5 m corridor round a block of offices lined on all four sides (35 m x 25 m outside, the block
+// 30 m x 20 m): the office's loop at a scale where each scan sees one side of it, 110 m a lap. The
+// route drives the corridor counter-clockwise, so the offices are always on the robot's left and the
+// blank outer wall on its right.
+FloorPlan ring_floor_plan() {
+  PlanDrawing d("ring");
+  d.box(0.0, 0.0, 35.0, 25.0);
+  constexpr double x0 = 2.5, x1 = 32.5, y0 = 2.5, y1 = 22.5;  // the block
+  const Vector2 up(0.0, 1.0), down(0.0, -1.0), right(1.0, 0.0), left(-1.0, 0.0);
+  office_row(d, {x0, y0}, {x1, y0}, up, 0.5, 29.5);
+  office_row(d, {x1, y0}, {x1, y1}, left, 4.5, 15.5);
+  office_row(d, {x0, y1}, {x1, y1}, down, 0.5, 29.5);
+  office_row(d, {x0, y0}, {x0, y1}, right, 4.5, 15.5);
+  d.route({{1.25, 1.25}, {33.75, 1.25}, {33.75, 23.75}, {1.25, 23.75}});
+  return d.take();
+}
+
 namespace {
 
 struct PlanEntry {
@@ -203,7 +220,8 @@ struct PlanEntry {
   FloorPlan (*make)();
 };
 
-const PlanEntry kFloorPlans[] = {{"office", &office_floor_plan}, {"corridors", &corridor_building_floor_plan}};
+const PlanEntry kFloorPlans[] = {
+    {"office", &office_floor_plan}, {"corridors", &corridor_building_floor_plan}, {"ring", &ring_floor_plan}};
 
 }  // namespace
 
