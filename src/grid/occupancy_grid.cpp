@@ -46,6 +46,19 @@ GridCell floor_cell(FixedPoint point) {
   return GridCell{static_cast<int>(point.x >> kSubcellBits), static_cast<int>(point.y >> kSubcellBits)};
 }
 
+/// Moves a cell's mean hit point (OccupancyGrid::tile_hit_offsets) towards `end`, a point in the cell:
+/// a cell that was not occupied takes the new point as it is; one that was, a quarter of the way (a
+/// running mean without a count: the range noise averaged, a cell's first hits not kept for ever).
+void record_hit(std::int8_t* offsets, FixedPoint end, bool was_occupied) {
+  constexpr int kToByte = kSubcellBits - 8;
+  const std::int64_t coordinates[2] = {end.x, end.y};
+  for (int axis = 0; axis < 2; ++axis) {
+    const int sample = static_cast<int>((coordinates[axis] & (kSubcells - 1)) >> kToByte) - 128;
+    const int moved = was_occupied ? offsets[axis] + (sample - offsets[axis]) / 4 : sample;
+    offsets[axis] = static_cast<std::int8_t>(moved);
+  }
+}
+
 /// A beam as integrate() traces it: its end point and whether a reading ends there (false for a
 /// no-return or a reading beyond the cut-off, traced free only).
 struct TracedBeam {
@@ -228,7 +241,9 @@ void OccupancyGrid::integrate(const Pose2& vehicle_pose, const RangeScanEvent& s
       if (!beam.hit) return;
       const GridCell end = floor_cell(beam.end);
       Tile& tile = writable_tile(GridCell{end.x >> kTileShift, end.y >> kTileShift});
-      float& value = tile.log_odds[static_cast<std::size_t>(local_index(end))];
+      const auto index = static_cast<std::size_t>(local_index(end));
+      float& value = tile.log_odds[index];
+      record_hit(&tile.hit_offsets[2 * index], beam.end, value > 0.0f);
       value = std::min(value + occupied, limit);
       const std::uint32_t bit = 1u << (end.x & (kTileSide - 1));
       tile.observed_rows[end.y & (kTileSide - 1)] |= bit;

@@ -6,6 +6,7 @@
 #include <array>
 #include <climits>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -44,23 +45,34 @@ void prepare_beams(const RangeScanEvent& scan, const ScanMatcherOptions& options
   }
 }
 
-/// The log-odds of cells near each other, looking each tile up once while the reads stay in it.
+/// The log-odds and hit offsets of cells near each other, looking each tile up once while the reads
+/// stay in it.
 class TileReader {
  public:
   explicit TileReader(const OccupancyGrid& map) : map_(map) {}
   float at(int x, int y) {
-    const GridCell tile{x >> OccupancyGrid::kTileShift, y >> OccupancyGrid::kTileShift};
-    if (!(tile == key_)) {
-      key_ = tile;
-      cells_ = map_.tile_log_odds(tile);
-    }
+    look_up(x, y);
     return cells_ == nullptr ? 0.0f : cells_[OccupancyGrid::local_index(GridCell{x, y})];
+  }
+  const std::int8_t* offset(int x, int y) {
+    static constexpr std::int8_t kCentre[2] = {0, 0};
+    look_up(x, y);
+    return offsets_ == nullptr ? kCentre : offsets_ + 2 * OccupancyGrid::local_index(GridCell{x, y});
   }
 
  private:
+  void look_up(int x, int y) {
+    const GridCell tile{x >> OccupancyGrid::kTileShift, y >> OccupancyGrid::kTileShift};
+    if (tile == key_) return;
+    key_ = tile;
+    cells_ = map_.tile_log_odds(tile);
+    offsets_ = map_.tile_hit_offsets(tile);
+  }
+
   const OccupancyGrid& map_;
   GridCell key_{INT_MIN, INT_MIN};  // no cell's tile: every index fits in an int, so tiles are 32 times smaller
   const float* cells_ = nullptr;
+  const std::int8_t* offsets_ = nullptr;
 };
 
 /// The neighbour of a cell towards the sensor for a beam going along `direction`: the one of the
@@ -70,20 +82,24 @@ int towards_sensor(double direction_component) {
   return direction_component > kSectorEdge ? -1 : direction_component < -kSectorEdge ? 1 : 0;
 }
 
-/// The squared distance [cells^2] from an end point to the centre of the nearest obstacle cell of
-/// the window, or infinity. `read(i, j)` is the log-odds of window cell (i, j), 0 <= i, j <= 2 reach
-/// (and one cell beyond, for the neighbour towards the sensor at (i + back_x, j + back_y));
-/// `square_x[i] + square_y[j]` its squared distance. Written without branches on the cells: whether a
-/// cell near a wall is an obstacle is a coin toss the branch predictor would lose.
-template <bool kFreeBeforeHit, typename Read>
-double nearest_obstacle(Read&& read, int reach, int back_x, int back_y, float threshold, const double* square_x,
-                        const double* square_y) {
+/// The squared distance [cells^2] from an end point to the mean hit point of the nearest obstacle
+/// cell of the window, or infinity. `read(i, j)` is the log-odds of window cell (i, j), 0 <= i, j <= 2
+/// reach (and one cell beyond, for the neighbour towards the sensor at (i + back_x, j + back_y)),
+/// `offset(i, j)` its hit offsets (OccupancyGrid::tile_hit_offsets); `from_x[i]`, `from_y[j]` the
+/// offset of its centre from the end point. Written without branches on the cells: whether a cell near
+/// a wall is an obstacle is a coin toss the branch predictor would lose.
+template <bool kFreeBeforeHit, typename Read, typename Offset>
+double nearest_obstacle(Read&& read, Offset&& offset, int reach, int back_x, int back_y, float threshold,
+                        const double* from_x, const double* from_y) {
+  constexpr double kPerStep = 1.0 / 256.0;
   double nearest = std::numeric_limits<double>::infinity();
   for (int j = 0; j <= 2 * reach; ++j) {
     for (int i = 0; i <= 2 * reach; ++i) {
       bool obstacle = read(i, j) > threshold;
       if constexpr (kFreeBeforeHit) obstacle = obstacle & !(read(i + back_x, j + back_y) > threshold);
-      const double distance = square_x[i] + square_y[j];
+      const std::int8_t* hit = offset(i, j);
+      const double dx = from_x[i] + kPerStep * hit[0], dy = from_y[j] + kPerStep * hit[1];
+      const double distance = dx * dx + dy * dy;
       nearest = (obstacle & (distance < nearest)) ? distance : nearest;
     }
   }
@@ -109,7 +125,7 @@ ScanMatch score(const OccupancyGrid& map, const Pose2& pose, const ScanMatcherOp
   const int margin = reach + (kFreeBeforeHit ? 1 : 0);
 
   TileReader cells(map);
-  std::array<double, 2 * kMaxSearchCells + 1> square_x{}, square_y{};
+  std::array<double, 2 * kMaxSearchCells + 1> from_x{}, from_y{};
   ScanMatch result;
   result.pose = pose;
   result.beams_used = static_cast<int>(matched_beams.size());
@@ -124,26 +140,31 @@ ScanMatch score(const OccupancyGrid& map, const Pose2& pose, const ScanMatcherOp
     }
     const int low_x = end_x - reach, low_y = end_y - reach;
     for (int k = 0; k <= 2 * reach; ++k) {
-      square_x[k] = (low_x + k + 0.5 - end.x()) * (low_x + k + 0.5 - end.x());
-      square_y[k] = (low_y + k + 0.5 - end.y()) * (low_y + k + 0.5 - end.y());
+      from_x[k] = low_x + k + 0.5 - end.x();
+      from_y[k] = low_y + k + 0.5 - end.y();
     }
     double nearest = 0.0;
     const int local_x = end_x & (kSide - 1), local_y = end_y & (kSide - 1);
     if (local_x >= margin && local_x < kSide - margin && local_y >= margin && local_y < kSide - margin) {
       // Most windows lie inside one tile: read it directly, or not at all where the tile is empty.
-      const float* tile =
-          map.tile_log_odds(GridCell{end_x >> OccupancyGrid::kTileShift, end_y >> OccupancyGrid::kTileShift});
+      const GridCell tile_key{end_x >> OccupancyGrid::kTileShift, end_y >> OccupancyGrid::kTileShift};
+      const float* tile = map.tile_log_odds(tile_key);
       if (tile == nullptr) {
         nearest = std::numeric_limits<double>::infinity();
       } else {
-        const float* window = tile + (local_y - reach) * kSide + (local_x - reach);
-        nearest = nearest_obstacle<kFreeBeforeHit>([window](int i, int j) { return window[j * kSide + i]; }, reach,
-                                                   back_x, back_y, threshold, square_x.data(), square_y.data());
+        const int corner = (local_y - reach) * kSide + (local_x - reach);
+        const float* window = tile + corner;
+        const std::int8_t* offsets = map.tile_hit_offsets(tile_key) + 2 * corner;
+        nearest = nearest_obstacle<kFreeBeforeHit>(
+            [window](int i, int j) { return window[j * kSide + i]; },
+            [offsets](int i, int j) { return offsets + 2 * (j * kSide + i); }, reach, back_x, back_y, threshold,
+            from_x.data(), from_y.data());
       }
     } else {
       nearest = nearest_obstacle<kFreeBeforeHit>(
-          [&cells, low_x, low_y](int i, int j) { return cells.at(low_x + i, low_y + j); }, reach, back_x, back_y,
-          threshold, square_x.data(), square_y.data());
+          [&cells, low_x, low_y](int i, int j) { return cells.at(low_x + i, low_y + j); },
+          [&cells, low_x, low_y](int i, int j) { return cells.offset(low_x + i, low_y + j); }, reach, back_x,
+          back_y, threshold, from_x.data(), from_y.data());
     }
     if (nearest < std::numeric_limits<double>::infinity()) {
       ++result.beams_matched;
