@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
 #include <cmath>
 #include <limits>
 #include <set>
@@ -227,6 +229,29 @@ TEST(OccupancyGridIntegrate, EvidenceIsClampedAtTheLimit) {
   for (int i = 0; i < 20; ++i) grid.integrate(kSensorInCellZero, beams_along({1.0f}));
   EXPECT_FLOAT_EQ(grid.log_odds(GridCell{20, 0}), 6.0f);
   EXPECT_FLOAT_EQ(grid.log_odds(GridCell{5, 0}), -6.0f);
+}
+
+TEST(OccupancyGridIntegrate, AnOccupiedCellKeepsTheMeanOfWhereItsHitsEnded) {
+  OccupancyGrid grid;
+  const GridCell end{40, 0}, tile{end.x >> OccupancyGrid::kTileShift, 0};
+  const auto offsets = [&] {
+    const std::int8_t* at = grid.tile_hit_offsets(tile) + 2 * OccupancyGrid::local_index(end);
+    return std::array<int, 2>{at[0], at[1]};
+  };
+  // From (0.01, 0.01) a beam of 2.015 m ends at x = 2.025, the centre of cell 40 along x (offset 0),
+  // 0.3 of a cell below its centre along y (-77 of 256).
+  grid.integrate(kSensorInCellZero, beams_along({2.015f}));
+  EXPECT_NEAR(offsets()[0], 0, 1);
+  EXPECT_EQ(offsets()[1], -77);
+  // An occupied cell's point moves a quarter of the way to each new hit: one at x = 2.045 (+102).
+  grid.integrate(kSensorInCellZero, beams_along({2.035f}));
+  EXPECT_NEAR(offsets()[0], 25, 1);
+  EXPECT_EQ(offsets()[1], -77);
+  // A cell freed below zero again takes its next hit as it is.
+  for (int i = 0; i < 5; ++i) grid.integrate(kSensorInCellZero, beams_along({3.0f}));
+  ASSERT_LT(grid.log_odds(end), 0.0f);
+  grid.integrate(kSensorInCellZero, beams_along({2.015f}));
+  EXPECT_NEAR(offsets()[0], 0, 1);
 }
 
 TEST(OccupancyGridIntegrate, TheTraversalVisitsExactlyTheCellsTheSegmentCrosses) {
