@@ -235,7 +235,7 @@ TEST(OccupancyGridIntegrate, AnOccupiedCellKeepsTheMeanOfWhereItsHitsEnded) {
   OccupancyGrid grid;
   const GridCell end{40, 0}, tile{end.x >> OccupancyGrid::kTileShift, 0};
   const auto offsets = [&] {
-    const std::int8_t* at = grid.tile_hit_offsets(tile) + 2 * OccupancyGrid::local_index(end);
+    const std::int8_t* at = grid.tile_cells(tile).hit_offsets + 2 * OccupancyGrid::local_index(end);
     return std::array<int, 2>{at[0], at[1]};
   };
   // From (0.01, 0.01) a beam of 2.015 m ends at x = 2.025, the centre of cell 40 along x (offset 0),

@@ -8,12 +8,15 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 #include <variant>
 #include <vector>
 
 #include "slamkit/core/angles.hpp"
+#include "slamkit/core/pose_at.hpp"
+#include "slamkit/grid/reference_map.hpp"
 #include "slamkit/sim/building.hpp"
 
 namespace slamkit {
@@ -238,23 +241,20 @@ TEST(ScanMatcherBuilding, ScansOfAMappedRingMatchAtTheirTruePoses) {
   config.loops = 1;
   config.translation_per_m = config.rotation_per_rad = config.rotation_per_m = 0.0;
   const Dataset lap = simulate_building(ring_floor_plan(), config);
+  const std::optional<OccupancyGrid> map = reference_map(lap, GridOptions{});
+  ASSERT_TRUE(map.has_value());
   std::vector<std::pair<Pose2, const RangeScanEvent*>> scans;
-  std::size_t truth = 0;
   for (const Event& event : lap.events) {
     const auto* scan = std::get_if<RangeScanEvent>(&event);
-    if (scan == nullptr) continue;
-    // The truth is kept at each control and a scan follows its control at the same time, up to rounding.
-    while (truth + 1 < lap.truth.poses.size() && lap.truth.poses[truth + 1].t <= scan->t + 1e-9) ++truth;
-    scans.emplace_back(lap.truth.poses[truth].pose, scan);
+    Pose2 pose;
+    if (scan != nullptr && pose_at(lap.truth.poses, scan->t, pose)) scans.emplace_back(pose, scan);
   }
   ASSERT_GT(scans.size(), 400u);
-  OccupancyGrid map(GridOptions{});
-  for (const auto& [pose, scan] : scans) map.integrate(pose, *scan);
 
   const ScanMatcher matcher(ScanMatcherOptions{});
   double heading_sum = 0.0, heading_squares = 0.0, along_sum = 0.0, across_sum = 0.0, position_squares = 0.0;
   for (const auto& [pose, scan] : scans) {
-    const Pose2 found = matcher.match(map, pose, *scan).pose;
+    const Pose2 found = matcher.match(*map, pose, *scan).pose;
     const double heading = wrap_angle(found.z() - pose.z());
     const Vector2 moved = found.head<2>() - pose.head<2>();
     const double c = std::cos(pose.z()), s = std::sin(pose.z());

@@ -46,7 +46,7 @@ GridCell floor_cell(FixedPoint point) {
   return GridCell{static_cast<int>(point.x >> kSubcellBits), static_cast<int>(point.y >> kSubcellBits)};
 }
 
-/// Moves a cell's mean hit point (OccupancyGrid::tile_hit_offsets) towards `end`, a point in the cell:
+/// Moves a cell's mean hit point (OccupancyGrid::tile_cells) towards `end`, a point in the cell:
 /// a cell that was not occupied takes the new point as it is; one that was, a quarter of the way (a
 /// running mean without a count: the range noise averaged, a cell's first hits not kept for ever).
 void record_hit(std::int8_t* offsets, FixedPoint end, bool was_occupied) {

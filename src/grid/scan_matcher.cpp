@@ -52,12 +52,13 @@ class TileReader {
   explicit TileReader(const OccupancyGrid& map) : map_(map) {}
   float at(int x, int y) {
     look_up(x, y);
-    return cells_ == nullptr ? 0.0f : cells_[OccupancyGrid::local_index(GridCell{x, y})];
+    return cells_.log_odds == nullptr ? 0.0f : cells_.log_odds[OccupancyGrid::local_index(GridCell{x, y})];
   }
   const std::int8_t* offset(int x, int y) {
     static constexpr std::int8_t kCentre[2] = {0, 0};
     look_up(x, y);
-    return offsets_ == nullptr ? kCentre : offsets_ + 2 * OccupancyGrid::local_index(GridCell{x, y});
+    return cells_.hit_offsets == nullptr ? kCentre
+                                         : cells_.hit_offsets + 2 * OccupancyGrid::local_index(GridCell{x, y});
   }
 
  private:
@@ -65,14 +66,12 @@ class TileReader {
     const GridCell tile{x >> OccupancyGrid::kTileShift, y >> OccupancyGrid::kTileShift};
     if (tile == key_) return;
     key_ = tile;
-    cells_ = map_.tile_log_odds(tile);
-    offsets_ = map_.tile_hit_offsets(tile);
+    cells_ = map_.tile_cells(tile);
   }
 
   const OccupancyGrid& map_;
   GridCell key_{INT_MIN, INT_MIN};  // no cell's tile: every index fits in an int, so tiles are 32 times smaller
-  const float* cells_ = nullptr;
-  const std::int8_t* offsets_ = nullptr;
+  OccupancyGrid::TileCells cells_;
 };
 
 /// The neighbour of a cell towards the sensor for a beam going along `direction`: the one of the
@@ -85,7 +84,7 @@ int towards_sensor(double direction_component) {
 /// The squared distance [cells^2] from an end point to the mean hit point of the nearest obstacle
 /// cell of the window, or infinity. `read(i, j)` is the log-odds of window cell (i, j), 0 <= i, j <= 2
 /// reach (and one cell beyond, for the neighbour towards the sensor at (i + back_x, j + back_y)),
-/// `offset(i, j)` its hit offsets (OccupancyGrid::tile_hit_offsets); `from_x[i]`, `from_y[j]` the
+/// `offset(i, j)` its hit offsets (OccupancyGrid::tile_cells); `from_x[i]`, `from_y[j]` the
 /// offset of its centre from the end point. Written without branches on the cells: whether a cell near
 /// a wall is an obstacle is a coin toss the branch predictor would lose.
 template <bool kFreeBeforeHit, typename Read, typename Offset>
@@ -147,14 +146,14 @@ ScanMatch score(const OccupancyGrid& map, const Pose2& pose, const ScanMatcherOp
     const int local_x = end_x & (kSide - 1), local_y = end_y & (kSide - 1);
     if (local_x >= margin && local_x < kSide - margin && local_y >= margin && local_y < kSide - margin) {
       // Most windows lie inside one tile: read it directly, or not at all where the tile is empty.
-      const GridCell tile_key{end_x >> OccupancyGrid::kTileShift, end_y >> OccupancyGrid::kTileShift};
-      const float* tile = map.tile_log_odds(tile_key);
-      if (tile == nullptr) {
+      const OccupancyGrid::TileCells tile =
+          map.tile_cells(GridCell{end_x >> OccupancyGrid::kTileShift, end_y >> OccupancyGrid::kTileShift});
+      if (tile.log_odds == nullptr) {
         nearest = std::numeric_limits<double>::infinity();
       } else {
         const int corner = (local_y - reach) * kSide + (local_x - reach);
-        const float* window = tile + corner;
-        const std::int8_t* offsets = map.tile_hit_offsets(tile_key) + 2 * corner;
+        const float* window = tile.log_odds + corner;
+        const std::int8_t* offsets = tile.hit_offsets + 2 * corner;
         nearest = nearest_obstacle<kFreeBeforeHit>(
             [window](int i, int j) { return window[j * kSide + i]; },
             [offsets](int i, int j) { return offsets + 2 * (j * kSide + i); }, reach, back_x, back_y, threshold,

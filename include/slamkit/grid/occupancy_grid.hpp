@@ -120,13 +120,19 @@ class OccupancyGrid {
     const Tile* t = tile_at(tile);
     return t == nullptr ? nullptr : t->log_odds.data();
   }
-  /// Where the beams that hit one tile's cells ended: per cell (x, y), at 2 (y * kTileSide + x) and the
-  /// next byte, the mean end point's offset from the cell's centre in 1/256 of a cell (0 where none hit),
-  /// or nullptr as tile_log_odds. A matcher that measures to these instead of the centres sees a wall
-  /// where the beams found it, not up to half a cell off.
-  const std::int8_t* tile_hit_offsets(GridCell tile) const {
+  /// One tile's cells for a reader that wants where their hits ended too: `log_odds` as
+  /// tile_log_odds, and `hit_offsets`, per cell (x, y) at 2 (y * kTileSide + x) and the next byte, the
+  /// mean end point of the beams that hit it as its offset from the cell's centre in 1/256 of a cell
+  /// (0 where none hit); both nullptr where the tile was never written. A matcher that measures to
+  /// these points instead of the centres sees a wall where the beams found it, not up to half a cell
+  /// off.
+  struct TileCells {
+    const float* log_odds = nullptr;
+    const std::int8_t* hit_offsets = nullptr;
+  };
+  TileCells tile_cells(GridCell tile) const {
     const Tile* t = tile_at(tile);
-    return t == nullptr ? nullptr : t->hit_offsets.data();
+    return t == nullptr ? TileCells{} : TileCells{t->log_odds.data(), t->hit_offsets.data()};
   }
   static int local_index(GridCell cell) { return (cell.y & (kTileSide - 1)) * kTileSide + (cell.x & (kTileSide - 1)); }
 
@@ -134,7 +140,7 @@ class OccupancyGrid {
   struct Tile {
     std::array<float, kTileSide * kTileSide> log_odds{};
     std::array<std::uint32_t, kTileSide> observed_rows{};  // bit x of word y: cell (x, y) observed
-    std::array<std::int8_t, 2 * kTileSide * kTileSide> hit_offsets{};  // see tile_hit_offsets()
+    std::array<std::int8_t, 2 * kTileSide * kTileSide> hit_offsets{};  // see tile_cells()
     /// Scratch of integrate(): the cells the current scan's beams end in. All clear between calls.
     std::array<std::uint32_t, kTileSide> hit_rows{};
   };
