@@ -488,6 +488,11 @@ int run_command(int argc, char** argv) {
                       "(0: the proposal's mean, as GMapping moves a particle to its match)",
                       fmt::format("{}", defaults.grid.proposal_sample_fraction))
       ->check(finite_number());
+  add_setting<double>(run_cmd, "--grid-update-distance", flag_settings, "/grid/update_distance_m",
+                      "scan-matching and grid-fastslam: a scan is matched and mapped once the odometry has moved "
+                      "this far since the last one (or turned grid.update_rotation_deg); 0 takes every scan [m]",
+                      fmt::format("{}", defaults.grid.update_distance))
+      ->check(finite_number());
   add_setting<double>(run_cmd, "--pose-sample-fraction", flag_settings, "/pose_sample_fraction",
                       "FastSLAM 2.0: share of the proposal's covariance a particle draws its pose from, in (0, 1]; "
                       "it carries the rest as a Gaussian (1: the textbook filter)",

@@ -880,6 +880,8 @@ TEST_F(Cli, EveryOptionWithAWrongValueIsOneClearLineWithItsExitCode) {
        "--grid-range-cutoff: expected a finite number, found x"},
       {"run --filter grid-fastslam --grid-sample-fraction 2" + data, 2,
        "grid.proposal_sample_fraction must be from 0 to 1, found 2"},
+      {"run --filter scan-matching --grid-update-distance -1" + data, 2,
+       "grid.update_distance_m must be from 0 to 100, found -1"},
       {"run --grid-resolution 0.1" + data, 2,
        "the grid settings apply to the filters 'scan-matching' and 'grid-fastslam', not 'ekf'"},
       {"simulate --building ofice --out x", 2, "--building: unknown building 'ofice' (did you mean 'office'?)"},

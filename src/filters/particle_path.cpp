@@ -36,6 +36,12 @@ void ParticlePath::replace_newest(const Pose2& pose) {
   *this = ParticlePath(*storage_, node_->t, pose, std::move(parent));
 }
 
+void ParticlePath::own_poses_after(double t, std::vector<Pose2*>& out) {
+  for (Node* node = node_; node != nullptr && node->t > t && node->refs.load(std::memory_order_acquire) == 1;
+       node = node->parent)
+    out.push_back(&node->pose);
+}
+
 std::vector<StampedPose> ParticlePath::poses() const {
   std::vector<StampedPose> out;
   for (const Node* node = node_; node != nullptr; node = node->parent) out.push_back({node->t, node->pose});

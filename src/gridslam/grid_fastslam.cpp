@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 #include "slamkit/core/angles.hpp"
 #include "slamkit/filters/particle_path.hpp"
@@ -33,7 +35,39 @@ struct GridFastSlam::Impl {
     OccupancyGrid map;
     ParticlePath path;
     bool matched = false;  // at the last scan
+    Pose2 mapped_pose;     // drawn at the last scan
   };
+
+  /// Spreads the move the scan's match made, from the odometry's prediction to `matched`, over the
+  /// poses the particle predicted since its last scan, in proportion to the motion up to each (a
+  /// radian counting as a metre): between two mapped scans the path then bends as the odometry's
+  /// error did on average instead of jumping at the scan. The path is what the trajectory written
+  /// and its relative error show; the filtered pose of each step stays what was known at that step.
+  void bend_path(Particle& p, const Pose2& matched) {
+    thread_local std::vector<Pose2*> since_scan;  // newest first
+    since_scan.clear();
+    p.path.own_poses_after(last_mapped_t, since_scan);
+    const auto motion = [](const Pose2& a, const Pose2& b) {
+      return (b.head<2>() - a.head<2>()).norm() + std::abs(wrap_angle(b.z() - a.z()));
+    };
+    thread_local std::vector<double> travelled;  // from the last scan to each pose, oldest first
+    travelled.clear();
+    Pose2 previous = p.mapped_pose;
+    double total = 0.0;
+    for (auto it = since_scan.rbegin(); it != since_scan.rend(); ++it) {
+      total += motion(previous, **it);
+      travelled.push_back(total);
+      previous = **it;
+    }
+    total += motion(previous, p.pose);
+    Pose2 move = matched - p.pose;
+    move.z() = wrap_angle(move.z());
+    for (std::size_t k = 0; k < travelled.size(); ++k) {
+      Pose2& pose = *since_scan[since_scan.size() - 1 - k];
+      pose += (total > 0.0 ? travelled[k] / total : 1.0) * move;
+      pose.z() = wrap_angle(pose.z());
+    }
+  }
 
   Impl(std::shared_ptr<const MotionModel> motion_model, const Pose2& initial_pose, const GridFastSlamConfig& cfg)
       : config(cfg),
@@ -43,7 +77,7 @@ struct GridFastSlam::Impl {
         path_nodes(pool),
         particles(cfg.particles >= 1 ? static_cast<std::size_t>(cfg.particles)
                                      : throw std::invalid_argument("grid FastSLAM needs at least one particle"),
-                  Particle{initial_pose, Matrix3::Zero(), OccupancyGrid(cfg.slam.grid), {}, false}, cfg.resample,
+                  Particle{initial_pose, Matrix3::Zero(), OccupancyGrid(cfg.slam.grid), {}, false, initial_pose}, cfg.resample,
                   cfg.resample_when, cfg.seed) {}
 
   void extend_paths(double t) {
@@ -60,6 +94,7 @@ struct GridFastSlam::Impl {
   }
 
   void scan(const RangeScanEvent& scan) {
+    if (!cadence.take(config.slam)) return;
     const bool first = particles.weighed_scans() == 0;
     log_likelihoods.assign(particles.size(), 0.0);
     pool.run(particles.size(), kScanGrain, [&](std::size_t begin, std::size_t end) {
@@ -70,17 +105,20 @@ struct GridFastSlam::Impl {
         if (!first) {
           const PoseProposal proposal =
               scan_match_proposal(matcher, p.map, scan, p.pose, p.pose_cov, config.slam, &particles.stream(i));
+          if (keep_paths) bend_path(p, proposal.mean);
           p.pose = proposal.mean;
           p.pose_cov = proposal.covariance;
           log_likelihoods[i] = proposal.log_weight / config.slam.weight_temperature;
           p.matched = proposal.matched;
         }
         p.map.integrate(p.pose, scan);
+        p.mapped_pose = p.pose;
       }
     });
     unmatched += static_cast<std::size_t>(
         std::count_if(particles.begin(), particles.end(), [&](const Particle& p) { return !first && !p.matched; }));
     extend_paths(scan.t);
+    last_mapped_t = scan.t;
     particles.weigh(log_likelihoods);
     particles.resample_if_due();
   }
@@ -95,7 +133,9 @@ struct GridFastSlam::Impl {
   std::vector<double> log_likelihoods;  // per particle of the current scan
   bool keep_paths = true;
   double last_path_t = NAN;
+  double last_mapped_t = -std::numeric_limits<double>::infinity();
   std::size_t unmatched = 0;
+  ScanCadence cadence;
   std::vector<AssociationRecord> no_associations;
 };
 
@@ -107,7 +147,10 @@ GridFastSlam::~GridFastSlam() = default;
 
 void GridFastSlam::predict(const ControlEvent& control) {
   Impl& s = *impl_;
+  // Every particle moves by the same odometry: the first one's motion is the robot's.
+  const Pose2 before = s.particles.front().pose;
   for (Impl::Particle& p : s.particles) predict_pose(*s.motion, control, p.pose, p.pose_cov);
+  s.cadence.moved(before, s.particles.front().pose);
   s.extend_paths(control.t);
 }
 
@@ -144,6 +187,7 @@ std::map<std::string, double> GridFastSlam::statistics() const {
   std::map<std::string, double> statistics = {
       {"range_scans", static_cast<double>(s.particles.weighed_scans())},
       {"unmatched_particle_scans", static_cast<double>(s.unmatched)},
+      {"skipped_range_scans", static_cast<double>(s.cadence.skipped())},
       {"grid_bytes_per_particle", distinct / n},
       {"grid_bytes_unshared_per_particle", static_cast<double>(s.particles.front().map.bytes())}};
   s.particles.add_statistics(statistics);

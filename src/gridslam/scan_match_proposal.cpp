@@ -63,8 +63,31 @@ void validate(const GridSlamOptions& o) {
           o.proposal_spread_m);
   require(o.proposal_sample_fraction >= 0.0 && o.proposal_sample_fraction <= 1.0, "proposal_sample_fraction",
           "from 0 to 1", o.proposal_sample_fraction);
+  require(o.update_distance >= 0.0 && o.update_distance <= 100.0, "update_distance_m", "from 0 to 100",
+          o.update_distance);
+  require(o.update_rotation >= 0.0 && o.update_rotation <= kPi, "update_rotation_deg", "from 0 to 180",
+          rad2deg(o.update_rotation));
   require(o.proposal_spread_rad > 0.0 && o.proposal_spread_rad <= deg2rad(10.0), "proposal_spread_deg",
           "> 0 and <= 10", rad2deg(o.proposal_spread_rad));
+}
+
+void ScanCadence::moved(const Pose2& before, const Pose2& after) {
+  travelled_ += (after.head<2>() - before.head<2>()).norm();
+  turned_ += std::abs(wrap_angle(after.z() - before.z()));
+}
+
+bool ScanCadence::due(const GridSlamOptions& options) const {
+  return !started_ || travelled_ >= options.update_distance || turned_ >= options.update_rotation;
+}
+
+bool ScanCadence::take(const GridSlamOptions& options) {
+  if (!due(options)) {
+    ++skipped_;
+    return false;
+  }
+  started_ = true;
+  travelled_ = turned_ = 0.0;
+  return true;
 }
 
 void predict_pose(const MotionModel& motion, const ControlEvent& control, Pose2& mean, Matrix3& covariance) {

@@ -91,6 +91,10 @@ const OptionKey<Grid> kGridKeys[] = {
      RealOption<Grid>{[](Grid& o) -> double& { return o.proposal_sample_fraction; }, option_ranges::kFinite}},
     {"proposal_spread_deg", RealOption<Grid>{[](Grid& o) -> double& { return o.proposal_spread_rad; },
                                               option_ranges::kFinite, Unit::kDegrees}},
+    {"update_distance_m",
+     RealOption<Grid>{[](Grid& o) -> double& { return o.update_distance; }, option_ranges::kFinite}},
+    {"update_rotation_deg", RealOption<Grid>{[](Grid& o) -> double& { return o.update_rotation; },
+                                              option_ranges::kFinite, Unit::kDegrees}},
 };
 
 void read_grid_settings(const nlohmann::json& json, const std::string& source, Grid& options) {

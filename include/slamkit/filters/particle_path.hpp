@@ -56,6 +56,10 @@ class ParticlePath {
   /// Replaces the newest pose (same time): in place when no other path shares the node, which is
   /// the rule, since resampling shares paths only after a scan and a prediction adds an unshared node.
   void replace_newest(const Pose2& pose);
+  /// Appends to `out`, newest first, the poses of the nodes newer than time `t` that no other path
+  /// shares, for the caller to revise in place: the steps a particle predicted since its last scan
+  /// at t, which resampling (at scans only) has not shared. Stops at the first shared node.
+  void own_poses_after(double t, std::vector<Pose2*>& out);
   /// The poses, oldest first.
   std::vector<StampedPose> poses() const;
 

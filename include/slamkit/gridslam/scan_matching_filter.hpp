@@ -41,6 +41,7 @@ class ScanMatchingFilter final : public SlamFilter {
   Matrix3 covariance_ = Matrix3::Zero();
   std::size_t scans_ = 0;
   std::size_t unmatched_scans_ = 0;
+  ScanCadence cadence_;
   std::vector<AssociationRecord> no_associations_;
 };
 
