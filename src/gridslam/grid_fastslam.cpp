@@ -77,8 +77,8 @@ struct GridFastSlam::Impl {
         path_nodes(pool),
         particles(cfg.particles >= 1 ? static_cast<std::size_t>(cfg.particles)
                                      : throw std::invalid_argument("grid FastSLAM needs at least one particle"),
-                  Particle{initial_pose, Matrix3::Zero(), OccupancyGrid(cfg.slam.grid), {}, false, initial_pose}, cfg.resample,
-                  cfg.resample_when, cfg.seed) {}
+                  Particle{initial_pose, Matrix3::Zero(), OccupancyGrid(cfg.slam.grid), {}, false, initial_pose},
+                  cfg.resample, cfg.resample_when, cfg.seed) {}
 
   void extend_paths(double t) {
     if (!keep_paths) return;
