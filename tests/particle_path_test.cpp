@@ -2,6 +2,7 @@
 // the part no other path holds.
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <vector>
 
 #include "slamkit/filters/particle_path.hpp"
@@ -19,7 +20,9 @@ TEST(ParticlePath, OnlyTheStepsNoOtherPathSharesAreOwnedAfterATime) {
   child.extend(3.0, Pose2(3.0, 0.0, 0.0));
 
   std::vector<Pose2*> owned;
-  child.own_poses_after(0.0, owned);
+  const std::optional<Pose2> followed = child.own_poses_after(0.0, owned);
+  ASSERT_TRUE(followed.has_value());
+  EXPECT_EQ(followed->x(), 1.0);  // the shared node they follow
   ASSERT_EQ(owned.size(), 2u);  // t = 3 and 2, newest first; t = 1 is shared with `parent`
   EXPECT_EQ(owned[0]->x(), 3.0);
   EXPECT_EQ(owned[1]->x(), 2.0);

@@ -36,10 +36,11 @@ void ParticlePath::replace_newest(const Pose2& pose) {
   *this = ParticlePath(*storage_, node_->t, pose, std::move(parent));
 }
 
-void ParticlePath::own_poses_after(double t, std::vector<Pose2*>& out) {
-  for (Node* node = node_; node != nullptr && node->t > t && node->refs.load(std::memory_order_acquire) == 1;
-       node = node->parent)
+std::optional<Pose2> ParticlePath::own_poses_after(double t, std::vector<Pose2*>& out) {
+  Node* node = node_;
+  for (; node != nullptr && node->t > t && node->refs.load(std::memory_order_acquire) == 1; node = node->parent)
     out.push_back(&node->pose);
+  return node == nullptr ? std::nullopt : std::optional<Pose2>(node->pose);
 }
 
 std::vector<StampedPose> ParticlePath::poses() const {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -35,7 +36,6 @@ struct GridFastSlam::Impl {
     OccupancyGrid map;
     ParticlePath path;
     bool matched = false;  // at the last scan
-    Pose2 mapped_pose;     // drawn at the last scan
   };
 
   /// Spreads the move the scan's match made, from the odometry's prediction to `matched`, over the
@@ -46,25 +46,27 @@ struct GridFastSlam::Impl {
   void bend_path(Particle& p, const Pose2& matched) {
     thread_local std::vector<Pose2*> since_scan;  // newest first
     since_scan.clear();
-    p.path.own_poses_after(last_mapped_t, since_scan);
+    const std::optional<Pose2> at_scan = p.path.own_poses_after(last_mapped_t, since_scan);
+    if (!at_scan) return;
     const auto motion = [](const Pose2& a, const Pose2& b) {
       return (b.head<2>() - a.head<2>()).norm() + std::abs(wrap_angle(b.z() - a.z()));
     };
-    thread_local std::vector<double> travelled;  // from the last scan to each pose, oldest first
-    travelled.clear();
-    Pose2 previous = p.mapped_pose;
     double total = 0.0;
+    Pose2 previous = *at_scan;
     for (auto it = since_scan.rbegin(); it != since_scan.rend(); ++it) {
       total += motion(previous, **it);
-      travelled.push_back(total);
       previous = **it;
     }
     total += motion(previous, p.pose);
     Pose2 move = matched - p.pose;
     move.z() = wrap_angle(move.z());
-    for (std::size_t k = 0; k < travelled.size(); ++k) {
-      Pose2& pose = *since_scan[since_scan.size() - 1 - k];
-      pose += (total > 0.0 ? travelled[k] / total : 1.0) * move;
+    double travelled = 0.0;
+    previous = *at_scan;
+    for (auto it = since_scan.rbegin(); it != since_scan.rend(); ++it) {
+      Pose2& pose = **it;
+      travelled += motion(previous, pose);
+      previous = pose;
+      pose += (total > 0.0 ? travelled / total : 1.0) * move;
       pose.z() = wrap_angle(pose.z());
     }
   }
@@ -77,8 +79,8 @@ struct GridFastSlam::Impl {
         path_nodes(pool),
         particles(cfg.particles >= 1 ? static_cast<std::size_t>(cfg.particles)
                                      : throw std::invalid_argument("grid FastSLAM needs at least one particle"),
-                  Particle{initial_pose, Matrix3::Zero(), OccupancyGrid(cfg.slam.grid), {}, false, initial_pose},
-                  cfg.resample, cfg.resample_when, cfg.seed) {}
+                  Particle{initial_pose, Matrix3::Zero(), OccupancyGrid(cfg.slam.grid), {}, false}, cfg.resample,
+                  cfg.resample_when, cfg.seed) {}
 
   void extend_paths(double t) {
     if (!keep_paths) return;
@@ -112,7 +114,6 @@ struct GridFastSlam::Impl {
           p.matched = proposal.matched;
         }
         p.map.integrate(p.pose, scan);
-        p.mapped_pose = p.pose;
       }
     });
     unmatched += static_cast<std::size_t>(

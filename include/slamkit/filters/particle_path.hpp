@@ -11,6 +11,7 @@
 #include <atomic>
 #include <cstddef>
 #include <new>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -58,8 +59,9 @@ class ParticlePath {
   void replace_newest(const Pose2& pose);
   /// Appends to `out`, newest first, the poses of the nodes newer than time `t` that no other path
   /// shares, for the caller to revise in place: the steps a particle predicted since its last scan
-  /// at t, which resampling (at scans only) has not shared. Stops at the first shared node.
-  void own_poses_after(double t, std::vector<Pose2*>& out);
+  /// at t, which resampling (at scans only) has not shared. Stops at the first shared node. Returns
+  /// the pose of the node they follow (the scan's at t), or nullopt where they reach the path's start.
+  std::optional<Pose2> own_poses_after(double t, std::vector<Pose2*>& out);
   /// The poses, oldest first.
   std::vector<StampedPose> poses() const;
 
