@@ -177,6 +177,23 @@ TEST(OccupancyGridIntegrate, ReadingsThatAreNotFiniteOrNotPositiveAreSkipped) {
   EXPECT_EQ(grid.tile_count(), 0u);
 }
 
+// A scan that observes nothing (no usable reading, or a no-return ending in the sensor's own cell)
+// must not grow the tile table: a table grown where nothing is observed escapes max_cells, which
+// bounds the observed cells (the fuzzer found a later scan far away asking for a 4 GB table).
+TEST(OccupancyGridIntegrate, AScanThatObservesNothingLeavesTheTileTableAsItWas) {
+  GridOptions options;
+  options.max_cells = 1e6;
+  OccupancyGrid grid(options);
+  grid.integrate(Pose2(1e5, 1e5, 0.0), beams_along({std::nanf(""), -1.0f}));
+  grid.integrate(Pose2(1e5, 1e5, 0.0), beams_along({0.01f}, 0.0, 0.0, 0.001));
+  EXPECT_EQ(grid.bytes(), 0u);
+  grid.integrate(kSensorInCellZero, beams_along({5.0f}));
+  const std::size_t bytes = grid.bytes();
+  grid.integrate(Pose2(-1e5, 1e5, 0.0), beams_along({std::nanf("")}));
+  EXPECT_EQ(grid.bytes(), bytes);
+  EXPECT_THROW(grid.integrate(Pose2(-1e5, 1e5, 0.0), beams_along({5.0f})), GridExtentError);
+}
+
 TEST(OccupancyGridIntegrate, APoseOrScanThatIsNotANumberIsRefusedBeforeAnyChange) {
   OccupancyGrid grid;
   EXPECT_THROW(grid.integrate(Pose2(std::nan(""), 0.0, 0.0), beams_along({1.0f})), std::invalid_argument);

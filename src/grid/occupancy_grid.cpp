@@ -210,8 +210,17 @@ void OccupancyGrid::integrate(const Pose2& vehicle_pose, const RangeScanEvent& s
 
   const FixedPoint start = fixed_point(sensor.head<2>() / options_.resolution);
   const GridCell start_cell = floor_cell(start);
-  CellBox reach{start_cell, start_cell};
-  for_each_beam(sensor, scan, options_, [&](const TracedBeam& beam) { extend(reach, floor_cell(beam.end)); });
+  // Only the cells this scan observes: a scan without a beam that leaves the sensor's cell observes
+  // nothing, and must not grow the tile table, or table and observed box part (and a far pose after
+  // such scans would span a table max_cells never bounded).
+  CellBox reach;
+  for_each_beam(sensor, scan, options_, [&](const TracedBeam& beam) {
+    const GridCell end = floor_cell(beam.end);
+    if (!beam.hit && end == start_cell) return;
+    extend(reach, start_cell);
+    extend(reach, end);
+  });
+  if (reach.empty()) return;
   check_extent(reach);
   cover(reach);
 
