@@ -210,9 +210,9 @@ void OccupancyGrid::integrate(const Pose2& vehicle_pose, const RangeScanEvent& s
 
   const FixedPoint start = fixed_point(sensor.head<2>() / options_.resolution);
   const GridCell start_cell = floor_cell(start);
-  // Only the cells this scan observes: a scan without a beam that leaves the sensor's cell observes
-  // nothing, and must not grow the tile table, or table and observed box part (and a far pose after
-  // such scans would span a table max_cells never bounded).
+  // The tile table covers only cells a scan observes (the passes below: every hit's end, and the
+  // trace of every beam that leaves the sensor's cell), so it grows only where the observed box,
+  // which check_extent bounds by max_cells, grows too. A scan that observes nothing changes nothing.
   CellBox reach;
   for_each_beam(sensor, scan, options_, [&](const TracedBeam& beam) {
     const GridCell end = floor_cell(beam.end);
