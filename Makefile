@@ -55,7 +55,8 @@ demo: deps
 test: test-deps build
 	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS)
 
-# Micro-benchmarks (Google Benchmark, medians of 5 repetitions; about 10 minutes), and whole runs of the
+# Micro-benchmarks (Google Benchmark, medians of 5 repetitions; the information filters' series
+# alone took 7 minutes in one repetition, most of it driving their maps' routes), and whole runs of the
 # command line. Neither is part of `make test`. docs/performance.md explains the figures.
 # BENCH_ARGS passes Google Benchmark options, e.g. BENCH_ARGS=--benchmark_filter=Ekf.
 BENCH_ARGS ?=

@@ -12,17 +12,21 @@
 // covariances it reads come from one local recovery over the Markov blanket of the scan's landmarks),
 // so seif_ungated times the SEIF without it: the filter's own step, the paper's constant-time one.
 // eseif_ungated is the exactly sparse filter's own step (its default exact covariance recovery, which
-// the gate would read, is a factorisation of the whole map).
+// the gate would read, is a factorisation of the whole map), tjtf_ungated the thin junction tree
+// filter's (its default 24 landmarks a clique).
 //
 // The maps have the city's landmark density whatever their size (30,000 landmarks on 66 km of street,
 // 4-12 m beside it), so that a scan sees as many landmarks and a landmark has as many neighbours at
 // every n: a street grid of fewer or smaller blocks (the city itself at 30,000), or, where a grid would
 // need blocks too small to drive round (n = 100), a loop of generate_world's shape with the same band.
 // The sensor is the city scenario's (a 180 degree view reaching 22 m).
-//  * SEIF and ESEIF: drive the world's route once, which sees every landmark, so that Omega's links
-//    are those a run gives it (landmarks linked where they were active together, streets linked at
-//    crossings). The city's 120,000 scans take about 40 s; it is done once per map size. The counters say how the
-//    route left it: pose_error_m at the stretch's start, route_rejected (the share the gate refused).
+//  * SEIF, ESEIF and TJTF: drive the world's route once, which sees every landmark, so that Omega's
+//    links (the junction tree's cliques) are those a run gives it (landmarks linked where they were
+//    active together, streets linked at crossings). The city's 120,000 scans take about 40 s; it is
+//    done once per map size. The counters say how the route left it: pose_error_m at the stretch's
+//    start, route_rejected (the share the gate refused). TJTF stops at 10,000 landmarks: its walks
+//    from the root to a landmark seen again grow with the chain of cliques the route leaves, and
+//    driving the city's route takes it more than ten minutes.
 //  * EKF and EIF: driving to their largest maps is out of reach (3,000 landmarks are 13,000 scans, of
 //    up to 25 ms each for the EKF; the EIF's step at 1,000 takes seconds), so, as ekf_fixture.hpp
 //    does, they start at the stretch's first pose with every landmark seen once from there. Their step
@@ -67,7 +71,7 @@
 namespace slamkit::information_step {
 namespace {
 
-constexpr int kMaxSeif = 30'000, kMaxEif = 1'000, kMaxEkf = 3'000;
+constexpr int kMaxSeif = 30'000, kMaxEif = 1'000, kMaxEkf = 3'000, kMaxTjtf = 10'000;
 // Below this a street's bands (12 m each side) and the intersections leave little of a block, and a
 // lap round one is a few scans: such maps are a loop instead.
 constexpr double kMinBlockM = 50.0;
@@ -290,15 +294,18 @@ bool sparse(EkfVariant variant) {
   return variant == EkfVariant::kSparseInformation || variant == EkfVariant::kExactlySparseInformation;
 }
 
+/// Filters whose map is made by driving the route: the sparse ones and the thin junction tree.
+bool driven(EkfVariant variant) { return sparse(variant) || variant == EkfVariant::kThinJunctionTree; }
+
 double statistic(const EkfSlam& filter, const std::string& name) {
   const auto s = filter.statistics();
   const auto it = s.find(name);
   return it == s.end() ? 0.0 : it->second;
 }
 
-/// A sparse filter (SEIF, ESEIF) after the route and the lap that settles the laps.
-void drive_sparse(Running& r, Scene& s) {
-  if (!s.route) s.route = simulate(s.world, s.config);  // driven before, by another sparse filter
+/// A filter whose map the route makes (SEIF, ESEIF, TJTF) after the route and the lap that settles the laps.
+void drive_route(Running& r, Scene& s) {
+  if (!s.route) s.route = simulate(s.world, s.config);  // driven before, by another filter
   r.filter = std::make_unique<EkfSlam>(s.motion, s.observation, options(r.variant, r.gate, s, s.route->initial_pose));
   for (const Event& event : s.route->events)
     std::visit(
@@ -339,8 +346,8 @@ Running& running(EkfVariant variant, bool gate, int n) {
   r.gate = gate;
   r.n = n;
   Scene& s = scene(n);
-  if (sparse(variant))
-    drive_sparse(r, s);
+  if (driven(variant))
+    drive_route(r, s);
   else
     map_exact(r, s);
   return r;
@@ -368,13 +375,19 @@ void BM_InformationStep(benchmark::State& state, EkfVariant variant, bool gate) 
   state.counters["stretch_steps"] = static_cast<double>(s.step_ends.size());
   state.counters["wrap_m"] = s.wrap_m;
   state.counters["setup_scans"] = static_cast<double>(r.setup_scans);
-  if (variant != EkfVariant::kFull)
+  if (variant == EkfVariant::kInformation || sparse(variant))
     state.counters["information_nonzeros"] = statistic(filter, "information_nonzeros");
+  if (driven(variant)) {
+    state.counters["pose_error_m"] = r.pose_error_m;
+    state.counters["route_rejected"] = r.route_rejected;
+  }
+  if (variant == EkfVariant::kThinJunctionTree) {
+    state.counters["cliques"] = statistic(filter, "tjtf_cliques");
+    state.counters["widest_clique"] = statistic(filter, "tjtf_widest_clique");
+  }
   if (sparse(variant)) {
     state.counters["active"] = statistic(
         filter, variant == EkfVariant::kSparseInformation ? "seif_active_landmarks" : "eseif_active_landmarks");
-    state.counters["pose_error_m"] = r.pose_error_m;
-    state.counters["route_rejected"] = r.route_rejected;
   }
 }
 
@@ -386,6 +399,7 @@ void map_sizes(benchmark::internal::Benchmark* b, int largest) {
 void seif_sizes(benchmark::internal::Benchmark* b) { map_sizes(b, kMaxSeif); }
 void eif_sizes(benchmark::internal::Benchmark* b) { map_sizes(b, kMaxEif); }
 void ekf_sizes(benchmark::internal::Benchmark* b) { map_sizes(b, kMaxEkf); }
+void tjtf_sizes(benchmark::internal::Benchmark* b) { map_sizes(b, kMaxTjtf); }
 
 // Named BM_InformationStep/<filter>/<landmarks>: the series of information_vs_landmarks.svg.
 BENCHMARK_CAPTURE(BM_InformationStep, seif, EkfVariant::kSparseInformation, true)->Apply(seif_sizes);
@@ -394,6 +408,7 @@ BENCHMARK_CAPTURE(BM_InformationStep, eseif_ungated, EkfVariant::kExactlySparseI
     ->Apply(seif_sizes);
 BENCHMARK_CAPTURE(BM_InformationStep, eif, EkfVariant::kInformation, true)->Apply(eif_sizes);
 BENCHMARK_CAPTURE(BM_InformationStep, ekf, EkfVariant::kFull, true)->Apply(ekf_sizes);
+BENCHMARK_CAPTURE(BM_InformationStep, tjtf_ungated, EkfVariant::kThinJunctionTree, false)->Apply(tjtf_sizes);
 
 }  // namespace
 }  // namespace slamkit::information_step

@@ -55,7 +55,8 @@ TEST(BenchmarkPlots, DrawsTheInformationFiltersAgainstTheLogarithmOfTheLandmarks
                            entry("BM_InformationStep/seif/30000", "iteration", "", 4.5, "ms") + ", " +
                            entry("BM_InformationStep/seif_ungated/30000", "iteration", "", 40.0, "us") + ", " +
                            entry("BM_InformationStep/ekf/100", "iteration", "", 30.0, "us") + ", " +
-                           entry("BM_InformationStep/ekf/3000", "iteration", "", 15.0, "ms") + "]}";
+                           entry("BM_InformationStep/ekf/3000", "iteration", "", 15.0, "ms") + ", " +
+                           entry("BM_InformationStep/tjtf_ungated/1000", "iteration", "", 9.0, "ms") + "]}";
   write_text(dir.file("bench.json"), json);
   const auto files = plot::write_benchmark_plots({dir.file("bench.json")}, dir.file("plots"));
   ASSERT_EQ(files.size(), 1U);  // no other benchmarks in the file, so no other plots
@@ -63,6 +64,7 @@ TEST(BenchmarkPlots, DrawsTheInformationFiltersAgainstTheLogarithmOfTheLandmarks
   EXPECT_NE(svg.find("SEIF (known-identity gate on)"), std::string::npos);
   EXPECT_NE(svg.find("SEIF, gate off"), std::string::npos);
   EXPECT_NE(svg.find("full EKF"), std::string::npos);
+  EXPECT_NE(svg.find("TJTF, gate off"), std::string::npos);
   EXPECT_EQ(svg.find(">EIF<"), std::string::npos);  // no EIF benchmarks, no EIF series
   EXPECT_NE(svg.find("log\u2081\u2080 landmarks"), std::string::npos);
   // Ticks of the logarithm: had x been the landmarks themselves, the axis would read thousands.

@@ -64,7 +64,8 @@ const std::vector<Plot>& plots() {
         {"EIF", R"(BM_InformationStep/eif/(\d+))"},
         {"full EKF", R"(BM_InformationStep/ekf/(\d+))"},
         {"SEIF, gate off: its own step", R"(BM_InformationStep/seif_ungated/(\d+))"},
-        {"ESEIF, gate off: its own step", R"(BM_InformationStep/eseif_ungated/(\d+))"}},
+        {"ESEIF, gate off: its own step", R"(BM_InformationStep/eseif_ungated/(\d+))"},
+        {"TJTF, gate off: its own step", R"(BM_InformationStep/tjtf_ungated/(\d+))"}},
        true},
   };
   return all;
