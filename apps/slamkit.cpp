@@ -509,14 +509,14 @@ int run_command(int argc, char** argv) {
       ->check(integer_at_least(0));
   add_named_setting(run_cmd, "--ekf-update", flag_settings, "/ekf_update", parse_ekf_update,
                     "EKF and UKF: joint (a scan at once) or sequential (one observation after another). "
-                    "EKF full, fej or invariant: iterated (joint, relinearised at the "
+                    "EKF full, fej or invariant, eif, seif and eseif: iterated (joint, relinearised at the "
                     "result until it converges; keeps a loop closure after a long drift consistent). tjtf: always one "
                     "observation after another",
                     defaults.ekf_update);
   add_named_setting(run_cmd, "--ekf-variant", flag_settings, "/ekf_variant", parse_ekf_variant,
                     "EKF: full, compressed (local-area updates, the same result as full), "
                     "fej (first-estimates Jacobians) or invariant (right-invariant error); fej and invariant keep "
-                    "the EKF consistent",
+                    "the EKF consistent. eif, seif and eseif: fej too",
                     defaults.ekf_variant);
   add_named_setting(run_cmd, "--ukf-noise", flag_settings, "/ukf_noise", parse_ukf_noise,
                     "UKF: augmented (sigma points over the vehicle and the control noise, which then moves the mean "
@@ -536,7 +536,8 @@ int run_command(int argc, char** argv) {
   add_named_setting(run_cmd, "--seif-covariance", flag_settings, "/seif_covariance", parse_covariance_recovery,
                     "SEIF: how the covariances the gates and the outputs read are recovered: local (from the "
                     "Markov blanket of what is asked about; the same cost however large the map, overconfident) "
-                    "or exact (a sparse factorisation of the whole map)",
+                    "or exact (a sparse factorisation of the whole map, whose solve then also gives the mean each "
+                    "update linearises at)",
                     defaults.seif.covariance);
   add_setting<std::size_t>(run_cmd, "--eseif-active", flag_settings, "/eseif_active_landmarks",
                            "ESEIF: landmarks linked to the vehicle at most before a scan relocates it (more: fewer "

@@ -151,7 +151,7 @@ TEST(CampaignSpec, TheCampaignsKeptInTheRepositoryExpand) {
       {"readme.json", 223},
       {"world-families-tuning.json", 320},
       {"world-families-test.json", 320},
-      {"information-consistency.json", 500},
+      {"information-consistency.json", 800},
       {"tjtf-consistency.json", 200},
       {"grid-radish.json", 60},
       {"grid-buildings.json", 46}};

@@ -474,7 +474,8 @@ TEST_F(Cli, FilterSettingsAreUsageErrorsBeforeAnyDataIsRead) {
   } cases[] = {
       {"--filter ekff",
        "--filter: unknown filter 'ekff' (did you mean 'ekf'?); expected one of: ekf, ukf, eif, seif, eseif, tjtf, fastslam1, fastslam2"},
-      {"--filter ukf --ekf-variant fej", "EKF variant 'fej' applies to the filter 'ekf', not 'ukf'"},
+      {"--filter ukf --ekf-variant fej",
+       "EKF variant 'fej' applies to the filter 'ekf' and the information filters 'eif', 'seif' and 'eseif', not 'ukf'"},
       {"--assoc nearest", "--assoc: unknown association 'nearest'; expected one of: known, nn, jcbb"},
       {"--ekf-variant sparse", "--ekf-variant: unknown EKF variant 'sparse'; expected one of: full, compressed, fej, invariant"},
       {"--ekf-update both", "--ekf-update: unknown EKF update 'both'; expected one of: joint, sequential, iterated"},

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <algorithm>
 
 #include "information_filter_support.hpp"
@@ -103,6 +104,18 @@ TEST(Eseif, WithABoundThatHoldsEveryLandmarkItIsTheEif) {
   EXPECT_EQ(diff.decisions_differing, 0u);
 }
 
+// With first estimates and the iterated update too: moving a first estimate carries the information
+// vector along, and every linearisation is the EIF's.
+TEST(Eseif, WithABoundThatHoldsEveryLandmarkItIsTheFirstEstimatesIteratedEif) {
+  const Differences diff = compare(simulate(default_world(), SimulatorConfig{}), AssociationMethod::kKnown, 200,
+                                   capped_under_sanitizer(600), true, kPrior, EkfVariant::kInformation,
+                                   EkfVariant::kExactlySparseInformation, {}, exact_mean(1000), {},
+                                   {Linearisation::kFirstEstimates, 10});
+  EXPECT_LT(diff.state, 1e-7);
+  EXPECT_LT(diff.covariance, 1e-7);
+  EXPECT_EQ(diff.decisions_differing, 0u);
+}
+
 TEST(Eseif, ABoundedActiveSetKeepsOmegaSparseAndStillMaps) {
   const Dataset data = simulate(default_world(), SimulatorConfig{});
   const std::size_t scans = capped_under_sanitizer(600);
@@ -126,8 +139,10 @@ TEST(Eseif, ABoundedActiveSetKeepsOmegaSparseAndStillMaps) {
 }
 
 // What ESEIF is for: sparse like SEIF, but without SEIF's overconfidence; each as the command line
-// runs it (SEIF's local covariances, ESEIF's exact ones). Seeds of the default world other than
-// those the relocation rule and the bound were chosen on (1-3).
+// runs it (SEIF's local covariances, ESEIF's exact ones), ESEIF with the linearisation that keeps it
+// consistent (first estimates, iterated; its single update gives a NEES of 4.3 and 80% of steps in
+// the band on these seeds). Seeds of the default world other than those the relocation rule and the
+// bound were chosen on (1-3).
 TEST(Eseif, StaysConsistentWhereSeifIsOverconfident) {
   if (capped_under_sanitizer(SIZE_MAX) != SIZE_MAX)
     GTEST_SKIP() << "the numbers of three whole runs, checked by make test; the sanitizers check the filter's "
@@ -141,6 +156,10 @@ TEST(Eseif, StaysConsistentWhereSeifIsOverconfident) {
     for (const FilterKind kind : {FilterKind::kEseif, FilterKind::kSeif}) {
       FilterConfig config;
       config.filter = kind;
+      if (kind == FilterKind::kEseif) {
+        config.ekf_variant = EkfVariant::kFirstEstimates;
+        config.ekf_update = EkfUpdate::kIterated;
+      }
       const auto filter = make_filter(config, data);
       const Metrics m = evaluate_run(run_filter(*filter, data), data.truth);
       ASSERT_TRUE(m.nees_pose.has_value());

@@ -47,8 +47,10 @@ struct Differences {
 inline std::unique_ptr<EkfSlam> make(const Dataset& data, EkfVariant variant, AssociationMethod method,
                                      bool joint_scan_update, const Matrix3& prior = kPrior,
                                      const SeifOptions& seif = {}, const EseifOptions& eseif = {},
-                                     const TjtfOptions& tjtf = {}) {
+                                     const TjtfOptions& tjtf = {}, const InformationLinearisation& linearised = {}) {
   EkfSlamOptions options;
+  options.information_linearisation = linearised.linearisation;
+  options.update_iterations = linearised.update_iterations;
   options.seif = seif;
   options.eseif = eseif;
   options.tjtf = tjtf;
@@ -87,13 +89,15 @@ inline double relative_difference(const Eigen::MatrixXd& a, const Eigen::MatrixX
 /// Runs the `reference` estimator (by default the EKF) and the `tested` one (by default the EIF) side
 /// by side over at most `max_scans` scans of `data`, comparing the whole state and covariance every
 /// `check_every` scans and at the end, every scan's association decisions, and the pose's belief
-/// after every control.
+/// after every control. `linearised` sets both's update iterations and the information filters'
+/// Jacobians (the EKF's are its variant's).
 inline Differences compare(const Dataset& data, AssociationMethod method, std::size_t check_every,
                            std::size_t max_scans, bool joint_scan_update = true, const Matrix3& prior = kPrior,
                            EkfVariant reference = EkfVariant::kFull, EkfVariant tested = EkfVariant::kInformation,
-                           const SeifOptions& seif = {}, const EseifOptions& eseif = {}, const TjtfOptions& tjtf = {}) {
-  const auto ekf = make(data, reference, method, joint_scan_update, prior, seif, eseif, tjtf);
-  const auto eif = make(data, tested, method, joint_scan_update, prior, seif, eseif, tjtf);
+                           const SeifOptions& seif = {}, const EseifOptions& eseif = {}, const TjtfOptions& tjtf = {},
+                           const InformationLinearisation& linearised = {}) {
+  const auto ekf = make(data, reference, method, joint_scan_update, prior, seif, eseif, tjtf, linearised);
+  const auto eif = make(data, tested, method, joint_scan_update, prior, seif, eseif, tjtf, linearised);
   const EkfEstimator& a = ekf->estimator();
   const EkfEstimator& b = eif->estimator();
   Differences diff;

@@ -20,6 +20,8 @@ namespace {
 std::unique_ptr<EkfEstimator> make_estimator(std::shared_ptr<const MotionModel> motion,
                                              std::shared_ptr<const ObservationModel> observation,
                                              const EkfSlamOptions& options) {
+  const InformationLinearisation information_linearisation{options.information_linearisation,
+                                                           options.update_iterations};
   switch (options.variant) {
     case EkfVariant::kCompressed:
       return std::make_unique<CompressedJointGaussian>(std::move(motion), std::move(observation),
@@ -31,15 +33,16 @@ std::unique_ptr<EkfEstimator> make_estimator(std::shared_ptr<const MotionModel> 
                                                       options.ukf_noise);
     case EkfVariant::kInformation:
       return std::make_unique<ExtendedInformationFilter>(std::move(motion), std::move(observation),
-                                                         options.initial_pose, options.initial_covariance);
+                                                         options.initial_pose, options.initial_covariance,
+                                                         information_linearisation);
     case EkfVariant::kSparseInformation:
       return std::make_unique<SparseExtendedInformationFilter>(std::move(motion), std::move(observation),
                                                                options.initial_pose, options.initial_covariance,
-                                                               options.seif);
+                                                               options.seif, information_linearisation);
     case EkfVariant::kExactlySparseInformation:
       return std::make_unique<ExactlySparseInformationFilter>(std::move(motion), std::move(observation),
                                                               options.initial_pose, options.initial_covariance,
-                                                              options.eseif);
+                                                              options.eseif, information_linearisation);
     case EkfVariant::kThinJunctionTree:
       return std::make_unique<ThinJunctionTreeFilter>(std::move(motion), std::move(observation), options.initial_pose,
                                                       options.initial_covariance, options.tjtf);

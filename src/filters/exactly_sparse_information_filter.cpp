@@ -28,9 +28,10 @@ ExactlySparseInformationFilter::ExactlySparseInformationFilter(std::shared_ptr<c
                                                                std::shared_ptr<const ObservationModel> observation,
                                                                const Pose2& initial_pose,
                                                                const Matrix3& initial_covariance,
-                                                               const EseifOptions& options)
+                                                               const EseifOptions& options,
+                                                               const InformationLinearisation& linearisation)
     : SparseInformationFilter(std::move(motion), std::move(observation), initial_pose, initial_covariance,
-                              (validate(options, "eseif"), options)) {}
+                              (validate(options, "eseif"), options), linearisation) {}
 
 bool ExactlySparseInformationFilter::over_bound(std::span<const LandmarkObservation> batch) const {
   std::vector<std::size_t> linked = active_;
@@ -79,15 +80,19 @@ std::vector<std::size_t> ExactlySparseInformationFilter::relocation_set(
 
 bool ExactlySparseInformationFilter::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
+  solve_mean_where_factorised();
+  move_anchors(batch);
+  // One linearisation point for the whole scan, alpha's and beta's updates alike.
+  const LinearisationPoint at = linearisation_point(batch);
   if (!over_bound(batch)) {
-    absorb(batch);
+    absorb(batch, at);
     recover_mean();
     return true;
   }
   const std::vector<std::size_t> beta_positions = relocation_set(batch);
   if (beta_positions.empty()) {
     ++deferred_;
-    absorb(batch);
+    absorb(batch, at);
     recover_mean();
     return true;
   }
@@ -99,15 +104,15 @@ bool ExactlySparseInformationFilter::update_landmarks(std::span<const LandmarkOb
   }
   for (std::size_t k = 0; k < batch.size(); ++k)
     if (!in_beta[k]) alpha.push_back(batch[k]);
-  absorb(alpha);
+  absorb(alpha, at);
   // The vehicle marginalised out, then back with no information: beta's update alone places it,
-  // linearised at its estimate before the scan, as alpha's was.
+  // linearised where alpha's was.
   marginalise({true, {}}, &xi_);
   graph_.vehicle().setZero();
   xi_.head<3>().setZero();
   information_changed();
   const std::vector<std::size_t> updated = std::exchange(active_, {});
-  absorb(beta);
+  absorb(beta, at);
   ++relocations_;
   recover_mean(updated);
   return true;

@@ -9,16 +9,18 @@ namespace slamkit {
 bool ExtendedInformationFilter::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
   apply_pending_motion();  // before the copy kept for a refusal, so that a refusal keeps the fold
+  move_implausible_anchors(batch, nullptr);  // so does the FEJ-EKF's
   const auto n = static_cast<Eigen::Index>(dim_);
   const InformationGraph prior = graph_;
   Eigen::VectorXd information_gain = Eigen::VectorXd::Zero(n);  // H^T R^-1 nu
-  add_linearised_information(batch, false, information_gain);
+  add_linearised_information(batch, false, information_gain, linearisation_point(batch));
   if (!factorise()) {
     graph_ = prior;
     information_changed();
     return false;
   }
   // The EKF's x += P H^T S^-1 nu, in information form: (Omega + H^T R^-1 H)^-1 H^T R^-1 nu.
+  // (Iterated: nu = z - h(x_i) + H (x_i - x), the iterated EKF's last step.)
   x_.head(n) += solve(information_gain);
   x_[2] = wrap_angle(x_[2]);
   return true;

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "slamkit/core/angles.hpp"
+#include "slamkit/core/chi_square.hpp"
 #include "slamkit/filters/slam_filter.hpp"
 
 namespace slamkit {
@@ -13,6 +15,8 @@ namespace slamkit {
 namespace {
 // Landmarks whose columns one solve finds when the whole map's marginals are read.
 constexpr std::size_t kMarginalsPerSolve = 32;
+// The iterated update has converged when no row it reads moves by more (the iterated EKF's).
+constexpr double kIterateTolerance = 1e-6;
 
 Eigen::SparseMatrix<double> from_triplets(Eigen::Index rows, Eigen::Index cols,
                                           const std::vector<Eigen::Triplet<double>>& triplets) {
@@ -42,9 +46,18 @@ Eigen::MatrixXd InformationFormEstimator::spd_inverse(const Eigen::MatrixXd& m, 
 InformationFormEstimator::InformationFormEstimator(std::shared_ptr<const MotionModel> motion,
                                                    std::shared_ptr<const ObservationModel> observation,
                                                    const Pose2& initial_pose, const Matrix3& initial_covariance,
-                                                   CovarianceRecovery recovery)
-    : EkfEstimator(std::move(motion), std::move(observation), initial_pose), recovery_(recovery) {
+                                                   CovarianceRecovery recovery,
+                                                   const InformationLinearisation& linearisation)
+    : EkfEstimator(std::move(motion), std::move(observation), initial_pose),
+      recovery_(recovery),
+      linearisation_(linearisation),
+      predicted_pose_(initial_pose) {
   if (!initial_covariance.allFinite()) throw std::invalid_argument("the initial pose covariance must be finite");
+  if (linearisation.linearisation == Linearisation::kInvariant)
+    throw std::invalid_argument("the information filters linearise at the estimate or at first estimates, not on the "
+                                "invariant error");
+  if (linearisation.update_iterations < 1)
+    throw std::invalid_argument("an information filter's update needs at least one linearisation");
   graph_.vehicle() = spd_inverse(floored(initial_covariance), "an initial pose covariance");
 }
 
@@ -290,9 +303,12 @@ Eigen::MatrixXd InformationFormEstimator::covariance() const {
 
 void InformationFormEstimator::predict(const Control& u, double dt) {
   const Pose2 xv = x_.head<3>();
-  const Matrix3 f = motion_->jacobian_state(xv, u, dt);
   const Matrix3 q = motion_->process_noise(xv, u, dt);
   x_.head<3>() = motion_->predict(xv, u, dt);
+  const Matrix3 f = linearisation_.linearisation == Linearisation::kFirstEstimates
+                        ? MotionModel::jacobian_between(predicted_pose_, x_.head<3>())
+                        : motion_->jacobian_state(xv, u, dt);
+  predicted_pose_ = x_.head<3>();
   // Linearised at the estimate: x_v -> F x_v + (f(mu_v) - F mu_v), with f(mu_v) as stored, its
   // heading wrapped. The offset is not wrapped: it carries the wrap, so that the composed motion
   // takes the information form's implied heading where the estimate's is (the next step's offset,
@@ -305,17 +321,132 @@ void InformationFormEstimator::predict(const Control& u, double dt) {
 
 void InformationFormEstimator::inflate_pose(const Matrix3& q) { pending_q_ += q; }
 
+bool InformationFormEstimator::move_implausible_anchors(std::span<const LandmarkObservation> batch,
+                                                        Eigen::VectorXd* vector) {
+  if (linearisation_.linearisation != Linearisation::kFirstEstimates) return false;
+  apply_pending_motion();
+  static const double gate = eval::chi_square_quantile(kPlausibleAnchorProbability, 2.0);
+  bool moved_any = false;
+  for (const LandmarkObservation& o : batch) {
+    Vector2& anchor = first_estimates_[o.index];
+    const Vector2 moved = landmark_position(o.index) - anchor;
+    // Cov(m - p) over the vehicle's position.
+    const Matrix2 cross = landmark_pose_covariance(o.index).leftCols<2>();
+    const Matrix2 relative =
+        landmark_covariance(o.index) - cross - cross.transpose() + pose_covariance().topLeftCorner<2, 2>();
+    const Eigen::LLT<Matrix2> llt(relative);
+    if (llt.info() != Eigen::Success || moved.dot(llt.solve(moved)) <= gate) continue;
+    // Omega -> M^-T Omega M^-1 over the landmark's neighbourhood and the vehicle, the only variables
+    // it changes; M^-1 = I - u e_theta^T, u = J (m - anchor) in the landmark's rows.
+    InformationGraph::Variables changed = graph_.neighbourhood({false, {o.index}});
+    changed.vehicle = true;
+    const Eigen::MatrixXd before = graph_.gather(changed);
+    Eigen::MatrixXd inverse_m = Eigen::MatrixXd::Identity(changed.rows(), changed.rows());
+    const auto row = std::find(changed.landmarks.begin(), changed.landmarks.end(), o.index) - changed.landmarks.begin();
+    inverse_m.block<2, 1>(changed.row(static_cast<std::size_t>(row)), 2) = -Vector2(-moved[1], moved[0]);
+    const Eigen::MatrixXd change = inverse_m.transpose() * before * inverse_m - before;
+    graph_.scatter_add(changed, change);
+    if (vector) add_to_rows(changed, change * rows_of(changed, x_), *vector);
+    information_changed();
+    anchor = landmark_position(o.index);
+    ++anchors_moved_;
+    moved_any = true;
+  }
+  return moved_any;
+}
+
+InformationFormEstimator::LinearisationPoint InformationFormEstimator::linearisation_point(
+    std::span<const LandmarkObservation> batch) const {
+  LinearisationPoint at{pose(), {}};
+  InformationGraph::Variables read{true, {}};  // the rows the batch reads
+  for (const LandmarkObservation& o : batch)
+    if (at.landmarks.emplace(o.index, landmark_position(o.index)).second) read.landmarks.push_back(o.index);
+  if (linearisation_.update_iterations == 1) return at;
+  prepare_covariances(read.landmarks);
+  const Eigen::Index rows = read.rows();
+  Eigen::MatrixXd p(rows, rows);
+  Eigen::VectorXd prior(rows);
+  p.topLeftCorner<3, 3>() = pose_covariance();
+  prior.head<3>() = at.vehicle;
+  std::unordered_map<std::size_t, Eigen::Index> row_of;
+  for (std::size_t k = 0; k < read.landmarks.size(); ++k) {
+    const std::size_t index = read.landmarks[k];
+    const Eigen::Index r = read.row(k);
+    row_of[index] = r;
+    prior.segment<2>(r) = at.landmarks[index];
+    p.block<2, 3>(r, 0) = landmark_pose_covariance(index);
+    p.block<3, 2>(0, r) = p.block<2, 3>(r, 0).transpose();
+    for (std::size_t j = 0; j <= k; ++j) {
+      p.block<2, 2>(r, read.row(j)) = landmark_cross_covariance(index, read.landmarks[j]);
+      p.block<2, 2>(read.row(j), r) = p.block<2, 2>(r, read.row(j)).transpose();
+    }
+  }
+  const auto d = static_cast<Eigen::Index>(observation_->dim());
+  const auto measured = static_cast<Eigen::Index>(batch.size()) * d;
+  Eigen::MatrixXd h(measured, rows), noise = Eigen::MatrixXd::Zero(measured, measured);
+  Eigen::VectorXd nu(measured);
+  for (std::size_t i = 0; i < batch.size(); ++i)
+    noise.block(static_cast<Eigen::Index>(i) * d, static_cast<Eigen::Index>(i) * d, d, d) =
+        batch[i].noise_scale * observation_->noise();
+  // Gauss-Newton on the measurement with the prior's covariance, as the iterated EKF: the next
+  // iterate is mu + P H^T S^-1 (z - h(x_i) + H (x_i - mu)) with H the Jacobian at x_i.
+  Eigen::VectorXd iterate = prior, linearised = prior;
+  for (int iteration = 1;; ++iteration) {
+    linearised = iterate;
+    h.setZero();
+    Eigen::VectorXd from_prior = iterate - prior;
+    from_prior[2] = wrap_angle(from_prior[2]);
+    for (std::size_t i = 0; i < batch.size(); ++i) {
+      const Eigen::Index r = row_of[batch[i].index], m = static_cast<Eigen::Index>(i) * d;
+      const Pose2 xv = iterate.head<3>();
+      const Vector2 landmark = iterate.segment<2>(r);
+      PoseJacobian hx;
+      LandmarkJacobian hm;
+      observation_->jacobians(xv, landmark, hx, hm);
+      h.block(m, 0, d, 3) = hx;
+      h.block(m, r, d, 2) = hm;
+      nu.segment(m, d) = observation_->residual(batch[i].z, observation_->predict(xv, landmark));
+    }
+    nu += h * from_prior;
+    if (iteration == linearisation_.update_iterations) break;
+    const Eigen::MatrixXd pht = p * h.transpose();
+    const Eigen::LLT<Eigen::MatrixXd> s(h * pht + noise);
+    if (s.info() != Eigen::Success) break;  // the update then reports it
+    Eigen::VectorXd next = prior + pht * s.solve(nu);
+    next[2] = wrap_angle(next[2]);
+    Eigen::VectorXd moved = next - iterate;
+    moved[2] = wrap_angle(moved[2]);
+    iterate = next;
+    if (moved.cwiseAbs().maxCoeff() < kIterateTolerance) break;
+  }
+  // The standard update keeps the Jacobians of the last linearisation, first estimates are taken
+  // about the last iterate: the iterated EKF's choices, so that the EIF stays its oracle.
+  const Eigen::VectorXd& chosen =
+      linearisation_.linearisation == Linearisation::kFirstEstimates ? iterate : linearised;
+  at.vehicle = chosen.head<3>();
+  for (const auto& [index, r] : row_of) at.landmarks[index] = chosen.segment<2>(r);
+  return at;
+}
+
 void InformationFormEstimator::add_linearised_information(std::span<const LandmarkObservation> batch,
-                                                          bool about_estimate, Eigen::VectorXd& vector) {
+                                                          bool about_estimate, Eigen::VectorXd& vector,
+                                                          const LinearisationPoint& at) {
   apply_pending_motion();
   const Pose2 xv = pose();
+  Pose2 vehicle_offset = at.vehicle - xv;
+  vehicle_offset[2] = wrap_angle(vehicle_offset[2]);
   for (const LandmarkObservation& o : batch) {
     const auto l = static_cast<Eigen::Index>(landmark_offset(o.index));
     const Vector2 m = landmark_position(o.index);
+    const Vector2 m_at = at.landmarks.at(o.index);
     PoseJacobian hx;
     LandmarkJacobian hm;
-    observation_->jacobians(xv, m, hx, hm);
-    Eigen::VectorXd target = observation_->residual(o.z, observation_->predict(xv, m));
+    if (linearisation_.linearisation == Linearisation::kFirstEstimates)
+      observation_->jacobians(predicted_pose_, first_estimates_[o.index], hx, hm);
+    else
+      observation_->jacobians(at.vehicle, m_at, hx, hm);
+    Eigen::VectorXd target = observation_->residual(o.z, observation_->predict(at.vehicle, m_at));
+    target += hx * vehicle_offset + hm * (m_at - m);
     if (about_estimate) target += hx * xv + hm * m;
     const Eigen::MatrixXd r_inverse =
         spd_inverse(Eigen::MatrixXd(o.noise_scale * observation_->noise()), "a measurement noise");
@@ -339,6 +470,7 @@ InformationFormEstimator::FactorVector InformationFormEstimator::append_landmark
       spd_inverse(floored(landmark.covariance), "a new landmark's covariance given the pose");
   reserve(dim_ + 2);
   x_.segment<2>(l) = landmark.mean;
+  first_estimates_.push_back(landmark.mean);
   const Vector2 offset = landmark.mean - landmark.gx * x_.head<3>();
   const Eigen::Matrix<double, 3, 2> coupling = -landmark.gx.transpose() * information;
   graph_.vehicle() -= coupling * landmark.gx;
@@ -398,7 +530,9 @@ void InformationFormEstimator::add_to_rows(const InformationGraph::Variables& va
 }
 
 void InformationFormEstimator::squeeze_stored_rows(std::size_t first, std::size_t /*count: a landmark's 2*/) {
-  graph_.remove_landmark((first - 3) / 2);
+  const std::size_t index = (first - 3) / 2;
+  graph_.remove_landmark(index);
+  first_estimates_.erase(first_estimates_.begin() + static_cast<std::ptrdiff_t>(index));
   information_changed();
 }
 
@@ -434,6 +568,8 @@ void InformationFormEstimator::add_statistics(std::map<std::string, double>& sta
   statistics["information_nonzeros"] = static_cast<double>(graph_.nonzeros());
   statistics["information_factorisations"] = static_cast<double>(factorisations_);
   statistics["information_local_recoveries"] = static_cast<double>(local_recoveries_);
+  if (linearisation_.linearisation == Linearisation::kFirstEstimates)
+    statistics["first_estimates_moved"] = static_cast<double>(anchors_moved_);
 }
 
 }  // namespace slamkit

@@ -14,12 +14,6 @@ namespace {
 // An iterate that moves no row the batch reads by more than this (metres, radians) has converged.
 constexpr double kIterateTolerance = 1e-6;
 
-// A first estimate beyond this probability's region of the belief about the landmark's position
-// relative to the vehicle (chi-square, 2 dof) is moved: AssociationConfig's default known-identity
-// gate, so the belief rules it out as the landmark's position as firmly as the gate rules out an
-// observation of it.
-constexpr double kPlausibleAnchorProbability = 0.9999;
-
 // Eigen's matrix-product kernels pack their operands into buffers that live on the stack up to
 // EIGEN_STACK_ALLOCATION_LIMIT (128 KB) and come from the heap above it. A product over the whole
 // covariance (a tall n x k operand) passes that limit once the map has a few hundred landmarks, so

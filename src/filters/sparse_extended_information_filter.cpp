@@ -15,9 +15,10 @@ SparseExtendedInformationFilter::SparseExtendedInformationFilter(std::shared_ptr
                                                                  std::shared_ptr<const ObservationModel> observation,
                                                                  const Pose2& initial_pose,
                                                                  const Matrix3& initial_covariance,
-                                                                 const SeifOptions& options)
+                                                                 const SeifOptions& options,
+                                                                 const InformationLinearisation& linearisation)
     : SparseInformationFilter(std::move(motion), std::move(observation), initial_pose, initial_covariance,
-                              (validate(options, "seif"), options)) {}
+                              (validate(options, "seif"), options), linearisation) {}
 
 void SparseExtendedInformationFilter::begin_scan() {
   SparseInformationFilter::begin_scan();
@@ -115,7 +116,9 @@ std::vector<InformationMatrixPanel> SparseExtendedInformationFilter::information
 
 bool SparseExtendedInformationFilter::update_landmarks(std::span<const LandmarkObservation> batch) {
   if (batch.empty()) return true;
-  absorb(batch);
+  solve_mean_where_factorised();
+  move_anchors(batch);
+  absorb(batch, linearisation_point(batch));
   recover_mean();
   return true;
 }

@@ -26,9 +26,10 @@ void validate(const SparseInformationOptions& options, std::string_view prefix) 
 SparseInformationFilter::SparseInformationFilter(std::shared_ptr<const MotionModel> motion,
                                                  std::shared_ptr<const ObservationModel> observation,
                                                  const Pose2& initial_pose, const Matrix3& initial_covariance,
-                                                 const SparseInformationOptions& options)
+                                                 const SparseInformationOptions& options,
+                                                 const InformationLinearisation& linearisation)
     : InformationFormEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance,
-                               options.covariance),
+                               options.covariance, linearisation),
       options_(options) {
   xi_ = Eigen::VectorXd::Zero(x_.size());
   xi_.head<3>() = graph_.vehicle() * x_.head<3>();
@@ -69,13 +70,22 @@ void SparseInformationFilter::activate(std::size_t index) {
   last_seen_[index] = scans_;
 }
 
+void SparseInformationFilter::activate_vehicle_links() {
+  for (const InformationGraph::VehicleLink& link : graph_.vehicle_links())
+    if (std::find(active_.begin(), active_.end(), link.landmark) == active_.end()) active_.push_back(link.landmark);
+}
+
+void SparseInformationFilter::move_anchors(std::span<const LandmarkObservation> batch) {
+  if (move_implausible_anchors(batch, &xi_)) activate_vehicle_links();
+}
+
 void SparseInformationFilter::begin_scan() {
   ++scans_;
   apply_pending_motion();
 }
 
-void SparseInformationFilter::absorb(std::span<const LandmarkObservation> batch) {
-  add_linearised_information(batch, true, xi_);
+void SparseInformationFilter::absorb(std::span<const LandmarkObservation> batch, const LinearisationPoint& at) {
+  add_linearised_information(batch, true, xi_, at);
   for (const LandmarkObservation& o : batch) activate(o.index);
 }
 
@@ -97,10 +107,8 @@ void SparseInformationFilter::remove_landmark(std::size_t index) {
   std::erase(active_, index);
   for (std::size_t& a : active_)
     if (a > index) --a;
-  // An active landmark's removal links the vehicle to its neighbours, which count as active from
-  // now on (keeping the scan they were last seen in, so that SEIF's recency order stands).
-  for (const InformationGraph::VehicleLink& link : graph_.vehicle_links())
-    if (std::find(active_.begin(), active_.end(), link.landmark) == active_.end()) active_.push_back(link.landmark);
+  // An active landmark's removal links the vehicle to its neighbours.
+  activate_vehicle_links();
   if (next_relaxed_ >= num_landmarks()) next_relaxed_ = 0;
 }
 
@@ -148,6 +156,13 @@ void SparseInformationFilter::relax_landmark(std::size_t index) {
   x_.segment<2>(l) = graph_.own(index).llt().solve(rest);
 }
 
+void SparseInformationFilter::solve_mean_where_factorised() {
+  if (options_.recovery_sweeps == 0 || !factorised_for_covariances()) return;
+  const auto n = static_cast<Eigen::Index>(dim_);
+  x_.head(n) = solve(xi_.head(n));
+  wrap_heading();
+}
+
 void SparseInformationFilter::recover_mean(std::span<const std::size_t> moved) {
   const auto n = static_cast<Eigen::Index>(dim_);
   if (options_.recovery_sweeps == 0) {
@@ -168,6 +183,10 @@ void SparseInformationFilter::recover_mean(std::span<const std::size_t> moved) {
       for (const std::size_t index : blocks) relax_landmark(index);
     }
   }
+  wrap_heading();
+}
+
+void SparseInformationFilter::wrap_heading() {
   // The heading wrapped, the belief moved with it: xi = Omega mu for the shifted mean.
   const double wrapped = wrap_angle(x_[2]);
   if (wrapped != x_[2]) {

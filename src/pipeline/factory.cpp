@@ -157,6 +157,12 @@ bool is_gaussian_estimator(FilterKind kind) {
          kind == FilterKind::kSeif || kind == FilterKind::kEseif || kind == FilterKind::kTjtf;
 }
 
+// The filters in information form that take the EKF's linearisation settings (first estimates, the
+// iterated update).
+bool is_information_filter(FilterKind kind) {
+  return kind == FilterKind::kEif || kind == FilterKind::kSeif || kind == FilterKind::kEseif;
+}
+
 // A sparse information filter's settings, valid, and left at their defaults by every other filter.
 void require_sparse_information_settings(const FilterConfig& config, FilterKind kind,
                                          const SparseInformationOptions& options,
@@ -213,15 +219,21 @@ void validate(const FilterConfig& config) {
     throw std::invalid_argument("the unscented, information and junction tree estimators are the filters 'ukf', "
                                 "'eif', 'seif', 'eseif' and 'tjtf', not EKF variants");
   if (is_gaussian_estimator(config.filter) && config.filter != FilterKind::kEkf &&
-      config.ekf_variant != EkfVariant::kFull)
-    throw std::invalid_argument(fmt::format("EKF variant '{}' applies to the filter 'ekf', not '{}'",
-                                            to_string(config.ekf_variant), to_string(config.filter)));
+      config.ekf_variant != EkfVariant::kFull &&
+      !(is_information_filter(config.filter) && config.ekf_variant == EkfVariant::kFirstEstimates))
+    throw std::invalid_argument(fmt::format("EKF variant '{}' applies to the filter 'ekf'{}, not '{}'",
+                                            to_string(config.ekf_variant),
+                                            config.ekf_variant == EkfVariant::kFirstEstimates
+                                                ? " and the information filters 'eif', 'seif' and 'eseif'"
+                                                : "",
+                                            to_string(config.filter)));
   if (config.ekf_update == EkfUpdate::kSequential && config.filter == FilterKind::kEseif)
     throw std::invalid_argument("EKF update 'sequential' does not apply to the filter 'eseif': a relocation needs the "
                                 "scan's observations together");
-  if (config.ekf_update == EkfUpdate::kIterated &&
+  if (config.ekf_update == EkfUpdate::kIterated && !is_information_filter(config.filter) &&
       (config.filter != FilterKind::kEkf || config.ekf_variant == EkfVariant::kCompressed))
-    throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full, fej or invariant");
+    throw std::invalid_argument("EKF update 'iterated' applies to the filter 'ekf' with the variant full, fej or "
+                                "invariant, and to 'eif', 'seif' and 'eseif'");
   validate(config.association);
   require_sparse_information_settings(config, FilterKind::kSeif, config.seif, SeifOptions{});
   require_sparse_information_settings(config, FilterKind::kEseif, config.eseif, EseifOptions{});
@@ -304,6 +316,8 @@ std::unique_ptr<SlamFilter> make_filter(const FilterConfig& config, const Datase
       options.tjtf = config.tjtf;
       options.joint_scan_update = config.ekf_update != EkfUpdate::kSequential;
       if (config.ekf_update == EkfUpdate::kIterated) options.update_iterations = kIteratedUpdateLinearisations;
+      if (is_information_filter(config.filter) && config.ekf_variant == EkfVariant::kFirstEstimates)
+        options.information_linearisation = Linearisation::kFirstEstimates;
       options.threads = config.threads;
       options.ukf_noise = config.ukf_noise;
       options.initialisation = landmark_initialisation(config.landmark_init);

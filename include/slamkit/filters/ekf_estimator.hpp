@@ -27,6 +27,19 @@
 
 namespace slamkit {
 
+/// Where a Gaussian estimator evaluates its models' Jacobians.
+enum class Linearisation {
+  kStandard,        ///< Jacobians at the current estimates
+  kFirstEstimates,  ///< first-estimates Jacobians (FEJ-EKF)
+  kInvariant,       ///< right-invariant error (invariant EKF)
+};
+
+/// First estimates: one beyond this probability's region of the belief about the landmark's
+/// position relative to the vehicle (chi-square, 2 dof) is moved. AssociationConfig's default
+/// known-identity gate, so the belief rules it out as the landmark's position as firmly as the gate
+/// rules out an observation of it.
+inline constexpr double kPlausibleAnchorProbability = 0.9999;
+
 /// One observation of the landmark at a map index.
 struct LandmarkObservation {
   std::size_t index = 0;

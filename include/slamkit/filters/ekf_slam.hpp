@@ -69,9 +69,12 @@ struct EkfSlamOptions {
   /// observation is linearised at the prior of the scan, as in eqs. (10)-(11) with z_k the scan.
   /// On the default world it is both faster and more accurate (ATE 0.199 m against 0.209 m).
   bool joint_scan_update = true;
-  /// Full and first-estimates variants: linearisations per update, the next one at the result of
-  /// the last until it stops moving (the iterated EKF); 1 is the EKF's single one.
+  /// Full and first-estimates variants, and the information filters (EIF, SEIF, ESEIF):
+  /// linearisations per update, the next one at the result of the last until it stops moving (the
+  /// iterated EKF); 1 is the EKF's single one.
   int update_iterations = 1;
+  /// The information filters' Jacobians: at the estimates (kStandard) or at first estimates.
+  Linearisation information_linearisation = Linearisation::kStandard;
   /// Threads for the covariance's O(n^2) passes (0: every core); the estimate does not depend on it.
   unsigned threads = 0;
   /// Unscented variant: how its time update treats the control noise.

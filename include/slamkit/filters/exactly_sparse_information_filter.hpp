@@ -50,7 +50,8 @@ class ExactlySparseInformationFilter final : public SparseInformationFilter {
                                  std::shared_ptr<const ObservationModel> observation,
                                  const Pose2& initial_pose = Pose2::Zero(),
                                  const Matrix3& initial_covariance = Matrix3::Zero(),
-                                 const EseifOptions& options = {});
+                                 const EseifOptions& options = {},
+                                 const InformationLinearisation& linearisation = {});
 
   /// The exact update, or, when it would link more than the bound to the vehicle and the batch
   /// determines the pose, the split update with the relocation; then the mean is recovered.

@@ -32,12 +32,13 @@ class ExtendedInformationFilter final : public InformationFormEstimator {
   ExtendedInformationFilter(std::shared_ptr<const MotionModel> motion,
                             std::shared_ptr<const ObservationModel> observation,
                             const Pose2& initial_pose = Pose2::Zero(),
-                            const Matrix3& initial_covariance = Matrix3::Zero())
+                            const Matrix3& initial_covariance = Matrix3::Zero(),
+                            const InformationLinearisation& linearisation = {})
       : InformationFormEstimator(std::move(motion), std::move(observation), initial_pose, initial_covariance,
-                                 CovarianceRecovery::kExact) {}
+                                 CovarianceRecovery::kExact, linearisation) {}
 
-  /// Every observation linearised at the prior, as the EKF's joint update. Returns false (and changes
-  /// nothing) if the updated information matrix does not factorise.
+  /// Every observation linearised at the prior (or the last iterate), as the EKF's joint update.
+  /// Returns false (and changes nothing) if the updated information matrix does not factorise.
   bool update_landmarks(std::span<const LandmarkObservation> batch) override;
   using EkfEstimator::add_landmark;
   std::size_t add_landmark(const InitialLandmark& landmark) override;

@@ -22,6 +22,22 @@
 //    Thrun et al. recover SEIF's covariances. It costs the same however large the map, and is
 //    overconfident by what the conditioning leaves out.
 //
+// Linearisation (InformationLinearisation): at the estimate, as the EKF, or by first estimates, as
+// the FEJ-EKF (filters/joint_gaussian.hpp): the motion Jacobian between the poses predicted for two
+// steps, an observation's at the predicted pose and the landmark's first estimate, so that the
+// linearised system leaves the global translation and turn unobserved as the true one does. The
+// canonical form takes them as the EKF does: Omega += H^T R^-1 H and the information vector moves by
+// H^T R^-1 (nu + H mu). A first estimate the belief rules out is moved as the FEJ-EKF moves it, and
+// Omega carried to the moved linearisation's coordinates: with M = I + u e_theta^T (u = J (m - m_fe)
+// in the landmark's rows), P -> M P M^T is Omega -> M^-T Omega M^-1, M^-1 = I - u e_theta^T, which
+// changes the vehicle's heading row by Omega(:, landmark) u: the vehicle becomes linked to the
+// landmark's neighbours. The mean does not move, so the information vector becomes Omega' mu. With update_iterations > 1 the
+// scan's measurement is relinearised at the iterated EKF's iterates first (Gauss-Newton with the
+// prior's marginal covariance over the vehicle and the observed landmarks, the only rows an iterate
+// reads, recovered as the gates' are), and the update is then made about the last iterate: the
+// mean's nu becomes z - h(x_i) + H (x_i - mu). First estimates keep their own Jacobians for that
+// update, as the iterated FEJ-EKF does.
+//
 // The information form cannot hold a pose that is known exactly, as the map frame's start pose is by
 // default: a singular initial covariance gets kInitialPoseFloor added on its diagonal (1 mm, 1 mrad),
 // so give the EKF the same prior to compare with it.
@@ -37,6 +53,15 @@
 namespace slamkit {
 
 enum class CovarianceRecovery { kExact, kLocal };
+
+/// How an information-form estimator linearises (the file's comment).
+struct InformationLinearisation {
+  /// kStandard or kFirstEstimates; the invariant error has no information form here.
+  Linearisation linearisation = Linearisation::kStandard;
+  /// Linearisations per scan, the next at the last's result until it stops moving (the iterated
+  /// EKF); 1 is the EKF's single one.
+  int update_iterations = 1;
+};
 
 class InformationFormEstimator : public EkfEstimator {
  public:
@@ -72,17 +97,19 @@ class InformationFormEstimator : public EkfEstimator {
     return update_landmarks(std::span<const LandmarkObservation>(&observation, 1));
   }
   /// information_nonzeros (of Omega, both triangles), information_factorisations and
-  /// information_local_recoveries.
+  /// information_local_recoveries; with first estimates, first_estimates_moved.
   void add_statistics(std::map<std::string, double>& statistics) const override;
 
  protected:
   using Sparse = Eigen::SparseMatrix<double>;
   using Triplets = std::vector<Eigen::Triplet<double>>;
 
-  /// Throws std::invalid_argument for a missing model or an initial covariance that is not finite.
+  /// Throws std::invalid_argument for a missing model, an initial covariance that is not finite, or
+  /// a linearisation it does not have.
   InformationFormEstimator(std::shared_ptr<const MotionModel> motion,
                            std::shared_ptr<const ObservationModel> observation, const Pose2& initial_pose,
-                           const Matrix3& initial_covariance, CovarianceRecovery recovery);
+                           const Matrix3& initial_covariance, CovarianceRecovery recovery,
+                           const InformationLinearisation& linearisation);
 
   /// The vehicle's motion folded into Omega: Psi(:, v) of the file's comment over the variables it
   /// is non-zero on (the vehicle and the landmarks linked to it), the gain K = (I + Q Psi_vv)^-1 Q,
@@ -107,16 +134,32 @@ class InformationFormEstimator : public EkfEstimator {
   void information_changed();
   /// The Cholesky factor of Omega, computed on first use after a change; false if it failed.
   bool factorise() const;
+  /// Whether the exact recovery has factorised Omega as it stands (for the gates, say), so that a
+  /// solve costs two triangular passes.
+  bool factorised_for_covariances() const { return recovery_ == CovarianceRecovery::kExact && factorised_; }
   /// Makes `omega` the information matrix if it factorises (then factorised); otherwise keeps the
   /// present one and returns false.
   bool replace_information(InformationGraph omega);
   /// Omega^-1 b (the factorisation current).
   Eigen::VectorXd solve(const Eigen::VectorXd& b) const { return llt_.solve(b); }
-  /// Applies the pending motion, then adds H^T R^-1 H of `batch` (each observation linearised at the
-  /// estimate) into Omega, and H^T R^-1 nu, or with `about_estimate` H^T R^-1 (nu + H mu), into
-  /// `vector` (over the state's rows): the linearised measurement's share of the information vector.
+  /// First estimates: moves the first estimate of each landmark in `batch` that the belief rules out
+  /// to its estimate, carrying Omega and, if given, the information vector `vector` (over the
+  /// state's rows) along (the file's comment). Returns whether one moved. Call before
+  /// linearisation_point.
+  bool move_implausible_anchors(std::span<const LandmarkObservation> batch, Eigen::VectorXd* vector);
+  /// Where a scan's measurement is linearised: the vehicle and each observed landmark.
+  struct LinearisationPoint {
+    Pose2 vehicle;
+    std::unordered_map<std::size_t, Vector2> landmarks;  // by map index
+  };
+  /// The estimate, or with update_iterations > 1 the iterated EKF's last iterate for `batch`.
+  LinearisationPoint linearisation_point(std::span<const LandmarkObservation> batch) const;
+  /// Applies the pending motion, then adds H^T R^-1 H of `batch` (each observation linearised at
+  /// `at`, which holds its landmarks) into Omega, and H^T R^-1 nu, or with `about_estimate`
+  /// H^T R^-1 (nu + H mu), into `vector` (over the state's rows): the linearised measurement's share
+  /// of the information vector, nu = z - h(at) + H (at - mu).
   void add_linearised_information(std::span<const LandmarkObservation> batch, bool about_estimate,
-                                  Eigen::VectorXd& vector);
+                                  Eigen::VectorXd& vector, const LinearisationPoint& at);
   /// The information vector of a landmark factor, by block.
   struct FactorVector {
     Eigen::Vector3d vehicle;
@@ -177,6 +220,10 @@ class InformationFormEstimator : public EkfEstimator {
   Matrix3 vehicle_marginal() const;
 
   CovarianceRecovery recovery_;
+  InformationLinearisation linearisation_;
+  Pose2 predicted_pose_;                 // first estimates: the pose the last control predicted
+  std::vector<Vector2> first_estimates_;  // first estimates: by map index
+  std::size_t anchors_moved_ = 0;
   mutable Sparse exported_;  // Omega as factorised
   mutable Eigen::SimplicialLLT<Sparse, Eigen::Lower, Eigen::AMDOrdering<int>> llt_;
   mutable bool factorised_ = false;

@@ -82,12 +82,6 @@
 
 namespace slamkit {
 
-enum class Linearisation {
-  kStandard,        ///< Jacobians at the current estimates
-  kFirstEstimates,  ///< first-estimates Jacobians (FEJ-EKF)
-  kInvariant,       ///< right-invariant error (invariant EKF)
-};
-
 class JointGaussian : public DenseCovarianceEstimator {
  public:
   static constexpr int kMaxUpdateIterations = 100;

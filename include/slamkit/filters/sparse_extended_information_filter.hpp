@@ -37,7 +37,8 @@ class SparseExtendedInformationFilter final : public SparseInformationFilter {
   SparseExtendedInformationFilter(std::shared_ptr<const MotionModel> motion,
                                   std::shared_ptr<const ObservationModel> observation,
                                   const Pose2& initial_pose = Pose2::Zero(),
-                                  const Matrix3& initial_covariance = Matrix3::Zero(), const SeifOptions& options = {});
+                                  const Matrix3& initial_covariance = Matrix3::Zero(), const SeifOptions& options = {},
+                                  const InformationLinearisation& linearisation = {});
 
   /// Folds the controls in and sparsifies.
   void begin_scan() override;

@@ -72,19 +72,28 @@ class SparseInformationFilter : public InformationFormEstimator {
  protected:
   SparseInformationFilter(std::shared_ptr<const MotionModel> motion,
                           std::shared_ptr<const ObservationModel> observation, const Pose2& initial_pose,
-                          const Matrix3& initial_covariance, const SparseInformationOptions& options);
+                          const Matrix3& initial_covariance, const SparseInformationOptions& options,
+                          const InformationLinearisation& linearisation);
 
   void reserve(std::size_t dim) override;
   void squeeze_stored_rows(std::size_t first, std::size_t count) override;
   void motion_folded(const FoldedMotion& motion) override;
 
-  /// The measurement update of `batch` (each observation linearised at the current mean), its
-  /// landmarks made active; the mean is not recovered.
-  void absorb(std::span<const LandmarkObservation> batch);
+  /// First estimates: InformationFormEstimator::move_implausible_anchors with the information vector;
+  /// the landmarks that links the vehicle to count as active.
+  void move_anchors(std::span<const LandmarkObservation> batch);
+  /// The measurement update of `batch` (each observation linearised at `at`), its landmarks made
+  /// active; the mean is not recovered.
+  void absorb(std::span<const LandmarkObservation> batch, const LinearisationPoint& at);
   /// recovery_sweeps sweeps over the vehicle, the active landmarks, `moved` (landmarks the step
   /// updated that are no longer active) and the next ones in turn (or the exact solve); keeps the
   /// heading wrapped, moving xi with it.
   void recover_mean(std::span<const std::size_t> moved = {});
+  /// The mean solved for exactly where the exact covariance recovery has factorised Omega as it
+  /// stands (the gates read covariances before the update), so that the update linearises at it:
+  /// the amortised recovery lags a loop closure's shift of the map by many scans, and its stale mean
+  /// made the linearisation overconfident (docs/filters.md). Otherwise nothing.
+  void solve_mean_where_factorised();
 
   const SparseInformationOptions& options() const { return options_; }
   std::size_t scans() const { return scans_; }
@@ -97,6 +106,11 @@ class SparseInformationFilter : public InformationFormEstimator {
  private:
   /// Marks landmark `index` linked to the vehicle and seen now.
   void activate(std::size_t index);
+  /// Counts every landmark linked to the vehicle as active (those not yet keep the scan they were
+  /// last seen in, so that SEIF's recency order stands).
+  void activate_vehicle_links();
+  /// Wraps the mean's heading, moving xi with it.
+  void wrap_heading();
   /// One Gauss-Seidel step for the vehicle's rows, and for a landmark's.
   void relax_vehicle();
   void relax_landmark(std::size_t index);
