@@ -62,7 +62,7 @@ std::vector<std::size_t> ExactlySparseInformationFilter::relocation_set(
     const LandmarkObservation& o = batch[k];
     PoseJacobian hx;
     LandmarkJacobian hm;
-    observation_model().jacobians(xv, landmark_position(o.index), hx, hm);
+    update_jacobians(o.index, xv, landmark_position(o.index), hx, hm);
     const Eigen::MatrixXd noise = o.noise_scale * observation_model().noise();
     const Matrix3 with = determined + hx.transpose() * noise.llt().solve(Eigen::MatrixXd(hx));
     const int now = determined_directions(with);

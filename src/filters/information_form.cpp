@@ -179,6 +179,11 @@ InformationFormEstimator::FoldedMotion InformationFormEstimator::fold(Informatio
   for (std::size_t k = 0; k < motion.linked.landmarks.size(); ++k)
     motion.psi_columns.middleRows<2>(motion.linked.row(k)) = graph.vehicle_links()[k].block.transpose();
   const Matrix3 psi_vv = graph.vehicle();
+  // Every belief the filters hold determines the pose (a relocation waits for a scan that does), so
+  // a vehicle block that is not positive definite is a broken filter, which the fold's inverse would
+  // turn into NaN.
+  if (Eigen::LLT<Matrix3>(psi_vv).info() != Eigen::Success)
+    throw FilterBreakdown("the information filter's vehicle block is no longer positive definite");
   motion.gain = (Matrix3::Identity() + q * psi_vv).lu().solve(q);
   motion.gain = (0.5 * (motion.gain + motion.gain.transpose())).eval();
   motion.f = f;
@@ -355,6 +360,14 @@ bool InformationFormEstimator::move_implausible_anchors(std::span<const Landmark
   return moved_any;
 }
 
+void InformationFormEstimator::update_jacobians(std::size_t index, const Pose2& vehicle, const Vector2& landmark,
+                                                PoseJacobian& hx, LandmarkJacobian& hm) const {
+  if (linearisation_.linearisation == Linearisation::kFirstEstimates)
+    observation_->jacobians(predicted_pose_, first_estimates_[index], hx, hm);
+  else
+    observation_->jacobians(vehicle, landmark, hx, hm);
+}
+
 InformationFormEstimator::LinearisationPoint InformationFormEstimator::linearisation_point(
     std::span<const LandmarkObservation> batch) const {
   LinearisationPoint at{pose(), {}};
@@ -441,10 +454,7 @@ void InformationFormEstimator::add_linearised_information(std::span<const Landma
     const Vector2 m_at = at.landmarks.at(o.index);
     PoseJacobian hx;
     LandmarkJacobian hm;
-    if (linearisation_.linearisation == Linearisation::kFirstEstimates)
-      observation_->jacobians(predicted_pose_, first_estimates_[o.index], hx, hm);
-    else
-      observation_->jacobians(at.vehicle, m_at, hx, hm);
+    update_jacobians(o.index, at.vehicle, m_at, hx, hm);
     Eigen::VectorXd target = observation_->residual(o.z, observation_->predict(at.vehicle, m_at));
     target += hx * vehicle_offset + hm * (m_at - m);
     if (about_estimate) target += hx * xv + hm * m;

@@ -157,7 +157,7 @@ void SparseInformationFilter::relax_landmark(std::size_t index) {
 }
 
 void SparseInformationFilter::solve_mean_where_factorised() {
-  if (options_.recovery_sweeps == 0 || !factorised_for_covariances()) return;
+  if (options_.recovery_sweeps == 0 || motion_pending() || !factorised_for_covariances()) return;
   const auto n = static_cast<Eigen::Index>(dim_);
   x_.head(n) = solve(xi_.head(n));
   wrap_heading();

@@ -31,12 +31,12 @@
 // Omega carried to the moved linearisation's coordinates: with M = I + u e_theta^T (u = J (m - m_fe)
 // in the landmark's rows), P -> M P M^T is Omega -> M^-T Omega M^-1, M^-1 = I - u e_theta^T, which
 // changes the vehicle's heading row by Omega(:, landmark) u: the vehicle becomes linked to the
-// landmark's neighbours. The mean does not move, so the information vector becomes Omega' mu. With update_iterations > 1 the
-// scan's measurement is relinearised at the iterated EKF's iterates first (Gauss-Newton with the
-// prior's marginal covariance over the vehicle and the observed landmarks, the only rows an iterate
-// reads, recovered as the gates' are), and the update is then made about the last iterate: the
-// mean's nu becomes z - h(x_i) + H (x_i - mu). First estimates keep their own Jacobians for that
-// update, as the iterated FEJ-EKF does.
+// landmark's neighbours. The mean does not move, so the information vector becomes Omega' mu.
+// With update_iterations > 1 the scan's measurement is relinearised at the iterated EKF's iterates
+// first (Gauss-Newton with the prior's marginal covariance over the vehicle and the observed
+// landmarks, the only rows an iterate reads, recovered as the gates' are), and the update is then
+// made about the last iterate: the mean's nu becomes z - h(x_i) + H (x_i - mu). First estimates keep
+// their own Jacobians for that update, as the iterated FEJ-EKF does.
 //
 // The information form cannot hold a pose that is known exactly, as the map frame's start pose is by
 // default: a singular initial covariance gets kInitialPoseFloor added on its diagonal (1 mm, 1 mrad),
@@ -152,6 +152,10 @@ class InformationFormEstimator : public EkfEstimator {
     Pose2 vehicle;
     std::unordered_map<std::size_t, Vector2> landmarks;  // by map index
   };
+  /// The observation Jacobians an update uses for landmark `index` linearised at (vehicle,
+  /// landmark): there, or at first estimates.
+  void update_jacobians(std::size_t index, const Pose2& vehicle, const Vector2& landmark, PoseJacobian& hx,
+                        LandmarkJacobian& hm) const;
   /// The estimate, or with update_iterations > 1 the iterated EKF's last iterate for `batch`.
   LinearisationPoint linearisation_point(std::span<const LandmarkObservation> batch) const;
   /// Applies the pending motion, then adds H^T R^-1 H of `batch` (each observation linearised at

@@ -80,7 +80,7 @@ class SparseInformationFilter : public InformationFormEstimator {
   void motion_folded(const FoldedMotion& motion) override;
 
   /// First estimates: InformationFormEstimator::move_implausible_anchors with the information vector;
-  /// the landmarks that links the vehicle to count as active.
+  /// the landmarks a move links the vehicle to count as active.
   void move_anchors(std::span<const LandmarkObservation> batch);
   /// The measurement update of `batch` (each observation linearised at `at`), its landmarks made
   /// active; the mean is not recovered.
@@ -90,7 +90,8 @@ class SparseInformationFilter : public InformationFormEstimator {
   /// heading wrapped, moving xi with it.
   void recover_mean(std::span<const std::size_t> moved = {});
   /// The mean solved for exactly where the exact covariance recovery has factorised Omega as it
-  /// stands (the gates read covariances before the update), so that the update linearises at it:
+  /// stands, the controls folded in (the gates read covariances before the update), so that the
+  /// update linearises at it:
   /// the amortised recovery lags a loop closure's shift of the map by many scans, and its stale mean
   /// made the linearisation overconfident (docs/filters.md). Otherwise nothing.
   void solve_mean_where_factorised();
