@@ -341,15 +341,20 @@ bool InformationFormEstimator::move_implausible_anchors(std::span<const Landmark
         landmark_covariance(o.index) - cross - cross.transpose() + pose_covariance().topLeftCorner<2, 2>();
     const Eigen::LLT<Matrix2> llt(relative);
     if (llt.info() != Eigen::Success || moved.dot(llt.solve(moved)) <= gate) continue;
-    // Omega -> M^-T Omega M^-1 over the landmark's neighbourhood and the vehicle, the only variables
-    // it changes; M^-1 = I - u e_theta^T, u = J (m - anchor) in the landmark's rows.
+    // Omega -> M^-T Omega M^-1, M^-1 = I - u e_theta^T with u = J (m - anchor) in the landmark's
+    // rows: Omega - w e_theta^T - e_theta w^T + (u^T Omega_ll u) e_theta e_theta^T, w = Omega(:, l) u,
+    // which is non-zero over the landmark's neighbourhood and the vehicle only.
     InformationGraph::Variables changed = graph_.neighbourhood({false, {o.index}});
     changed.vehicle = true;
     const Eigen::MatrixXd before = graph_.gather(changed);
-    Eigen::MatrixXd inverse_m = Eigen::MatrixXd::Identity(changed.rows(), changed.rows());
-    const auto row = std::find(changed.landmarks.begin(), changed.landmarks.end(), o.index) - changed.landmarks.begin();
-    inverse_m.block<2, 1>(changed.row(static_cast<std::size_t>(row)), 2) = -Vector2(-moved[1], moved[0]);
-    const Eigen::MatrixXd change = inverse_m.transpose() * before * inverse_m - before;
+    const auto position = std::find(changed.landmarks.begin(), changed.landmarks.end(), o.index);
+    const Eigen::Index l = changed.row(static_cast<std::size_t>(position - changed.landmarks.begin()));
+    const Vector2 u(-moved[1], moved[0]);
+    const Eigen::VectorXd w = before.middleCols<2>(l) * u;
+    Eigen::MatrixXd change = Eigen::MatrixXd::Zero(changed.rows(), changed.rows());
+    change.col(2) -= w;
+    change.row(2) -= w.transpose();
+    change(2, 2) += u.dot(before.block<2, 2>(l, l) * u);
     graph_.scatter_add(changed, change);
     if (vector) add_to_rows(changed, change * rows_of(changed, x_), *vector);
     information_changed();
