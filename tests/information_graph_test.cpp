@@ -44,6 +44,35 @@ TEST(InformationGraph, SparseRoundTripKeepsEveryEntryAndCountsThem) {
   EXPECT_EQ(back.nonzeros(), graph.nonzeros());
 }
 
+// Omega entry by entry from the graph's blocks: the reference the compressed export must equal.
+Eigen::MatrixXd dense_from_blocks(const InformationGraph& graph) {
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(row(graph.landmarks()), row(graph.landmarks()));
+  dense.topLeftCorner<3, 3>() = graph.vehicle();
+  for (const InformationGraph::VehicleLink& link : graph.vehicle_links()) {
+    dense.block<3, 2>(0, row(link.landmark)) = link.block;
+    dense.block<2, 3>(row(link.landmark), 0) = link.block.transpose();
+  }
+  for (std::size_t l = 0; l < graph.landmarks(); ++l) {
+    dense.block<2, 2>(row(l), row(l)) = graph.own(l);
+    for (const InformationGraph::Link& link : graph.links(l)) dense.block<2, 2>(row(l), row(link.landmark)) = link.block;
+  }
+  return dense;
+}
+
+TEST(InformationGraph, ExportsSortedCompressedColumnsThatEqualItsBlocks) {
+  for (const std::uint32_t seed : {4u, 5u, 6u}) {
+    InformationGraph graph = random_graph(15, seed);
+    graph.add_vehicle_link(14, InformationGraph::VehicleBlock::Constant(0.5));  // the last landmark's columns
+    const Eigen::SparseMatrix<double> omega = graph.to_sparse();
+    ASSERT_TRUE(omega.isCompressed());
+    EXPECT_EQ(static_cast<std::size_t>(omega.nonZeros()), graph.nonzeros());
+    for (Eigen::Index col = 0; col < omega.outerSize(); ++col)
+      for (Eigen::Index k = omega.outerIndexPtr()[col] + 1; k < omega.outerIndexPtr()[col + 1]; ++k)
+        ASSERT_LT(omega.innerIndexPtr()[k - 1], omega.innerIndexPtr()[k]) << "column " << col;
+    EXPECT_EQ(omega.toDense(), dense_from_blocks(graph)) << "seed " << seed;
+  }
+}
+
 TEST(InformationGraph, GatherAndScatterAgreeWithTheDenseMatrix) {
   InformationGraph graph = random_graph(10, 2);
   Eigen::MatrixXd dense = graph.to_sparse().toDense();
