@@ -180,21 +180,21 @@ void InformationGraph::scatter_add(const Variables& variables, const Eigen::Matr
 
 Eigen::SparseMatrix<double> InformationGraph::to_sparse() const {
   // Written straight into compressed columns: every edge list is sorted by landmark, so each
-  // column's rows come out in order. Through triplets, their sort took 1.2 s of a 9-million-entry
-  // export, more than the numerical factorisation that follows it.
+  // column's rows come out in order. Through triplets, their sort cost more than the numerical
+  // factorisation that follows it (docs/filters.md, the city).
   using Index = Eigen::SparseMatrix<double>::StorageIndex;
-  const auto n = static_cast<Eigen::Index>(3 + 2 * nodes_.size());
+  const auto row = [](std::size_t landmark) { return static_cast<Eigen::Index>(3 + 2 * landmark); };
+  const Eigen::Index n = row(nodes_.size());
   Eigen::SparseMatrix<double> m(n, n);
   m.resizeNonZeros(static_cast<Eigen::Index>(nonzeros()));
   Index* const outer = m.outerIndexPtr();
   Index* const inner = m.innerIndexPtr();
   double* const value = m.valuePtr();
   Index at = 0;
-  const auto put = [&](Eigen::Index row, double v) {
-    inner[at] = static_cast<Index>(row);
+  const auto put = [&](Eigen::Index r, double v) {
+    inner[at] = static_cast<Index>(r);
     value[at++] = v;
   };
-  const auto row = [](std::size_t landmark) { return static_cast<Eigen::Index>(3 + 2 * landmark); };
   for (Eigen::Index c = 0; c < 3; ++c) {
     outer[c] = at;
     for (Eigen::Index r = 0; r < 3; ++r) put(r, vehicle_(r, c));
