@@ -2,7 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <numeric>
 #include <random>
+
+#include "slamkit/filters/information_factor.hpp"
 
 namespace slamkit {
 namespace {
@@ -71,6 +76,79 @@ TEST(InformationGraph, ExportsSortedCompressedColumnsThatEqualItsBlocks) {
         ASSERT_LT(omega.innerIndexPtr()[k - 1], omega.innerIndexPtr()[k]) << "column " << col;
     EXPECT_EQ(omega.toDense(), dense_from_blocks(graph)) << "seed " << seed;
   }
+}
+
+// Rows of Omega in the order of its blocks `order` (0 the vehicle, 1 + i landmark i).
+std::vector<Eigen::Index> rows_in(const std::vector<int>& order) {
+  std::vector<Eigen::Index> rows;
+  for (const int block : order) {
+    if (block == 0)
+      rows.insert(rows.end(), {0, 1, 2});
+    else
+      rows.insert(rows.end(), {row(static_cast<std::size_t>(block - 1)), row(static_cast<std::size_t>(block - 1)) + 1});
+  }
+  return rows;
+}
+
+TEST(InformationGraph, ExportsTheUpperTriangleInAnOrderOfItsBlocks) {
+  for (const std::uint32_t seed : {7u, 8u}) {
+    InformationGraph graph = random_graph(15, seed);
+    graph.add_vehicle_link(14, InformationGraph::VehicleBlock::Constant(0.5));
+    std::vector<int> fill_reducing = graph.fill_reducing_order();
+    std::vector<int> reversed(graph.landmarks() + 1);
+    std::iota(reversed.rbegin(), reversed.rend(), 0);  // the vehicle last
+    for (const std::vector<int>& order : {fill_reducing, reversed}) {
+      std::vector<int> sorted = order;
+      std::sort(sorted.begin(), sorted.end());
+      std::vector<int> blocks(graph.landmarks() + 1);
+      std::iota(blocks.begin(), blocks.end(), 0);
+      ASSERT_EQ(sorted, blocks) << "not an order of the blocks";
+      const std::vector<Eigen::Index> rows = rows_in(order);
+      const Eigen::MatrixXd dense = dense_from_blocks(graph);
+      Eigen::MatrixXd permuted(dense.rows(), dense.cols());
+      for (std::size_t i = 0; i < rows.size(); ++i)
+        for (std::size_t j = 0; j < rows.size(); ++j)
+          permuted(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = dense(rows[i], rows[j]);
+      Eigen::SparseMatrix<double> upper(1, 1);
+      upper.insert(0, 0) = 1.0;  // what was there before is replaced
+      graph.to_sparse_upper(order, upper);
+      ASSERT_TRUE(upper.isCompressed());
+      for (Eigen::Index col = 0; col < upper.outerSize(); ++col)
+        for (Eigen::Index k = upper.outerIndexPtr()[col]; k < upper.outerIndexPtr()[col + 1]; ++k) {
+          ASSERT_LE(upper.innerIndexPtr()[k], col) << "below the diagonal";
+          if (k > upper.outerIndexPtr()[col]) ASSERT_LT(upper.innerIndexPtr()[k - 1], upper.innerIndexPtr()[k]);
+        }
+      EXPECT_EQ(Eigen::MatrixXd(upper.toDense()), Eigen::MatrixXd(permuted.triangularView<Eigen::Upper>()))
+          << "seed " << seed;
+    }
+  }
+}
+
+TEST(InformationFactor, SolvesAsTheDenseMatrixThroughChangesOfValuesAndPattern) {
+  InformationGraph graph = random_graph(20, 9);
+  // Diagonally dominant, so positive definite.
+  graph.vehicle() += 40.0 * Matrix3::Identity();
+  for (std::size_t l = 0; l < graph.landmarks(); ++l) graph.own(l) += 40.0 * Matrix2::Identity();
+  InformationFactor factor;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> value;
+  const auto solves_as_dense = [&] {
+    ASSERT_TRUE(factor.factorise(graph));
+    const Eigen::MatrixXd dense = dense_from_blocks(graph);
+    ASSERT_EQ(factor.rows(), dense.rows());
+    const Eigen::MatrixXd b = Eigen::MatrixXd::NullaryExpr(dense.rows(), 3, [&] { return value(rng); });
+    EXPECT_LT((factor.solve(b) - dense.llt().solve(b)).cwiseAbs().maxCoeff(), 1e-12);
+  };
+  solves_as_dense();
+  graph.own(3) += Matrix2::Identity();  // values only: the order kept
+  solves_as_dense();
+  graph.add_link(0, 19, Matrix2::Constant(0.2));  // an edge: a new order
+  solves_as_dense();
+  graph.append_landmark(40.0 * Matrix2::Identity());
+  graph.add_vehicle_link(20, InformationGraph::VehicleBlock::Constant(-0.3));
+  solves_as_dense();
+  graph.own(5) = -Matrix2::Identity();
+  EXPECT_FALSE(factor.factorise(graph));
 }
 
 TEST(InformationGraph, GatherAndScatterAgreeWithTheDenseMatrix) {

@@ -92,15 +92,8 @@ void InformationFormEstimator::prepare_covariances(std::span<const std::size_t> 
 
 bool InformationFormEstimator::factorise() const {
   if (factorised_) return true;
-  exported_ = graph_.to_sparse();
-  // The fill-reducing ordering and the factor's pattern depend on Omega's pattern only.
-  if (graph_.pattern_version() != analysed_pattern_) {
-    llt_.analyzePattern(exported_);
-    analysed_pattern_ = graph_.pattern_version();
-  }
-  llt_.factorize(exported_);
   ++factorisations_;
-  factorised_ = llt_.info() == Eigen::Success;
+  factorised_ = factor_.factorise(graph_);
   return factorised_;
 }
 
@@ -115,10 +108,10 @@ bool InformationFormEstimator::replace_information(InformationGraph omega) {
 
 Eigen::MatrixXd InformationFormEstimator::covariance_columns(std::size_t first, std::size_t count) const {
   if (!factorise()) throw FilterBreakdown("the information matrix is not positive definite");
-  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(exported_.rows(), static_cast<Eigen::Index>(count));
+  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(factor_.rows(), static_cast<Eigen::Index>(count));
   for (std::size_t i = 0; i < count; ++i)
     unit(static_cast<Eigen::Index>(first + i), static_cast<Eigen::Index>(i)) = 1.0;
-  return llt_.solve(unit);
+  return factor_.solve(unit);
 }
 
 const Eigen::MatrixXd& InformationFormEstimator::vehicle_columns() const {
@@ -276,7 +269,7 @@ void InformationFormEstimator::landmark_marginals(std::vector<Vector2>& means,
     return;
   }
   if (!factorise()) throw FilterBreakdown("the information matrix is not positive definite");
-  const Eigen::Index n = exported_.rows();
+  const Eigen::Index n = factor_.rows();
   for (std::size_t first = 0; first < count; first += kMarginalsPerSolve) {
     const std::size_t chunk = std::min(kMarginalsPerSolve, count - first);
     Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(2 * chunk));
@@ -285,7 +278,7 @@ void InformationFormEstimator::landmark_marginals(std::vector<Vector2>& means,
       unit(l, static_cast<Eigen::Index>(2 * i)) = 1.0;
       unit(l + 1, static_cast<Eigen::Index>(2 * i + 1)) = 1.0;
     }
-    const Eigen::MatrixXd columns = llt_.solve(unit);
+    const Eigen::MatrixXd columns = factor_.solve(unit);
     for (std::size_t i = 0; i < chunk; ++i) {
       const auto l = static_cast<Eigen::Index>(landmark_offset(first + i));
       const Matrix2 block = columns.block<2, 2>(l, static_cast<Eigen::Index>(2 * i));

@@ -1,5 +1,6 @@
 #include "slamkit/filters/information_graph.hpp"
 
+#include <Eigen/OrderingMethods>
 #include <algorithm>
 #include <atomic>
 
@@ -222,6 +223,99 @@ Eigen::SparseMatrix<double> InformationGraph::to_sparse() const {
   }
   outer[n] = at;
   return m;
+}
+
+std::vector<int> InformationGraph::fill_reducing_order() const {
+  // Block 0 the vehicle, 1 + i landmark i; both triangles, each column's rows sorted.
+  using Pattern = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+  std::size_t entries = 1 + 2 * vehicle_links_.size() + nodes_.size();
+  for (const Node& node : nodes_) entries += node.links.size();
+  const auto blocks = static_cast<Eigen::Index>(nodes_.size() + 1);
+  Pattern pattern(blocks, blocks);
+  pattern.resizeNonZeros(static_cast<Eigen::Index>(entries));
+  int* const outer = pattern.outerIndexPtr();
+  int* const inner = pattern.innerIndexPtr();
+  std::fill(pattern.valuePtr(), pattern.valuePtr() + entries, 1.0);
+  int at = 0;
+  outer[0] = at;
+  inner[at++] = 0;
+  for (const VehicleLink& link : vehicle_links_) inner[at++] = static_cast<int>(link.landmark) + 1;
+  auto to_vehicle = vehicle_links_.begin();
+  for (std::size_t l = 0; l < nodes_.size(); ++l) {
+    outer[l + 1] = at;
+    if (to_vehicle != vehicle_links_.end() && to_vehicle->landmark == l) {
+      inner[at++] = 0;
+      ++to_vehicle;
+    }
+    const std::vector<Link>& links = nodes_[l].links;
+    const auto later = find_edge(links, l);
+    for (auto it = links.begin(); it != later; ++it) inner[at++] = static_cast<int>(it->landmark) + 1;
+    inner[at++] = static_cast<int>(l) + 1;
+    for (auto it = later; it != links.end(); ++it) inner[at++] = static_cast<int>(it->landmark) + 1;
+  }
+  outer[blocks] = at;
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> order;
+  Eigen::AMDOrdering<int>()(pattern, order);
+  return {order.indices().data(), order.indices().data() + order.size()};
+}
+
+void InformationGraph::to_sparse_upper(std::span<const int> order, Eigen::SparseMatrix<double>& m) const {
+  using Index = Eigen::SparseMatrix<double>::StorageIndex;
+  const std::size_t blocks = nodes_.size() + 1;
+  std::vector<int> position(blocks);
+  for (std::size_t k = 0; k < blocks; ++k) position[static_cast<std::size_t>(order[k])] = static_cast<int>(k);
+  std::vector<Index> first_row(blocks + 1, 0);  // by position
+  for (std::size_t k = 0; k < blocks; ++k) first_row[k + 1] = first_row[k] + (order[k] == 0 ? 3 : 2);
+  const Eigen::Index n = first_row[blocks];
+  m.resize(n, n);
+  // Half of the entries between two blocks, and each diagonal block's upper triangle (6 and 3).
+  m.resizeNonZeros(static_cast<Eigen::Index>((nonzeros() - 9 - 4 * nodes_.size()) / 2 + 6 + 3 * nodes_.size()));
+  Index* const outer = m.outerIndexPtr();
+  Index* const inner = m.innerIndexPtr();
+  double* const value = m.valuePtr();
+  Index at = 0;
+  // Omega(a, b) for a block a placed before b: `height` rows, entry (i, j) at data[i * di + j * dj].
+  struct Piece {
+    int position;
+    int height;
+    const double* data;
+    int di, dj;
+  };
+  std::vector<Piece> pieces;
+  const auto write = [&](std::size_t p, int width, const double* diagonal, int dj) {
+    std::sort(pieces.begin(), pieces.end(), [](const Piece& a, const Piece& b) { return a.position < b.position; });
+    for (int j = 0; j < width; ++j) {
+      outer[first_row[p] + j] = at;
+      for (const Piece& piece : pieces)
+        for (int i = 0; i < piece.height; ++i) {
+          inner[at] = first_row[static_cast<std::size_t>(piece.position)] + i;
+          value[at++] = piece.data[i * piece.di + j * piece.dj];
+        }
+      for (int i = 0; i <= j; ++i) {
+        inner[at] = first_row[p] + i;
+        value[at++] = diagonal[i + j * dj];
+      }
+    }
+  };
+  for (std::size_t p = 0; p < blocks; ++p) {
+    pieces.clear();
+    const int before = static_cast<int>(p);
+    if (order[p] == 0) {
+      // Omega(landmark, vehicle) = the stored Omega(vehicle, landmark) transposed.
+      for (const VehicleLink& link : vehicle_links_)
+        if (const int q = position[link.landmark + 1]; q < before) pieces.push_back({q, 2, link.block.data(), 3, 1});
+      write(p, 3, vehicle_.data(), 3);
+      continue;
+    }
+    const auto l = static_cast<std::size_t>(order[p] - 1);
+    if (const VehicleBlock* link = vehicle_link(l); link && position[0] < before)
+      pieces.push_back({position[0], 3, link->data(), 1, 3});
+    // Omega(that landmark, this one) = the stored Omega(this, that) transposed.
+    for (const Link& link : nodes_[l].links)
+      if (const int q = position[link.landmark + 1]; q < before) pieces.push_back({q, 2, link.block.data(), 2, 1});
+    write(p, 2, nodes_[l].own.data(), 2);
+  }
+  outer[n] = at;
 }
 
 InformationGraph InformationGraph::from_sparse(const Eigen::SparseMatrix<double>& omega) {

@@ -14,9 +14,9 @@
 // carries them.
 //
 // Covariances, recovered one of two ways (CovarianceRecovery) and kept until Omega changes:
-//  * exact: columns of Omega^-1 solved for on request (Eigen's SimplicialLLT, AMD ordering, the
-//    ordering reused while Omega's pattern is unchanged); a solve costs what the whole map's factor
-//    costs;
+//  * exact: columns of Omega^-1 solved for on request (InformationFactor: Eigen's SimplicialLLT in
+//    an AMD order of the graph's blocks, reused while Omega's pattern is unchanged); a solve costs
+//    what the whole map's factor costs;
 //  * local: Omega restricted to the variables asked about and their neighbours in the graph (their
 //    Markov blanket), inverted as a dense block: the rest of the map conditioned at its mean, as
 //    Thrun et al. recover SEIF's covariances. It costs the same however large the map, and is
@@ -41,13 +41,13 @@
 // The information form cannot hold a pose that is known exactly, as the map frame's start pose is by
 // default: a singular initial covariance gets kInitialPoseFloor added on its diagonal (1 mm, 1 mrad),
 // so give the EKF the same prior to compare with it.
-#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <optional>
 #include <unordered_map>
 #include <vector>
 
 #include "slamkit/filters/ekf_estimator.hpp"
+#include "slamkit/filters/information_factor.hpp"
 #include "slamkit/filters/information_graph.hpp"
 
 namespace slamkit {
@@ -141,7 +141,7 @@ class InformationFormEstimator : public EkfEstimator {
   /// present one and returns false.
   bool replace_information(InformationGraph omega);
   /// Omega^-1 b (the factorisation current).
-  Eigen::VectorXd solve(const Eigen::VectorXd& b) const { return llt_.solve(b); }
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) const { return factor_.solve(b); }
   /// First estimates: moves the first estimate of each landmark in `batch` that the belief rules out
   /// to its estimate, carrying Omega and, if given, the information vector `vector` (over the
   /// state's rows) along (the file's comment). Returns whether one moved. Call before
@@ -228,12 +228,9 @@ class InformationFormEstimator : public EkfEstimator {
   Pose2 predicted_pose_;                 // first estimates: the pose the last control predicted
   std::vector<Vector2> first_estimates_;  // first estimates: by map index
   std::size_t anchors_moved_ = 0;
-  mutable Sparse exported_;  // Omega as factorised
-  mutable Eigen::SimplicialLLT<Sparse, Eigen::Lower, Eigen::AMDOrdering<int>> llt_;
+  mutable InformationFactor factor_;
   mutable bool factorised_ = false;
   mutable std::size_t factorisations_ = 0, local_recoveries_ = 0;
-  // The graph's pattern llt_'s ordering was analysed for.
-  mutable std::uint64_t analysed_pattern_ = ~std::uint64_t{0};
   mutable Eigen::MatrixXd vehicle_columns_;  // empty when out of date
   mutable std::unordered_map<std::size_t, Eigen::MatrixXd> landmark_columns_;  // by map index
   mutable std::optional<Matrix3> local_vehicle_;
