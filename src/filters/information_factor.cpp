@@ -8,10 +8,9 @@ bool InformationFactor::factorise(const InformationGraph& graph) {
     order_ = graph.fill_reducing_order();
     to_ordered_.resize(static_cast<Eigen::Index>(3 + 2 * graph.landmarks()));
     int row = 0;
-    for (const int block : order_) {
-      const int first = block == 0 ? 0 : 1 + 2 * block;
-      for (int i = 0; i < (block == 0 ? 3 : 2); ++i) to_ordered_.indices()[first + i] = row++;
-    }
+    for (const int block : order_)
+      for (int i = 0; i < InformationGraph::block_rows(block); ++i)
+        to_ordered_.indices()[InformationGraph::block_row(block) + i] = row++;
   }
   graph.to_sparse_upper(order_, ordered_);
   if (reorder) {

@@ -41,10 +41,14 @@ class Positions {
 
 }  // namespace
 
-std::size_t InformationGraph::nonzeros() const {
+std::size_t InformationGraph::link_entries() const {
   std::size_t links = 0;
   for (const Node& node : nodes_) links += node.links.size();
-  return 9 + 4 * nodes_.size() + 12 * vehicle_links_.size() + 4 * links;
+  return links;
+}
+
+std::size_t InformationGraph::nonzeros() const {
+  return 9 + 4 * nodes_.size() + 12 * vehicle_links_.size() + 4 * link_entries();
 }
 
 const InformationGraph::VehicleBlock* InformationGraph::vehicle_link(std::size_t landmark) const {
@@ -228,8 +232,7 @@ Eigen::SparseMatrix<double> InformationGraph::to_sparse() const {
 std::vector<int> InformationGraph::fill_reducing_order() const {
   // Block 0 the vehicle, 1 + i landmark i; both triangles, each column's rows sorted.
   using Pattern = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
-  std::size_t entries = 1 + 2 * vehicle_links_.size() + nodes_.size();
-  for (const Node& node : nodes_) entries += node.links.size();
+  const std::size_t entries = 1 + 2 * vehicle_links_.size() + nodes_.size() + link_entries();
   const auto blocks = static_cast<Eigen::Index>(nodes_.size() + 1);
   Pattern pattern(blocks, blocks);
   pattern.resizeNonZeros(static_cast<Eigen::Index>(entries));
@@ -265,7 +268,7 @@ void InformationGraph::to_sparse_upper(std::span<const int> order, Eigen::Sparse
   std::vector<int> position(blocks);
   for (std::size_t k = 0; k < blocks; ++k) position[static_cast<std::size_t>(order[k])] = static_cast<int>(k);
   std::vector<Index> first_row(blocks + 1, 0);  // by position
-  for (std::size_t k = 0; k < blocks; ++k) first_row[k + 1] = first_row[k] + (order[k] == 0 ? 3 : 2);
+  for (std::size_t k = 0; k < blocks; ++k) first_row[k + 1] = first_row[k] + block_rows(order[k]);
   const Eigen::Index n = first_row[blocks];
   m.resize(n, n);
   // Half of the entries between two blocks, and each diagonal block's upper triangle (6 and 3).

@@ -83,6 +83,10 @@ class InformationGraph {
 
   /// Omega as a sparse matrix, both triangles stored.
   Eigen::SparseMatrix<double> to_sparse() const;
+  /// Block `block` of the variables (0 the vehicle, 1 + i landmark i): its first row in Omega, and
+  /// how many rows it has.
+  static Eigen::Index block_row(int block) { return block == 0 ? 0 : 1 + 2 * static_cast<Eigen::Index>(block); }
+  static int block_rows(int block) { return block == 0 ? 3 : 2; }
   /// A fill-reducing elimination order of the variables, by block (0 the vehicle, 1 + i landmark i):
   /// approximate minimum degree on the graph of blocks. A block's rows have the same neighbours, so
   /// ordering blocks loses nothing against ordering rows, and the graph is a quarter of the size.
@@ -101,6 +105,7 @@ class InformationGraph {
     std::vector<Link> links;  // sorted by landmark
   };
   VehicleLink* find_vehicle_link(std::size_t landmark);
+  std::size_t link_entries() const;  // every landmark's links, each pair counted from both ends
   Matrix2& link_block(std::size_t a, std::size_t b);  // created as zero if missing
 
   Matrix3 vehicle_;
