@@ -388,8 +388,10 @@ InformationFormEstimator::LinearisationPoint InformationFormEstimator::linearisa
     p.block<2, 3>(r, 0) = landmark_pose_covariance(index);
     p.block<3, 2>(0, r) = p.block<2, 3>(r, 0).transpose();
     for (std::size_t j = 0; j <= k; ++j) {
-      p.block<2, 2>(r, read.row(j)) = landmark_cross_covariance(index, read.landmarks[j]);
-      p.block<2, 2>(read.row(j), r) = p.block<2, 2>(r, read.row(j)).transpose();
+      const Eigen::Index c = read.row(j);
+      p.block<2, 2>(r, c) = landmark_cross_covariance(index, read.landmarks[j]);
+      // The diagonal block is its own mirror: copying it onto itself would read what it overwrites.
+      if (j < k) p.block<2, 2>(c, r) = p.block<2, 2>(r, c).transpose();
     }
   }
   const auto d = static_cast<Eigen::Index>(observation_->dim());
