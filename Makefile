@@ -94,14 +94,10 @@ FUZZ_SECONDS ?= 20
 # carry libFuzzer's coverage instrumentation (inert without libFuzzer). Every check aborts at its
 # first finding; warnings are errors.
 #
-# Two of UndefinedBehaviorSanitizer's checks are left out and Eigen's own asserts are kept in their
-# place (the build is optimised but has no NDEBUG): pointer-overflow checks every address computed and
-# object-size every access through a pointer, which in Eigen's expression templates is every index,
-# and the checks' code keeps the compiler from inlining them. In an Eigen kernel of the EKF's update
-# that made the run 7 times as slow (6.9 s against 0.93 s without them; 1.5 s with Eigen's asserts),
-# and the sanitized suite took 24 minutes instead of 10 (docs/testing.md). What they would catch is
-# caught here otherwise: an access outside a heap or stack object by AddressSanitizer, an index
-# outside a matrix, fixed-size matrices within an object included, by Eigen's range asserts.
+# UBSan's pointer-overflow and object-size checks are left out, and Eigen's asserts kept in their place
+# (optimised, but no NDEBUG): the two checks instrument every index Eigen computes and stop the
+# inliner, which made the sanitized suite take 24 minutes instead of 10, while AddressSanitizer and
+# Eigen's range asserts catch the accesses they would (docs/testing.md has the measurements).
 SANITIZE_FLAGS := -fsanitize=address,undefined -fno-sanitize=pointer-overflow,object-size \
                   -fsanitize=fuzzer-no-link -fno-sanitize-recover=all -fno-omit-frame-pointer -g1
 define configure_sanitize
