@@ -213,8 +213,8 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
   }
   // The pairs are jointly compatible if the best fit's cost passes the chi-square gate. Judged at
   // the prior pose instead, where the Jacobians are taken a lap's heading drift from the answer
-  // (0.14 rad, 8 degrees, on the sparse worlds' second lap), the right pairs failed the gate by a
-  // little in every particle, and the second lap mapped its first landmarks again.
+  // (0.14 rad, 8 degrees, at the second lap's return on world 3 of the sparse family), the right
+  // pairs failed the gate by a little in every particle, and the return was mapped again.
   if (!linearise_at(x, correction, cost) || !(cost < joint_gate)) return;
 
   // Negative evidence: from x the particle should now see the old landmarks in its view that a
