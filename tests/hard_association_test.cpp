@@ -113,17 +113,26 @@ TEST(HardAssociation, FastSlamPairsJointlyPerParticleWithJcbb) {
   EXPECT_EQ(jcbb_statistics.at("jcbb_budget_exhausted"), 0.0);
 }
 
-// FastSLAM 2.0 without identities; relocalisation as the defaults have it unless min pairs are given.
-Metrics run_fastslam2(const Dataset& d, std::uint64_t seed, std::optional<std::size_t> relocalise_min_pairs = {}) {
+// FastSLAM 2.0 without identities, nearest neighbour, relocalisation as the defaults have it.
+FilterConfig fastslam2_nn(std::uint64_t seed) {
   FilterConfig config;
   config.filter = FilterKind::kFastSlam2;
   config.seed = seed;
   config.threads = 2;
   config.association.method = AssociationMethod::kNearestNeighbour;
-  if (relocalise_min_pairs) config.association.relocalise_min_pairs = *relocalise_min_pairs;
+  return config;
+}
+
+Metrics run_nn(const FilterConfig& config, const Dataset& d) {
   RunResult run = run_filter(*make_filter(config, d), d);
   run.association = "nn";
   return evaluate_run(run, d.truth);
+}
+
+Metrics run_fastslam2(const Dataset& d, std::uint64_t seed, std::optional<std::size_t> relocalise_min_pairs = {}) {
+  FilterConfig config = fastslam2_nn(seed);
+  if (relocalise_min_pairs) config.association.relocalise_min_pairs = *relocalise_min_pairs;
+  return run_nn(config, d);
 }
 
 // On the sparse world every particle's cloud has collapsed long before the return, and without
@@ -175,16 +184,10 @@ TEST(HardAssociation, FastSlamRelocalisationClosesASparseWorldJudgingThePairsAtT
   Scenario world = world_family("sparse").member(10);
   world.config.seed = 1;
   const Dataset d = simulate(world.world, world.config);
-  FilterConfig config;
-  config.filter = FilterKind::kFastSlam2;
-  config.seed = 10;
-  config.threads = 2;
+  FilterConfig config = fastslam2_nn(10);
   config.pose_sample_fraction = 0.01;
-  config.association.method = AssociationMethod::kNearestNeighbour;
   config.association.clutter_per_scan = 1.0;
-  RunResult run = run_filter(*make_filter(config, d), d);
-  run.association = "nn";
-  const Metrics m = evaluate_run(run, d.truth);
+  const Metrics m = run_nn(config, d);
   ASSERT_TRUE(m.association && m.association->loop_closure_fraction() && m.ate_rmse_m);
   EXPECT_GE(*m.association->loop_closure_fraction(), kLoopClosedFraction);
   EXPECT_LE(m.association->spurious_landmarks, 2U);
