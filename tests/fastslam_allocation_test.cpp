@@ -126,7 +126,9 @@ TEST_P(FastSlamAllocation, SecondLapMakesNoHeapAllocation) {
   EXPECT_EQ(in_window, 0u) << "allocations over scans " << window_begin << " to " << window_end
                            << " and their controls:" << steps << " (" << search_scans
                            << " of them ran a joint search and are not counted)";
-  EXPECT_LE(search_scans, 10u) << "a loop is recognised once, not searched for at every scan";
+  // FastSLAM 1.0 nn searched in 9 of the window's 243 scans, and in 11 once duplicates were fused
+  // (weigh_duplicates: two fusions earlier in the run change the particles' histories).
+  EXPECT_LE(search_scans, 12u) << "a loop is recognised once, not searched for at every scan";
 
   // Not vacuous: the filter really tracked the vehicle against a full map in the window.
   // Position errors are not aligned to the truth, so they include the drift no filter can see.

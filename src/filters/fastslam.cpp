@@ -106,6 +106,10 @@ FastSlam::Impl::Impl(std::shared_ptr<const MotionModel> motion_model,
       expecting_outliers_of(config.delayed_initialisation, config.likelihood, *observation);
   initialiser = make_landmark_initialiser(start, observation, known(), calibrating(), delayed, config.ring_initialisation);
   relocalise_association.method = AssociationMethod::kJcbb;
+  const double detection = config.association.detection_probability;
+  const double accept = config.association.accept_probability;
+  duplicate_log_ratio = -std::log(2.0 * (1.0 - detection));
+  duplicate_log_odds_bar = std::log(accept / (1.0 - accept));
   with_measurement_dim(observation->dim(), [&]<int D>(std::integral_constant<int, D>) {
     MeasurementKernels<D>& k = kernels.get<D>();
     k.model = observation.get();
@@ -292,6 +296,7 @@ void FastSlam::Impl::reweight_and_resample(const ScanEvent& scan) {
   particles.weigh(log_likelihoods);
   record_associations(particles.best(), scan);
   if (slots[particles.best()].relocalised) ++relocalisations;
+  duplicates_fused += slots[particles.best()].fused_now;
   particles.resample_if_due();
 }
 
@@ -474,6 +479,7 @@ std::map<std::string, double> FastSlam::statistics() const {
   std::map<std::string, double> statistics = {
       {"landmarks_provisional", static_cast<double>(provisional)},
       {"relocalisations", static_cast<double>(s.relocalisations)},
+      {"duplicates_fused", static_cast<double>(s.duplicates_fused)},
       {"relocalisation_searches", static_cast<double>(searches)}};
   s.particles.add_statistics(statistics);
   if (!s.known() && s.pending.active()) {

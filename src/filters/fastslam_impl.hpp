@@ -5,6 +5,7 @@
 // drift and relocalisation).
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -226,6 +227,12 @@ struct FastSlam::Impl {
     std::uint32_t index = 0;
   };
 
+  /// What one observation's acceptance gate holds of the confirmed landmarks in view.
+  struct SharedGate {
+    std::uint32_t count = 0;
+    std::array<std::uint32_t, 2> first = {0, 0};  // positions in Slot::in_view, in index order
+  };
+
   /// Per particle slot (not per particle: resampling moves particles, slots stay): the scratch of
   /// a scan update. The slot's random stream is the particle set's.
   struct Slot {
@@ -252,6 +259,15 @@ struct FastSlam::Impl {
     std::vector<slamkit::Pairing> matches;
     std::vector<char> paired;  // per old landmark
     bool relocalised = false;  // in this scan
+    // The duplicate test's scratch (see weigh_duplicates): per observation, how many confirmed
+    // landmarks in view its acceptance gate holds and the first two (positions in in_view); per
+    // landmark of in_view, how many observations' gates hold it; the landmarks this scan paired;
+    // the copies whose odds reached the bar, and how many were fused.
+    std::vector<SharedGate> shared_gates;
+    std::vector<std::uint32_t> gated_by;
+    std::vector<std::uint32_t> paired_now;
+    std::vector<std::uint32_t> copies_to_fuse;
+    std::size_t fused_now = 0;
     std::size_t gate_judged = 0, gate_rejected = 0;  // the known-identity gate's verdicts, this scan
     std::size_t relocalisation_searches = 0;  // joint searches run in this slot, all scans
   };
@@ -329,6 +345,25 @@ struct FastSlam::Impl {
   void count_misses(Particle& p, Slot& s) const;
   /// Whether the existence rule expects particle p to see landmark lm from its pose.
   bool expected_in_view(const Particle& p, const LandmarkGaussian& lm) const;
+  /// A landmark's copy in particle p's map: a place mapped again (a return beyond the gates, a
+  /// relocalisation that missed one) whose copy then sits next to the original, each observation
+  /// paired with one or the other, so that neither is ever missed. Called after association, at the
+  /// predicted pose: a scan whose observation alone holds two confirmed landmarks in the detection
+  /// view in its acceptance gate, neither held by another observation's, is evidence that they are
+  /// one landmark. If they are, one detection is what the sensor gives with probability P_D; if they
+  /// are two, one detection of both is 2 P_D (1 - P_D): each such scan adds log(1 / (2 (1 - P_D)))
+  /// to the newer one's log odds of being the older one's copy (from even odds), and a scan that
+  /// pairs both with observations of their own settles that they are two. At the odds of
+  /// accept_probability the copy is queued for fuse_duplicates. Only a landmark started more than
+  /// relocalise_window_s after the other can be its copy (twins seen together are started
+  /// together), so the test runs where relocalisation does.
+  void weigh_duplicates(Particle& p, Slot& s, const ScanEvent& scan) const;
+  /// Fuses each queued copy into its original, after the scan's updates.
+  void fuse_duplicates(Particle& p, Slot& s) const;
+  /// Two estimates of one landmark of p's map, independent given the particle's path, become one:
+  /// the duplicate is fused into the original and removed.
+  void fuse(Particle& p, std::uint32_t original, std::uint32_t duplicate, Slot& s) const;
+  bool weighing_duplicates() const { return relocalising() && !calibrating() && duplicate_log_ratio > 0.0; }
   /// Particle p's relocalisation after a scan update that started a landmark or confirmed one started
   /// in the window (AssociationConfig::relocalise_min_pairs); landmarks from index `first_new` on
   /// were started by this scan.
@@ -427,6 +462,11 @@ struct FastSlam::Impl {
   std::uint32_t window_start = 0;
   std::vector<std::uint32_t> relocalise_candidates;
   std::size_t relocalisations = 0;  // of the best particle's lineage: counted where the best relocalised
+  // The duplicate test (weigh_duplicates): the log likelihood ratio of one scan's evidence, the log
+  // odds at which a copy is fused, and the fusions of the best particle's lineage.
+  double duplicate_log_ratio = 0.0;
+  double duplicate_log_odds_bar = 0.0;
+  std::size_t duplicates_fused = 0;
 
   std::size_t scans = 0;
 };

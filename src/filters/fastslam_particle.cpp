@@ -1,7 +1,7 @@
 // One particle's scan in FastSLAM 1.0 and 2.0: association (or the known identities and their
-// outlier gate), the proposal of eq. (18), the landmark updates, the weight (eqs. 15 and 17) and the
-// misses of the existence rule. The filter around it is in fastslam.cpp, relocalisation in
-// fastslam_relocalise.cpp.
+// outlier gate), the proposal of eq. (18), the landmark updates, the weight (eqs. 15 and 17), the
+// misses of the existence rule and the test for copies of a landmark in one map. The filter around
+// it is in fastslam.cpp, relocalisation in fastslam_relocalise.cpp.
 #include <Eigen/Cholesky>
 #include <algorithm>
 
@@ -342,6 +342,8 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
   auto is_old_update = [&](std::size_t k) {
     return pairings[k].decision == AssociationDecision::kUpdate && pairings[k].index < old_size;
   };
+  s.fused_now = 0;
+  if (weighing_duplicates()) weigh_duplicates(p, s, scan);
   double log_likelihood = 0.0;
   if (config.version == 2)
     log_likelihood = calibrating() ? propose<D, 5>(p, s, scan, old_size, particles.stream(i))
@@ -379,6 +381,7 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
       log_likelihood += update_at(pairing.index, z);
     }
   }
+  if (weighing_duplicates()) fuse_duplicates(p, s);
   s.relocalised = false;
   if (relocalising() && (!s.confirmed_now.empty() || old_size < p.map.size()))
     relocalise(p, s, static_cast<std::uint32_t>(old_size));
@@ -389,6 +392,81 @@ void FastSlam::Impl::update_particle(std::size_t i, const ScanEvent& scan) {
 template void FastSlam::Impl::update_particle<1>(std::size_t, const ScanEvent&);
 template void FastSlam::Impl::update_particle<2>(std::size_t, const ScanEvent&);
 template void FastSlam::Impl::update_particle<3>(std::size_t, const ScanEvent&);
+
+namespace {
+constexpr float kNeverACopy = -std::numeric_limits<float>::infinity();
+}  // namespace
+
+void FastSlam::Impl::weigh_duplicates(Particle& p, Slot& s, const ScanEvent& scan) const {
+  const std::size_t n_obs = scan.observations.size();
+  make_room(s.shared_gates, n_obs);
+  s.shared_gates.assign(n_obs, SharedGate{});
+  make_room(s.gated_by, s.in_view.size());
+  s.gated_by.assign(s.in_view.size(), 0);
+  s.copies_to_fuse.clear();
+  make_room(s.copies_to_fuse, n_obs);
+  const SensorView& view = existence.detection_view();
+  for (std::size_t c = 0; c < s.in_view.size(); ++c) {
+    const LandmarkGaussian& lm = p.map[s.in_view[c]];
+    // Out of view, one of two landmarks goes unseen whether or not it is the other's copy.
+    if (!existence.confirmed(lm.existence) || !view.contains(*observation, p.pose, lm.mean)) continue;
+    Matrix23 hx;
+    Matrix2 hm;
+    Matrix2 inverse;
+    double log_det = 0.0;
+    if (!invert_spd(symmetric(innovation_covariance<2>(p, lm, hx, hm)), inverse, log_det)) continue;
+    const Vector2 predicted = measurements.predict(p.pose, lm.mean);
+    for (std::size_t k = 0; k < n_obs; ++k) {
+      if (!valid[k]) continue;
+      const Vector2 nu = measurements.residual(scan.observations[k].z, predicted);
+      if (!(nu.dot(inverse * nu) < gates.accept)) continue;
+      ++s.gated_by[c];
+      SharedGate& gate = s.shared_gates[k];
+      if (gate.count < gate.first.size()) gate.first[gate.count] = static_cast<std::uint32_t>(c);
+      ++gate.count;
+    }
+  }
+  // Two landmarks that this scan paired each with an observation of its own are two.
+  s.paired_now.clear();
+  make_room(s.paired_now, n_obs);
+  for (const Pairing& pairing : s.pairings)
+    if (pairing.decision == AssociationDecision::kUpdate && pairing.index < p.map.size())
+      s.paired_now.push_back(pairing.index);
+  std::sort(s.paired_now.begin(), s.paired_now.end());
+  for (const std::uint32_t index : s.paired_now) {
+    const std::uint32_t original = p.map[index].duplicate_of;
+    if (original != LandmarkGaussian::kNotADuplicate && p.map[index].duplicate_log_odds > kNeverACopy &&
+        std::binary_search(s.paired_now.begin(), s.paired_now.end(), original))
+      p.map.mutate(index).duplicate_log_odds = kNeverACopy;
+  }
+  for (const SharedGate& gate : s.shared_gates) {
+    if (gate.count != 2 || s.gated_by[gate.first[0]] != 1 || s.gated_by[gate.first[1]] != 1) continue;
+    // in_view is in index order, and indices in the order landmarks were started.
+    const auto original = static_cast<std::uint32_t>(s.in_view[gate.first[0]]);
+    const auto copy = static_cast<std::uint32_t>(s.in_view[gate.first[1]]);
+    // A copy is started where its original, out of sight for the window, was not recognised: two
+    // landmarks started within a window of each other were started as two (twins seen together are).
+    if (p.map[copy].duplicate_of != original &&
+        scan_times[p.map[copy].started] - scan_times[p.map[original].started] <= config.association.relocalise_window_s)
+      continue;
+    LandmarkGaussian& lm = p.map.mutate(copy);
+    if (lm.duplicate_of != original) {
+      lm.duplicate_of = original;
+      lm.duplicate_log_odds = 0.0f;
+    }
+    lm.duplicate_log_odds += static_cast<float>(duplicate_log_ratio);
+    if (lm.duplicate_log_odds >= duplicate_log_odds_bar) s.copies_to_fuse.push_back(copy);
+  }
+}
+
+void FastSlam::Impl::fuse_duplicates(Particle& p, Slot& s) const {
+  for (const std::uint32_t copy : s.copies_to_fuse) {
+    const std::uint32_t original = p.map[copy].duplicate_of;
+    if (p.map[copy].removed || p.map[original].removed) continue;
+    fuse(p, original, copy, s);
+    ++s.fused_now;
+  }
+}
 
 bool FastSlam::Impl::expected_in_view(const Particle& p, const LandmarkGaussian& lm) const {
   const SensorView& view = existence.detection_view();

@@ -49,6 +49,18 @@ void FastSlam::Impl::anchor_at(Particle& p, const LandmarkGaussian& lm) const {
                     symmetric(prior - pht * s_inverse * pht.transpose())};
 }
 
+void FastSlam::Impl::fuse(Particle& p, std::uint32_t original_index, std::uint32_t duplicate_index, Slot& s) const {
+  LandmarkGaussian& duplicate = p.map.mutate(duplicate_index);
+  LandmarkGaussian& original = p.map.mutate(original_index);
+  const Matrix2 sum = original.covariance + duplicate.covariance;
+  const Matrix2 gain = original.covariance * sum.inverse();
+  original.mean += gain * (duplicate.mean - original.mean);
+  original.covariance = symmetric(original.covariance - gain * original.covariance);
+  original.last_seen = std::max(original.last_seen, duplicate.last_seen);
+  duplicate.removed = true;
+  s.grid_entries.emplace_back(original.mean, original_index);
+}
+
 void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) const {
   // The landmarks seen in the window (they are in the frame of the particle's pose now) and those
   // mapped before it and not seen since (in the frame of the pose that last saw them).
@@ -242,18 +254,8 @@ void FastSlam::Impl::relocalise(Particle& p, Slot& s, std::uint32_t first_new) c
     lm.covariance = symmetric(rotation * lm.covariance * rotation.transpose());
     s.grid_entries.emplace_back(lm.mean, index);
   }
-  for (std::size_t k = 0; k < s.matches.size(); ++k) {
-    if (s.matches[k].decision != AssociationDecision::kUpdate) continue;
-    LandmarkGaussian& duplicate = p.map.mutate(s.started[k]);
-    LandmarkGaussian& original = p.map.mutate(s.old[s.matches[k].landmark]);
-    const Matrix2 sum = original.covariance + duplicate.covariance;
-    const Matrix2 gain = original.covariance * sum.inverse();
-    original.mean += gain * (duplicate.mean - original.mean);
-    original.covariance = symmetric(original.covariance - gain * original.covariance);
-    original.last_seen = duplicate.last_seen;
-    duplicate.removed = true;
-    s.grid_entries.emplace_back(original.mean, s.old[s.matches[k].landmark]);
-  }
+  for (std::size_t k = 0; k < s.matches.size(); ++k)
+    if (s.matches[k].decision == AssociationDecision::kUpdate) fuse(p, s.old[s.matches[k].landmark], s.started[k], s);
   p.pose = x;
   if (!p.path.empty()) p.path.replace_newest(p.pose);
   p.relocalised_at = static_cast<std::uint32_t>(scans - 1);

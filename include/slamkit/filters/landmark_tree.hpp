@@ -65,6 +65,11 @@ struct LandmarkGaussian {
   std::uint32_t last_seen = 0;
   LandmarkExistence existence;
   bool removed = false;  // tombstone
+  // FastSLAM's test for a copy of an older landmark of the same map: that landmark's index, and the
+  // log odds that this one is its copy (FastSlam::Impl::weigh_duplicates).
+  float duplicate_log_odds = 0.0f;
+  std::uint32_t duplicate_of = kNotADuplicate;
+  static constexpr std::uint32_t kNotADuplicate = 0xffffffffu;
 };
 
 /// Item: what each index holds (LandmarkGaussian for a map; FastSLAM keeps a second tree of the
