@@ -197,10 +197,10 @@ TEST(HardAssociation, FastSlamRelocalisationClosesASparseWorldJudgingThePairsAtT
 
 // Two landmarks nearer each other than the gates are wide, seen together, stay two, however often
 // one observation's gate holds both: at a return, a drift the size of their spacing puts one
-// observation between them and the other's outside both gates. The duplicate test takes only a
-// landmark started after the other was last seen for its copy; without that rule the return of the
-// default world below fused a twin pair. Twins 0.5 m apart beside every fifth landmark (at 10 m
-// a bearing's 3-sigma gate is 0.5 m wide). The reference is the same run with a detection
+// observation between them and the other's outside both gates. The duplicate test takes for a copy
+// only a landmark started more than the relocalisation window after the other; without that rule
+// the return of the default world below fused a twin pair. Twins 0.5 m apart beside every fifth
+// landmark (at 10 m a bearing's 3-sigma gate is 0.5 m wide). The reference is the same run with a detection
 // probability of 0.5, at which a single detection is no evidence of a copy (the test's likelihood
 // ratio 1 / (2 (1 - P_D)) is 1) and, without clutter, nothing else changes: the twins it maps as
 // two must stay two.
@@ -218,28 +218,30 @@ TEST(HardAssociation, FastSlamKeepsTwinLandmarksThatAreSeenTogether) {
     twins.emplace_back(s.world.landmarks[i].id, twin.id);
   }
   const Dataset d = simulate(s.world, s.config);
-  // The true ids of the landmarks the final map holds.
-  auto mapped = [&](double detection_probability, double& fused) {
+  // The true ids of the landmarks the final map holds, and the copies fused.
+  struct Mapped {
+    std::set<int> ids;
+    double fused = 0.0;
+  };
+  auto run_with = [&](double detection_probability) {
     FilterConfig config = fastslam2_nn(1);
     config.association.detection_probability = detection_probability;
     const RunResult run = run_filter(*make_filter(config, d), d);
-    fused = run.statistics.at("duplicates_fused");
-    std::set<int> ids;
+    Mapped mapped{{}, run.statistics.at("duplicates_fused")};
     for (const Landmark& lm : run.map) {
       const LandmarkOrigin& origin = run.landmark_origins.at(lm.id);
-      ids.insert(d.truth.observation_ids[origin.scan][origin.observation]);
+      mapped.ids.insert(d.truth.observation_ids[origin.scan][origin.observation]);
     }
-    return ids;
+    return mapped;
   };
-  double fused_reference = 0.0, fused = 0.0;
-  const std::set<int> reference = mapped(0.5, fused_reference);
-  const std::set<int> tested = mapped(0.9, fused);
-  EXPECT_EQ(fused_reference, 0.0);
+  const Mapped reference = run_with(0.5);
+  const Mapped tested = run_with(0.9);
+  EXPECT_EQ(reference.fused, 0.0);
   std::size_t kept_apart = 0;
   for (const auto& [single, twin] : twins) {
-    if (!reference.count(single) || !reference.count(twin)) continue;
+    if (!reference.ids.count(single) || !reference.ids.count(twin)) continue;
     ++kept_apart;
-    EXPECT_TRUE(tested.count(single) && tested.count(twin)) << "landmarks " << single << " and " << twin;
+    EXPECT_TRUE(tested.ids.count(single) && tested.ids.count(twin)) << "landmarks " << single << " and " << twin;
   }
   EXPECT_GE(kept_apart, 15U) << "twin pairs mapped as two";
 }
