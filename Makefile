@@ -119,6 +119,7 @@ SANITIZE_REPEATS := \
   ^VictoriaParkSlam[.]FastSlam2WithHundredParticlesOnTheFullRun$$ \
   ^VictoriaParkSlam[.]UkfWithAdditiveControlNoiseWithinTenPercentOfTheEkf$$ \
   ^HardAssociation[.]FastSlamRelocalisationCloses \
+  ^HardAssociation[.]FastSlamKeepsTwinLandmarksThatAreSeenTogether$$ \
   /FastSlamAllocation[.]SecondLapMakesNoHeapAllocation/(FastSlam2Known2Threads|FastSlam1Known2Threads|FastSlam2Nn1Threads|FastSlam2Known1Threads|FastSlam1Nn2Threads)( |$$) \
   ^Modes/EkfAllocationFree[.]SecondLapMakesNoHeapAllocation/CompressedNearestNeighbour( |$$) \
   ^Dataset6/MrclamSlam[.]SlamBeatsDeadReckoningAgainstMotionCapture/fastslam2_robot[1235]( |$$) \
@@ -129,7 +130,8 @@ SANITIZE_REPEATS := \
   ^RangeCalibration[.]FastSlamCalibratesARadioThatReadsLongWhileItMaps$$
 # What takes each path instead: FastSLAM on Victoria Park's reader and detector, EkfWithJcbbOnTheFullRun
 # and MRCLAM's fastslam2_robot4; the UKF, the simulated UKF tests; FastSLAM's relocalisation,
-# FastSlamRelocalisationSearchesAtTheReturnOnly; FastSLAM's allocation-free lap, its FastSlam1Known1Threads,
+# FastSlamRelocalisationSearchesAtTheReturnOnly; FastSLAM's duplicate test and its fusions, the
+# allocation-free lap's FastSlam1Nn1Threads (the default world driven twice); FastSLAM's allocation-free lap, its FastSlam1Known1Threads,
 # FastSlam1Nn1Threads and FastSlam2Nn2Threads variants; FastSLAM 2.0 closing a loop by nearest
 # neighbour without identities, FastSlamRelocalisationSearchesAtTheReturnOnly (the default world driven
 # twice); the compressed EKF, its CompressedJcbb lap and
